@@ -1,0 +1,335 @@
+//! The benchmark workloads, shared by the CLI (`penumbra bench ...`) and `benches/`:
+//!
+//! - the **spheres frame**: a shadow-mapped frame that other renderers (Mesa's llvmpipe) can
+//!   run identically: ground plane, 8 x 8 UV spheres, a directional light with a fitted
+//!   orthographic depth pass, then a 1920 x 1080 camera pass with 2x2 or 5x5 hardware PCF;
+//! - **random triangles**: `T` triangles of about `A` pixels each at 1920 x 1080, depth-only
+//!   or colour + depth, for triangles/s and pixels/s.
+
+use crate::hash::{hash_f32, hash_rgba8};
+use crate::pipeline::sampler::CompareSampler;
+use crate::pipeline::*;
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::time::Instant;
+
+/// A vertex of the benchmark meshes.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct BenchVertex {
+    /// World position.
+    pub pos: Vec3,
+    /// Unit normal.
+    pub normal: Vec3,
+    /// Albedo.
+    pub albedo: Vec3,
+}
+
+/// An indexed triangle mesh.
+#[derive(Clone, Debug, Default)]
+pub struct BenchMesh {
+    /// Vertices.
+    pub vertices: Vec<BenchVertex>,
+    /// Three indices per triangle.
+    pub indices: Vec<u32>,
+}
+
+impl BenchMesh {
+    /// Triangle count.
+    pub fn triangles(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// Stacks and slices of each sphere for a target total of `t` triangles:
+/// `per = (T - 2) / 64`, `n = round(sqrt(per / 4))`, `stacks = n + 1`, `slices = round(per / 2n)`.
+pub fn sphere_tessellation(t: usize) -> (usize, usize) {
+    let per = t.saturating_sub(2) as f64 / 64.0;
+    let n = ((per / 4.0).sqrt().round() as usize).max(1);
+    let slices = ((per / (2.0 * n as f64)).round() as usize).max(3);
+    (n + 1, slices)
+}
+
+/// The "spheres" scene with about `t` triangles: ground y = 0 over x, z in [-12, 12], an 8 x 8
+/// grid of UV spheres of radius 0.8, spacing 2.5, centred on the origin, bottoms 0.6 above
+/// the ground; each sphere `2 * slices * (stacks - 1)` triangles.
+pub fn spheres_scene(t: usize) -> BenchMesh {
+    let mut m = BenchMesh::default();
+    let g = Vec3::splat(0.7);
+    for (x, z) in [(-12.0, -12.0), (12.0, -12.0), (12.0, 12.0), (-12.0, 12.0)] {
+        m.vertices.push(BenchVertex { pos: Vec3::new(x, 0.0, z), normal: Vec3::Y, albedo: g });
+    }
+    // Counter-clockwise seen from above (+y).
+    m.indices.extend_from_slice(&[0, 2, 1, 0, 3, 2]);
+    let (stacks, slices) = sphere_tessellation(t);
+    let r = 0.8f32;
+    for i in 0..8 {
+        for j in 0..8 {
+            let c = Vec3::new((i as f32 - 3.5) * 2.5, 0.6 + r, (j as f32 - 3.5) * 2.5);
+            let albedo = Vec3::new(0.35 + 0.08 * i as f32, 0.45, 0.35 + 0.08 * j as f32);
+            let base = m.vertices.len() as u32;
+            for s in 0..stacks {
+                let theta = std::f32::consts::PI * s as f32 / (stacks - 1) as f32;
+                for k in 0..=slices {
+                    let phi = 2.0 * std::f32::consts::PI * k as f32 / slices as f32;
+                    let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+                    m.vertices.push(BenchVertex { pos: c + n * r, normal: n, albedo });
+                }
+            }
+            let row = slices as u32 + 1;
+            for s in 0..stacks as u32 - 1 {
+                for k in 0..slices as u32 {
+                    let a = base + s * row + k;
+                    let b = a + row;
+                    // Outward-facing, counter-clockwise.
+                    m.indices.extend_from_slice(&[a, b, a + 1, a + 1, b, b + 1]);
+                }
+            }
+        }
+    }
+    m
+}
+
+/// Shadow filter of the frame benchmark's camera pass.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum FrameMode {
+    /// Depth pass only.
+    Depth,
+    /// One 2x2 hardware comparison per pixel.
+    Pcf2,
+    /// 25 comparisons on a 5 x 5 texel grid.
+    Pcf5,
+}
+
+impl std::str::FromStr for FrameMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "depth" => Ok(FrameMode::Depth),
+            "pcf2" => Ok(FrameMode::Pcf2),
+            "pcf5" => Ok(FrameMode::Pcf5),
+            _ => Err(format!("unknown frame mode '{s}' (expected depth, pcf2 or pcf5)")),
+        }
+    }
+}
+
+/// Matrices of the spheres frame.
+#[derive(Copy, Clone, Debug)]
+pub struct FrameSetup {
+    /// World to light clip space (orthographic, fitted).
+    pub light_vp: Mat4,
+    /// World to camera clip space.
+    pub camera_vp: Mat4,
+    /// Unit direction towards the light.
+    pub to_light: Vec3,
+}
+
+/// The fixed camera and the light frustum fitted to the scene bounds (+0.1 in x/y, +1 in depth).
+pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
+    let to_light = Vec3::new(0.55, 1.0, 0.35).normalize();
+    let (lo, hi) = mesh.vertices.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), v| (a.min(v.pos), b.max(v.pos)));
+    let center = (lo + hi) * 0.5;
+    let view = Mat4::look_at_rh(center + to_light * 50.0, center, Vec3::Z);
+    let mut vlo = Vec3::splat(f32::MAX);
+    let mut vhi = Vec3::splat(f32::MIN);
+    for i in 0..8 {
+        let c = Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+        let p = view.transform_point3(c);
+        vlo = vlo.min(p);
+        vhi = vhi.max(p);
+    }
+    let proj = Mat4::orthographic_rh(vlo.x - 0.1, vhi.x + 0.1, vlo.y - 0.1, vhi.y + 0.1, -vhi.z - 1.0, -vlo.z + 1.0);
+    let camera = Mat4::perspective_rh(45f32.to_radians(), width as f32 / height as f32, 0.5, 100.0)
+        * Mat4::look_at_rh(Vec3::new(0.0, 13.0, 21.0), Vec3::new(0.0, 0.0, 1.0), Vec3::Y);
+    FrameSetup { light_vp: proj * view, camera_vp: camera, to_light }
+}
+
+struct LightDepthVs(Mat4);
+impl VertexProgram for LightDepthVs {
+    type In = BenchVertex;
+    type Out = ();
+    #[inline(always)]
+    fn run(&self, v: &BenchVertex) -> (Vec4, ()) {
+        (self.0 * v.pos.extend(1.0), ())
+    }
+}
+
+struct CameraVs {
+    vp: Mat4,
+    light: Mat4,
+}
+impl VertexProgram for CameraVs {
+    type In = BenchVertex;
+    type Out = (Vec3, Vec3, Vec3);
+    #[inline(always)]
+    fn run(&self, v: &BenchVertex) -> (Vec4, (Vec3, Vec3, Vec3)) {
+        let p = v.pos.extend(1.0);
+        (self.vp * p, (v.normal, (self.light * p).truncate(), v.albedo))
+    }
+}
+
+struct CameraFs<'a> {
+    map: &'a Surface<f32>,
+    to_light: Vec3,
+    mode: FrameMode,
+    sampler: CompareSampler,
+}
+impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
+    #[inline(always)]
+    fn shade(&self, f: &Fragment<(Vec3, Vec3, Vec3)>) -> Option<Vec4> {
+        let (n, l, albedo) = f.var;
+        let ndl = n.normalize_or_zero().dot(self.to_light).max(0.0);
+        let uv = Vec2::new(l.x * 0.5 + 0.5, 0.5 - l.y * 0.5);
+        let shadow = match self.mode {
+            FrameMode::Pcf5 => {
+                let t = 1.0 / self.map.width() as f32;
+                let mut s = 0.0;
+                for j in -2..=2 {
+                    for i in -2..=2 {
+                        s += self.sampler.pcf2x2(self.map, uv + Vec2::new(i as f32, j as f32) * t, l.z);
+                    }
+                }
+                s * (1.0 / 25.0)
+            }
+            _ => self.sampler.pcf2x2(self.map, uv, l.z),
+        };
+        Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))
+    }
+}
+
+/// The render targets of one spheres frame, reused across repetitions.
+pub struct FrameTargets {
+    /// Light depth map (S x S).
+    pub shadow: Surface<f32>,
+    /// Camera colour.
+    pub color: Surface<Rgba8>,
+    /// Camera depth.
+    pub depth: Surface<f32>,
+}
+
+impl FrameTargets {
+    /// Targets for an `s` x `s` map and a `w` x `h` image.
+    pub fn new(s: u32, w: u32, h: u32) -> Result<Self, PipelineError> {
+        Ok(FrameTargets { shadow: Surface::new(s, s, 1.0)?, color: Surface::new(w, h, [0; 4])?, depth: Surface::new(w, h, 1.0)? })
+    }
+}
+
+/// Per-pass counters and times of one frame.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct FrameTimes {
+    /// Light depth pass, milliseconds.
+    pub ms_depth: f64,
+    /// Camera pass, milliseconds (0 in depth mode).
+    pub ms_main: f64,
+    /// Depth-pass counters.
+    pub depth_stats: DrawStats,
+    /// Camera-pass counters.
+    pub main_stats: DrawStats,
+}
+
+/// Renders one spheres frame into `t`.
+pub fn render_frame(p: &Pipeline, mesh: &BenchMesh, setup: &FrameSetup, mode: FrameMode, t: &mut FrameTargets) -> Result<FrameTimes, PipelineError> {
+    let mut out = FrameTimes::default();
+    // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
+    let t0 = Instant::now();
+    t.shadow.fill(1.0);
+    let state = RenderState { offset: PolygonOffset { factor: 1.1, units: 4.0 }, ..Default::default() };
+    out.depth_stats = p.draw(&mut Targets::depth_only(&mut t.shadow), &state, &mesh.vertices, &mesh.indices, &LightDepthVs(setup.light_vp), &DepthOnly)?;
+    out.ms_depth = t0.elapsed().as_secs_f64() * 1e3;
+    if mode == FrameMode::Depth {
+        return Ok(out);
+    }
+    // Pass 2: camera view, colour + depth, shadowed Lambert.
+    let t1 = Instant::now();
+    t.color.fill([13, 13, 20, 255]);
+    t.depth.fill(1.0);
+    let fs = CameraFs { map: &t.shadow, to_light: setup.to_light, mode, sampler: CompareSampler::default() };
+    let vs = CameraVs { vp: setup.camera_vp, light: setup.light_vp };
+    out.main_stats = p.draw(&mut Targets::color(&mut t.color).with_depth(&mut t.depth), &RenderState::default(), &mesh.vertices, &mesh.indices, &vs, &fs)?;
+    out.ms_main = t1.elapsed().as_secs_f64() * 1e3;
+    Ok(out)
+}
+
+/// Hash of a frame's outputs (the image in colour modes, the shadow map in depth mode).
+pub fn frame_hash(t: &FrameTargets, mode: FrameMode) -> u64 {
+    match mode {
+        FrameMode::Depth => hash_f32(t.shadow.data()),
+        _ => hash_rgba8(t.color.data()),
+    }
+}
+
+/// A small deterministic generator (SplitMix64) for benchmark and test inputs.
+#[derive(Clone, Debug)]
+pub struct SplitMix(pub u64);
+
+impl SplitMix {
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// `t` random triangles of about `area` pixels each (equilateral, random rotation, position and
+/// depth) in clip space for a `w` x `h` target, with a per-vertex colour.
+pub fn random_triangles(t: usize, area: f32, w: u32, h: u32, seed: u64) -> (Vec<(Vec4, Vec4)>, Vec<u32>) {
+    let mut rng = SplitMix(seed);
+    let side = (4.0 * area / 3f32.sqrt()).sqrt();
+    let circum = side / 3f32.sqrt();
+    let mut verts = Vec::with_capacity(3 * t);
+    for _ in 0..t {
+        let cx = rng.next_f32() * w as f32;
+        let cy = rng.next_f32() * h as f32;
+        let z = rng.next_f32();
+        let rot = rng.next_f32() * std::f32::consts::TAU;
+        let col = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), 1.0);
+        for k in 0..3 {
+            let a = rot + k as f32 * std::f32::consts::TAU / 3.0;
+            let x = cx + circum * a.cos();
+            let y = cy + circum * a.sin();
+            verts.push((Vec4::new(x / w as f32 * 2.0 - 1.0, 1.0 - y / h as f32 * 2.0, z, 1.0), col));
+        }
+    }
+    let indices = (0..3 * t as u32).collect();
+    (verts, indices)
+}
+
+/// Vertex program of the random-triangle workload: clip position and a colour varying.
+pub struct ColoredClip;
+impl VertexProgram for ColoredClip {
+    type In = (Vec4, Vec4);
+    type Out = Vec4;
+    #[inline(always)]
+    fn run(&self, v: &(Vec4, Vec4)) -> (Vec4, Vec4) {
+        (v.0, v.1)
+    }
+}
+
+/// Fragment program of the random-triangle workload: the interpolated colour.
+pub struct VaryingColor;
+impl FragmentProgram<Vec4> for VaryingColor {
+    #[inline(always)]
+    fn shade(&self, f: &Fragment<Vec4>) -> Option<Vec4> {
+        Some(f.var)
+    }
+}
+
+/// Median of a list of times.
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}

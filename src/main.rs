@@ -1,0 +1,254 @@
+//! The `penumbra` command line.
+
+use clap::{Args, Parser, Subcommand};
+use penumbra::bench::*;
+use penumbra::hash::{hash_f32, hash_rgba8};
+use penumbra::image_io::{grey, write_png};
+use penumbra::pipeline::*;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "penumbra", version, about = "A deterministic CPU rasterizer and shadow-algorithm lab")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Benchmarks: the shadow-mapped spheres frame, or random triangles.
+    Bench {
+        #[command(subcommand)]
+        which: BenchCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCmd {
+    /// The spheres frame: light depth pass + 1920x1080 camera pass with PCF.
+    Frame(FrameArgs),
+    /// Random triangles of about AREA pixels each at 1920x1080.
+    Raster(RasterArgs),
+}
+
+#[derive(Args)]
+struct Common {
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after the warm-up (the median is reported).
+    #[arg(long, default_value_t = 10)]
+    reps: usize,
+    /// Print one JSON object on the last line.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct FrameArgs {
+    /// Target triangle count of the scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// depth | pcf2 | pcf5
+    #[arg(long, default_value = "pcf2")]
+    mode: FrameMode,
+    /// Shadow-map size S (S x S).
+    #[arg(long, default_value_t = 2048)]
+    map: u32,
+    /// Image width.
+    #[arg(long, default_value_t = 1920)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 1080)]
+    height: u32,
+    /// Write the image (and the shadow map) as PNG into this folder.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct RasterArgs {
+    /// Number of triangles.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// Approximate area of each triangle in pixels.
+    #[arg(long, default_value_t = 50.0)]
+    area: f32,
+    /// depth | color
+    #[arg(long, default_value = "color")]
+    mode: String,
+    #[command(flatten)]
+    common: Common,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.cmd {
+        None => {
+            println!("penumbra: no command given; running the benchmark frame (see `penumbra --help`).");
+            bench_frame(FrameArgs {
+                triangles: 100_000,
+                mode: FrameMode::Pcf2,
+                map: 2048,
+                width: 1920,
+                height: 1080,
+                out: Some(PathBuf::from("out")),
+                common: Common { threads: 0, reps: 5, json: false },
+            })
+        }
+        Some(Cmd::Bench { which: BenchCmd::Frame(a) }) => bench_frame(a),
+        Some(Cmd::Bench { which: BenchCmd::Raster(a) }) => bench_raster(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("penumbra: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn check_triangles(t: usize) -> Result<(), String> {
+    if t < 2 || t > 50_000_000 {
+        return Err(format!("--triangles {t} is out of range (2..=50000000)"));
+    }
+    Ok(())
+}
+
+fn bench_frame(a: FrameArgs) -> Result<(), String> {
+    check_triangles(a.triangles)?;
+    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let mesh = spheres_scene(a.triangles);
+    let setup = frame_setup(&mesh, a.width, a.height);
+    let mut t = FrameTargets::new(a.map, a.width, a.height).map_err(|e| e.to_string())?;
+    let (stacks, slices) = sphere_tessellation(a.triangles);
+    println!(
+        "spheres frame: {} triangles (spheres {stacks} stacks x {slices} slices), map {}x{}, image {}x{}, mode {:?}, {} threads",
+        mesh.triangles(),
+        a.map,
+        a.map,
+        a.width,
+        a.height,
+        a.mode,
+        p.threads()
+    );
+    for _ in 0..2 {
+        render_frame(&p, &mesh, &setup, a.mode, &mut t).map_err(|e| e.to_string())?;
+    }
+    let mut depth = Vec::new();
+    let mut main = Vec::new();
+    let mut frame = Vec::new();
+    let mut last = FrameTimes::default();
+    for _ in 0..a.common.reps.max(1) {
+        let t0 = Instant::now();
+        last = render_frame(&p, &mesh, &setup, a.mode, &mut t).map_err(|e| e.to_string())?;
+        frame.push(t0.elapsed().as_secs_f64() * 1e3);
+        depth.push(last.ms_depth);
+        main.push(last.ms_main);
+    }
+    let (md, mm, mf) = (median(&mut depth), median(&mut main), median(&mut frame));
+    let hash = frame_hash(&t, a.mode);
+    let tris = mesh.triangles() as f64;
+    println!(
+        "depth pass: {md:8.2} ms  {:7.2} Mtri/s  {:6.3} Gpix/s  ({} fragments, {} bin entries)",
+        tris / md / 1e3,
+        last.depth_stats.fragments_rasterized as f64 / md / 1e6,
+        last.depth_stats.fragments_rasterized,
+        last.depth_stats.bin_entries
+    );
+    if a.mode != FrameMode::Depth {
+        println!(
+            "main pass:  {mm:8.2} ms  {:7.2} Mtri/s  {:6.3} Gpix/s  ({} fragments, {} shaded, {} early-z killed)",
+            tris / mm / 1e3,
+            last.main_stats.fragments_rasterized as f64 / mm / 1e6,
+            last.main_stats.fragments_rasterized,
+            last.main_stats.fragments_shaded,
+            last.main_stats.early_z_killed
+        );
+    }
+    println!("frame:      {mf:8.2} ms (median of {})", frame.len());
+    println!("hash:       {hash:016x}");
+    if let Some(dir) = &a.out {
+        if a.mode != FrameMode::Depth {
+            write_png(&dir.join("spheres.png"), &t.color)?;
+        }
+        write_png(&dir.join("spheres_shadow_map.png"), &grey(&t.shadow, 0.0, 1.0))?;
+        println!("wrote {}", dir.join("spheres.png").display());
+    }
+    if a.common.json {
+        println!(
+            "{{\"triangles\":{},\"threads\":{},\"mode\":\"{:?}\",\"ms_depth_pass\":{md:.4},\"ms_main_pass\":{mm:.4},\"ms_frame\":{mf:.4},\"mtri_per_s_depth\":{:.4},\"hash\":\"{hash:016x}\"}}",
+            mesh.triangles(),
+            p.threads(),
+            a.mode,
+            tris / md / 1e3
+        );
+    }
+    Ok(())
+}
+
+fn bench_raster(a: RasterArgs) -> Result<(), String> {
+    check_triangles(a.triangles)?;
+    if !(a.area.is_finite() && a.area > 0.0 && a.area <= 1e7) {
+        return Err(format!("--area {} is out of range (0, 1e7]", a.area));
+    }
+    let color_mode = match a.mode.as_str() {
+        "color" => true,
+        "depth" => false,
+        m => return Err(format!("unknown raster mode '{m}' (expected depth or color)")),
+    };
+    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let (w, h) = (1920, 1080);
+    let (verts, idx) = random_triangles(a.triangles, a.area, w, h, 1);
+    let mut color = Surface::new(w, h, [0u8; 4]).map_err(|e| e.to_string())?;
+    let mut depth = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+    let state = RenderState::default();
+    let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, String> {
+        color.fill([0, 0, 0, 255]);
+        depth.fill(1.0);
+        let r = if color_mode {
+            p.draw(&mut Targets::color(color).with_depth(depth), &state, &verts, &idx, &ColoredClip, &VaryingColor)
+        } else {
+            p.draw(&mut Targets::depth_only(depth), &state, &verts, &idx, &ColoredClip, &DepthOnly)
+        };
+        r.map_err(|e| e.to_string())
+    };
+    for _ in 0..2 {
+        run(&mut color, &mut depth)?;
+    }
+    let mut times = Vec::new();
+    let mut stats = DrawStats::default();
+    for _ in 0..a.common.reps.max(1) {
+        let t0 = Instant::now();
+        stats = run(&mut color, &mut depth)?;
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    let s = median(&mut times);
+    let mtri = a.triangles as f64 / s / 1e6;
+    let gpix = stats.fragments_rasterized as f64 / s / 1e9;
+    let hash = if color_mode { hash_rgba8(color.data()) } else { hash_f32(depth.data()) };
+    println!(
+        "raster {}: {} triangles of ~{} px, {} threads: {:.3} ms, {mtri:.2} Mtri/s, {gpix:.3} Gpix/s ({} fragments), hash {hash:016x}",
+        a.mode,
+        a.triangles,
+        a.area,
+        p.threads(),
+        s * 1e3,
+        stats.fragments_rasterized
+    );
+    if a.common.json {
+        println!(
+            "{{\"triangles\":{},\"area\":{},\"mode\":\"{}\",\"threads\":{},\"ms\":{:.4},\"mtri_per_s\":{mtri:.4},\"gpix_per_s\":{gpix:.4},\"hash\":\"{hash:016x}\"}}",
+            a.triangles,
+            a.area,
+            a.mode,
+            p.threads(),
+            s * 1e3
+        );
+    }
+    Ok(())
+}

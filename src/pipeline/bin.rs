@@ -1,0 +1,166 @@
+//! Stage 4, bin: set-up triangles into screen tiles, in submission order.
+//!
+//! Triangles are processed in fixed-size chunks (independent of the thread count). Each chunk
+//! assembles, clips and sets up its triangles and sorts them into a per-tile index list (a
+//! counting sort, so the order inside each tile list is submission order). A tile later walks
+//! the chunks in order, which is the whole draw in submission order.
+
+use super::clip::{ClipVertex, Clipper};
+use super::setup::{setup_triangle, Rejected, SetupParams, SetupTri};
+use super::vertex::Varyings;
+use super::DrawStats;
+
+/// Tile side in pixels.
+pub const TILE: i32 = 64;
+/// log2 of [`TILE`].
+pub const TILE_SHIFT: i32 = 6;
+/// Triangles per binning chunk (fixed, so results never depend on the thread count).
+pub const CHUNK: usize = 2048;
+
+/// The tile grid of a target.
+#[derive(Copy, Clone, Debug)]
+pub struct TileGrid {
+    /// Tiles across.
+    pub nx: i32,
+    /// Tiles down.
+    pub ny: i32,
+    /// Target width in pixels.
+    pub width: i32,
+    /// Target height in pixels.
+    pub height: i32,
+}
+
+impl TileGrid {
+    /// The grid covering a `width` x `height` target.
+    pub fn new(width: u32, height: u32) -> Self {
+        let (w, h) = (width as i32, height as i32);
+        TileGrid { nx: (w + TILE - 1) / TILE, ny: (h + TILE - 1) / TILE, width: w, height: h }
+    }
+
+    /// Number of tiles.
+    pub fn count(&self) -> usize {
+        (self.nx * self.ny) as usize
+    }
+
+    /// Inclusive pixel rectangle `[x0, y0, x1, y1]` of tile `t`.
+    pub fn rect(&self, t: usize) -> [i32; 4] {
+        let tx = t as i32 % self.nx;
+        let ty = t as i32 / self.nx;
+        let x0 = tx * TILE;
+        let y0 = ty * TILE;
+        [x0, y0, (x0 + TILE - 1).min(self.width - 1), (y0 + TILE - 1).min(self.height - 1)]
+    }
+}
+
+/// The binned output of one chunk of triangles.
+pub struct Chunk<V> {
+    /// Set-up triangles, in submission order.
+    pub tris: Vec<SetupTri<V>>,
+    /// `ids[offsets[t]..offsets[t + 1]]` are the triangles (indices into `tris`) touching tile `t`.
+    pub offsets: Vec<u32>,
+    /// Triangle indices grouped by tile.
+    pub ids: Vec<u32>,
+    /// Counters of stages 2 to 4.
+    pub stats: DrawStats,
+}
+
+/// True if no pixel centre of `rect` can pass all edges (conservative: may keep a tile that
+/// ends up empty, never drops a covered one).
+#[inline]
+pub fn rect_rejected<V>(tri: &SetupTri<V>, rect: [i32; 4]) -> bool {
+    let (x0, y0, x1, y1) = (rect[0] as i64, rect[1] as i64, rect[2] as i64, rect[3] as i64);
+    tri.edges.iter().any(|e| {
+        let x = if e.dx > 0 { x1 } else { x0 };
+        let y = if e.dy > 0 { y1 } else { y0 };
+        e.at(x, y) < 0
+    })
+}
+
+/// Stages 2-4 for triangles `first..first + count` of an indexed list: assemble, drop
+/// non-finite ones, clip, set up, bin.
+#[allow(clippy::too_many_arguments)]
+pub fn process_chunk<V: Varyings>(
+    verts: &[ClipVertex<V>],
+    finite: &[bool],
+    indices: &[u32],
+    first: usize,
+    count: usize,
+    params: &SetupParams,
+    clipper: &Clipper,
+    grid: &TileGrid,
+) -> Chunk<V> {
+    let mut stats = DrawStats::default();
+    let mut tris: Vec<SetupTri<V>> = Vec::with_capacity(count);
+    let mut poly = Vec::with_capacity(12);
+    let mut tmp = Vec::with_capacity(12);
+    let push = |r: Result<SetupTri<V>, Rejected>, stats: &mut DrawStats, tris: &mut Vec<SetupTri<V>>| match r {
+        Ok(t) => tris.push(t),
+        Err(Rejected::Degenerate) => stats.culled_degenerate += 1,
+        Err(Rejected::Culled) => stats.culled_backface += 1,
+        Err(Rejected::Outside) => stats.culled_outside += 1,
+        Err(Rejected::NonFinite) => stats.dropped_nonfinite += 1,
+    };
+    for t in first..first + count {
+        stats.triangles_in += 1;
+        let ia = [indices[3 * t] as usize, indices[3 * t + 1] as usize, indices[3 * t + 2] as usize];
+        if !(finite[ia[0]] && finite[ia[1]] && finite[ia[2]]) {
+            stats.dropped_nonfinite += 1;
+            continue;
+        }
+        let tri = [verts[ia[0]], verts[ia[1]], verts[ia[2]]];
+        let c = [clipper.outcode(tri[0].pos), clipper.outcode(tri[1].pos), clipper.outcode(tri[2].pos)];
+        if c[0] & c[1] & c[2] != 0 {
+            stats.culled_outside += 1;
+            continue;
+        }
+        let mask = c[0] | c[1] | c[2];
+        if mask == 0 {
+            push(setup_triangle(params, tri, t as u32), &mut stats, &mut tris);
+            continue;
+        }
+        stats.clipped += 1;
+        clipper.clip_polygon(tri, mask, &mut poly, &mut tmp);
+        if poly.is_empty() {
+            stats.culled_outside += 1;
+            continue;
+        }
+        for k in 1..poly.len() - 1 {
+            stats.clip_triangles_out += 1;
+            push(setup_triangle(params, [poly[0], poly[k], poly[k + 1]], t as u32), &mut stats, &mut tris);
+        }
+    }
+
+    // Bin: count per tile, prefix sum, fill (a stable counting sort).
+    let ntiles = grid.count();
+    let mut offsets = vec![0u32; ntiles + 1];
+    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 2);
+    for (i, tri) in tris.iter().enumerate() {
+        let tx0 = tri.bbox[0] >> TILE_SHIFT;
+        let ty0 = tri.bbox[1] >> TILE_SHIFT;
+        let tx1 = tri.bbox[2] >> TILE_SHIFT;
+        let ty1 = tri.bbox[3] >> TILE_SHIFT;
+        let single = tx0 == tx1 && ty0 == ty1;
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                let t = (ty * grid.nx + tx) as usize;
+                if !single && rect_rejected(tri, grid.rect(t)) {
+                    continue;
+                }
+                pairs.push((t as u32, i as u32));
+                offsets[t + 1] += 1;
+            }
+        }
+    }
+    for t in 0..ntiles {
+        offsets[t + 1] += offsets[t];
+    }
+    let mut ids = vec![0u32; pairs.len()];
+    let mut cursor = offsets.clone();
+    for (t, i) in pairs {
+        ids[cursor[t as usize] as usize] = i;
+        cursor[t as usize] += 1;
+    }
+    stats.bin_entries += ids.len() as u64;
+    stats.triangles_setup += tris.len() as u64;
+    Chunk { tris, offsets, ids, stats }
+}

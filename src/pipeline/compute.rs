@@ -1,0 +1,173 @@
+//! "Compute" passes: plain Rust over surfaces, parallel over rows and deterministic (every
+//! output element is computed by one fixed sequence of operations; partial results of
+//! reductions are combined in row order).
+
+use super::sampler::Filterable;
+use super::surface::Surface;
+use super::{Pipeline, PipelineError};
+use glam::{DVec4, Vec4};
+use rayon::prelude::*;
+
+/// Minimum and maximum of the finite texels accepted by `keep` (e.g. depth < 1 for "covered"),
+/// or `None` if there is none. Used by SDSM and frustum fitting.
+pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync) -> Option<(f32, f32)> {
+    let w = s.width() as usize;
+    let rows: Vec<Option<(f32, f32)>> = p.install(|| {
+        s.data()
+            .par_chunks(w)
+            .map(|row| {
+                row.iter().filter(|v| v.is_finite() && keep(**v)).fold(None, |acc: Option<(f32, f32)>, &v| match acc {
+                    None => Some((v, v)),
+                    Some((a, b)) => Some((a.min(v), b.max(v))),
+                })
+            })
+            .collect()
+    });
+    rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+}
+
+/// Histogram of the finite texels in `[lo, hi)` over `bins` equal bins (values outside are not
+/// counted). Errors on zero bins or an empty range.
+pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) -> Result<Vec<u64>, PipelineError> {
+    if bins == 0 || bins > 1 << 24 || !(hi > lo) || !lo.is_finite() || !hi.is_finite() {
+        return Err(PipelineError::BadArgument(format!("histogram of {bins} bins over [{lo}, {hi}) is invalid")));
+    }
+    let w = s.width() as usize;
+    let scale = bins as f64 / (hi as f64 - lo as f64);
+    let parts: Vec<Vec<u64>> = p.install(|| {
+        s.data()
+            .par_chunks(w * 16)
+            .map(|rows| {
+                let mut h = vec![0u64; bins];
+                for &v in rows {
+                    if v.is_finite() && v >= lo && v < hi {
+                        let b = (((v as f64 - lo as f64) * scale) as usize).min(bins - 1);
+                        h[b] += 1;
+                    }
+                }
+                h
+            })
+            .collect()
+    });
+    let mut out = vec![0u64; bins];
+    for h in parts {
+        for (o, v) in out.iter_mut().zip(h) {
+            *o += v;
+        }
+    }
+    Ok(out)
+}
+
+/// Summed-area table (Crow 1984; RTR 7.7 for VSM): `sat(x, y)` = sum of all texels with
+/// coordinates `<= (x, y)`, accumulated in `f64` so large maps keep their precision.
+pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
+    let (w, h) = (s.width() as usize, s.height() as usize);
+    let mut out = vec![DVec4::ZERO; w * h];
+    p.install(|| {
+        // Row prefix sums (parallel over rows).
+        out.par_chunks_mut(w).zip(s.data().par_chunks(w)).for_each(|(o, i)| {
+            let mut acc = DVec4::ZERO;
+            for (o, v) in o.iter_mut().zip(i) {
+                acc += v.as_dvec4();
+                *o = acc;
+            }
+        });
+    });
+    // Column prefix sums: row by row, each row parallel over its columns.
+    for y in 1..h {
+        let (prev, cur) = out.split_at_mut(y * w);
+        let prev = &prev[(y - 1) * w..];
+        p.install(|| {
+            cur[..w].par_chunks_mut(256).zip(prev.par_chunks(256)).for_each(|(c, p)| {
+                for (c, p) in c.iter_mut().zip(p) {
+                    *c += *p;
+                }
+            })
+        });
+    }
+    Surface::from_vec(s.width(), s.height(), out).expect("same size as input")
+}
+
+/// Sum over the inclusive texel rectangle `[x0, x1] x [y0, y1]` (clamped to the surface) from a
+/// summed-area table.
+pub fn sat_box(sat: &Surface<DVec4>, x0: i64, y0: i64, x1: i64, y1: i64) -> DVec4 {
+    let (w, h) = (sat.width() as i64, sat.height() as i64);
+    let (x0, x1) = (x0.clamp(0, w - 1), x1.clamp(0, w - 1));
+    let (y0, y1) = (y0.clamp(0, h - 1), y1.clamp(0, h - 1));
+    let g = |x: i64, y: i64| if x < 0 || y < 0 { DVec4::ZERO } else { sat.at(x as u32, y as u32) };
+    g(x1, y1) - g(x0 - 1, y1) - g(x1, y0 - 1) + g(x0 - 1, y0 - 1)
+}
+
+/// Normalized Gaussian weights for a kernel of `radius` taps each side (`sigma = radius / 2`);
+/// radius 0 is the identity.
+pub fn gaussian_weights(radius: usize) -> Vec<f32> {
+    if radius == 0 {
+        return vec![1.0];
+    }
+    let sigma = radius as f64 / 2.0;
+    let w: Vec<f64> = (-(radius as i64)..=radius as i64).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp()).collect();
+    let sum: f64 = w.iter().sum();
+    w.iter().map(|v| (v / sum) as f32).collect()
+}
+
+/// Separable blur with an odd-length kernel (`weights.len() = 2r + 1`), edges clamped:
+/// horizontal pass then vertical pass.
+pub fn separable_blur<T: Filterable + Default>(p: &Pipeline, s: &Surface<T>, weights: &[f32]) -> Result<Surface<T>, PipelineError> {
+    if weights.len() % 2 == 0 {
+        return Err(PipelineError::BadArgument(format!("blur kernel length {} must be odd", weights.len())));
+    }
+    let r = (weights.len() / 2) as i64;
+    let (w, h) = (s.width() as usize, s.height() as usize);
+    let mut tmp = vec![T::default(); w * h];
+    let mut out = vec![T::default(); w * h];
+    p.install(|| {
+        tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let mut acc = T::mix(T::default(), 0.0, T::default(), 0.0);
+                for (k, &wk) in weights.iter().enumerate() {
+                    let xx = (x as i64 + k as i64 - r).clamp(0, w as i64 - 1) as u32;
+                    acc = T::mix(acc, 1.0, s.at(xx, y as u32), wk);
+                }
+                *o = acc;
+            }
+        });
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let mut acc = T::mix(T::default(), 0.0, T::default(), 0.0);
+                for (k, &wk) in weights.iter().enumerate() {
+                    let yy = (y as i64 + k as i64 - r).clamp(0, h as i64 - 1) as usize;
+                    acc = T::mix(acc, 1.0, tmp[yy * w + x], wk);
+                }
+                *o = acc;
+            }
+        });
+    });
+    Surface::from_vec(s.width(), s.height(), out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sat_box_equals_direct_sum() {
+        let p = Pipeline::new(2).unwrap();
+        let data: Vec<Vec4> = (0..35).map(|i| Vec4::splat(i as f32)).collect();
+        let s = Surface::from_vec(7, 5, data).unwrap();
+        let sat = summed_area_table(&p, &s);
+        let direct: f32 = (1..=3).flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32)).sum();
+        assert_eq!(sat_box(&sat, 2, 1, 5, 3).x, direct as f64);
+    }
+
+    #[test]
+    fn min_max_histogram_blur() {
+        let p = Pipeline::new(2).unwrap();
+        let s = Surface::from_vec(3, 2, vec![0.5f32, 0.1, 1.0, f32::NAN, 0.7, 0.3]).unwrap();
+        assert_eq!(min_max(&p, &s, |v| v < 1.0), Some((0.1, 0.7)));
+        assert_eq!(histogram(&p, &s, 2, 0.0, 1.0).unwrap(), vec![2, 2]);
+        assert!(histogram(&p, &s, 0, 0.0, 1.0).is_err());
+        let c = Surface::new(9, 9, 2.0f32).unwrap();
+        let b = separable_blur(&p, &c, &gaussian_weights(3)).unwrap();
+        assert!(b.data().iter().all(|v| (v - 2.0).abs() < 1e-5));
+    }
+}

@@ -1,0 +1,341 @@
+//! Stage 6, fragment operations, run per tile: depth (plane + polygon offset + clamp +
+//! format quantization), early depth/stencil test where legal, the fragment program,
+//! late depth/stencil test otherwise, two-sided stencil ops, depth write, blending with colour
+//! write masks, and appending to per-pixel fragment lists.
+//!
+//! Order per fragment (GL/D3D): stencil test -> depth test -> stencil op (fail / depth-fail /
+//! pass) -> depth write -> colour blend and write / list append. The "early" path runs the
+//! tests before the program when the program cannot discard (so killed fragments are never
+//! shaded); the result is identical to the late path.
+
+use super::lists::{ListNode, NONE};
+use super::raster::raster_tile;
+use super::setup::SetupTri;
+use super::state::{BlendMode, CompareFunc, RenderState};
+use super::vertex::Varyings;
+use super::DrawStats;
+use glam::{Vec2, Vec4};
+
+/// A colour target's texel format: converts to and from the `Vec4` that programs output and
+/// blending works in.
+pub trait ColorFormat: Copy + Send + Sync + 'static {
+    /// Texel to RGBA.
+    fn to_vec4(self) -> Vec4;
+    /// RGBA to texel (unused channels dropped).
+    fn from_vec4(v: Vec4) -> Self;
+}
+
+/// 8-bit unsigned normalized RGBA.
+pub type Rgba8 = [u8; 4];
+
+impl ColorFormat for [u8; 4] {
+    #[inline(always)]
+    fn to_vec4(self) -> Vec4 {
+        Vec4::new(self[0] as f32, self[1] as f32, self[2] as f32, self[3] as f32) * (1.0 / 255.0)
+    }
+    #[inline(always)]
+    fn from_vec4(v: Vec4) -> Self {
+        let q = (v.clamp(Vec4::ZERO, Vec4::ONE) * 255.0 + Vec4::splat(0.5)).to_array();
+        [q[0] as u8, q[1] as u8, q[2] as u8, q[3] as u8]
+    }
+}
+
+impl ColorFormat for Vec4 {
+    #[inline(always)]
+    fn to_vec4(self) -> Vec4 {
+        self
+    }
+    #[inline(always)]
+    fn from_vec4(v: Vec4) -> Self {
+        v
+    }
+}
+
+impl ColorFormat for Vec2 {
+    #[inline(always)]
+    fn to_vec4(self) -> Vec4 {
+        Vec4::new(self.x, self.y, 0.0, 1.0)
+    }
+    #[inline(always)]
+    fn from_vec4(v: Vec4) -> Self {
+        Vec2::new(v.x, v.y)
+    }
+}
+
+impl ColorFormat for f32 {
+    #[inline(always)]
+    fn to_vec4(self) -> Vec4 {
+        Vec4::new(self, 0.0, 0.0, 1.0)
+    }
+    #[inline(always)]
+    fn from_vec4(v: Vec4) -> Self {
+        v.x
+    }
+}
+
+/// What the fragment program sees.
+#[derive(Copy, Clone, Debug)]
+pub struct Fragment<V> {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row (0 at the top).
+    pub y: u32,
+    /// Depth after polygon offset and clamp.
+    pub z: f32,
+    /// Perspective-correct varyings.
+    pub var: V,
+    /// The triangle faces the viewer.
+    pub front: bool,
+    /// Index of the source triangle in the draw.
+    pub prim: u32,
+}
+
+/// A fragment program: returns the colour, or `None` to discard.
+pub trait FragmentProgram<V>: Sync {
+    /// Set to true when [`FragmentProgram::shade`] may return `None`; depth and stencil are
+    /// then tested after the program (no early-z).
+    const MAY_DISCARD: bool = false;
+    /// Shades one fragment.
+    fn shade(&self, f: &Fragment<V>) -> Option<Vec4>;
+}
+
+/// No program: depth/stencil-only passes.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct DepthOnly;
+
+impl<V> FragmentProgram<V> for DepthOnly {
+    #[inline(always)]
+    fn shade(&self, _: &Fragment<V>) -> Option<Vec4> {
+        Some(Vec4::ZERO)
+    }
+}
+
+/// A closure that never discards, as a fragment program.
+#[derive(Copy, Clone, Debug)]
+pub struct Shader<F>(pub F);
+
+impl<V, F: Fn(&Fragment<V>) -> Vec4 + Sync> FragmentProgram<V> for Shader<F> {
+    #[inline(always)]
+    fn shade(&self, f: &Fragment<V>) -> Option<Vec4> {
+        Some((self.0)(f))
+    }
+}
+
+/// A closure that may discard (returns `None`), as a fragment program (no early-z).
+#[derive(Copy, Clone, Debug)]
+pub struct DiscardingShader<F>(pub F);
+
+impl<V, F: Fn(&Fragment<V>) -> Option<Vec4> + Sync> FragmentProgram<V> for DiscardingShader<F> {
+    const MAY_DISCARD: bool = true;
+    #[inline(always)]
+    fn shade(&self, f: &Fragment<V>) -> Option<Vec4> {
+        (self.0)(f)
+    }
+}
+
+/// Blends source `s` over destination `d`.
+#[inline(always)]
+pub fn blend(mode: BlendMode, s: Vec4, d: Vec4) -> Vec4 {
+    match mode {
+        BlendMode::Replace => s,
+        BlendMode::Add => s + d,
+        BlendMode::Alpha => {
+            let a = s.w;
+            let rgb = s.truncate() * a + d.truncate() * (1.0 - a);
+            rgb.extend(a + d.w * (1.0 - a))
+        }
+        BlendMode::Multiply => s * d,
+        BlendMode::Min => s.min(d),
+        BlendMode::Max => s.max(d),
+    }
+}
+
+/// A surface shared by tile workers. Each worker touches only its own tile's pixels, so no two
+/// threads ever access the same texel.
+#[derive(Copy, Clone)]
+pub(crate) struct RawSurface<T> {
+    pub ptr: *mut T,
+    pub stride: usize,
+}
+
+// SAFETY: tiles are disjoint pixel rectangles and each tile is processed by exactly one worker
+// per draw (see `Pipeline::draw`), so accesses through a `RawSurface` never overlap.
+unsafe impl<T: Send> Send for RawSurface<T> {}
+unsafe impl<T: Send> Sync for RawSurface<T> {}
+
+impl<T: Copy> RawSurface<T> {
+    #[inline(always)]
+    unsafe fn get(&self, x: i32, y: i32) -> T {
+        *self.ptr.add(y as usize * self.stride + x as usize)
+    }
+    #[inline(always)]
+    unsafe fn set(&self, x: i32, y: i32, v: T) {
+        *self.ptr.add(y as usize * self.stride + x as usize) = v;
+    }
+}
+
+/// The targets of one draw, as seen by tile workers.
+pub(crate) struct RawTargets<C> {
+    pub color: Option<RawSurface<C>>,
+    pub depth: Option<RawSurface<f32>>,
+    pub stencil: Option<RawSurface<u8>>,
+    pub lists: bool,
+    pub list_capacity: usize,
+}
+
+/// One tile's local fragment-list pool (merged after the draw).
+#[derive(Default)]
+pub(crate) struct TileLists {
+    pub nodes: Vec<ListNode>,
+    pub head: Vec<u32>,
+    pub tail: Vec<u32>,
+    pub overflow: u64,
+}
+
+/// Runs stages 5 and 6 for one tile over `tris` (in submission order).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    tris: impl Iterator<Item = &'a SetupTri<V>>,
+    rect: [i32; 4],
+    state: &RenderState,
+    targets: &RawTargets<C>,
+    program: &P,
+    stats: &mut DrawStats,
+    lists: &mut TileLists,
+) {
+    let needs_shading = targets.color.is_some() || targets.lists || P::MAY_DISCARD;
+    let depth_test = targets.depth.is_some() && state.depth.func != CompareFunc::Always;
+    let depth_write = targets.depth.is_some() && state.depth.write;
+    let stencil_on = targets.stencil.is_some() && state.stencil.enabled;
+    let st = state.stencil;
+    let fmt = state.depth.format;
+    let (ox, oy) = (rect[0], rect[1]);
+    let tw = (rect[2] - rect[0] + 1) as usize;
+    if targets.lists && lists.head.is_empty() {
+        let n = tw * (rect[3] - rect[1] + 1) as usize;
+        lists.head = vec![NONE; n];
+        lists.tail = vec![NONE; n];
+    }
+    let mask = state.color_mask.0;
+    let full_mask = mask == [true; 4];
+
+    for tri in tris {
+        let zp = tri.z.at_origin(ox as i64, oy as i64);
+        let persp = if V::EMPTY || !needs_shading {
+            [zp; 3]
+        } else {
+            [
+                tri.persp[0].at_origin(ox as i64, oy as i64),
+                tri.persp[1].at_origin(ox as i64, oy as i64),
+                tri.persp[2].at_origin(ox as i64, oy as i64),
+            ]
+        };
+        let face = if tri.front { st.front } else { st.back };
+        let zoff = tri.z_offset;
+        let emitted = raster_tile(tri, rect, |x, y| {
+            let (lx, ly) = ((x - ox) as f32, (y - oy) as f32);
+            let z = fmt.quantize((zp.at(lx, ly) + zoff).clamp(0.0, 1.0));
+            let shade = |stats: &mut DrawStats| -> Option<Vec4> {
+                stats.fragments_shaded += 1;
+                let var = if V::EMPTY {
+                    tri.var[0]
+                } else {
+                    let iw = persp[0].at(lx, ly);
+                    let b1 = persp[1].at(lx, ly) / iw;
+                    let b2 = persp[2].at(lx, ly) / iw;
+                    V::combine(&tri.var[0], &tri.var[1], &tri.var[2], [1.0 - b1 - b2, b1, b2])
+                };
+                program.shade(&Fragment { x: x as u32, y: y as u32, z, var, front: tri.front, prim: tri.prim })
+            };
+            // Late path: the program runs first and may discard.
+            let mut color = None;
+            if P::MAY_DISCARD {
+                color = shade(stats);
+                if color.is_none() {
+                    stats.fragments_discarded += 1;
+                    return;
+                }
+            }
+            // Stencil test.
+            let mut sval = 0u8;
+            if stencil_on {
+                // SAFETY: (x, y) is inside this worker's tile.
+                sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
+                let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
+                if !pass {
+                    stats.stencil_failed += 1;
+                    let nv = face.fail.apply(sval, st.reference);
+                    unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
+                    return;
+                }
+            }
+            // Depth test.
+            if depth_test {
+                let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
+                if !state.depth.func.test(z, d) {
+                    if stencil_on {
+                        let nv = face.depth_fail.apply(sval, st.reference);
+                        unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
+                    }
+                    if P::MAY_DISCARD {
+                        stats.depth_failed += 1;
+                    } else {
+                        stats.early_z_killed += 1;
+                    }
+                    return;
+                }
+            }
+            if stencil_on {
+                let nv = face.pass.apply(sval, st.reference);
+                unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
+            }
+            if depth_write {
+                unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };
+            }
+            stats.fragments_passed += 1;
+            if !needs_shading {
+                return;
+            }
+            // Early path: the program runs after the tests.
+            if !P::MAY_DISCARD {
+                color = shade(stats);
+            }
+            let Some(src) = color else {
+                stats.fragments_discarded += 1;
+                return;
+            };
+            if let Some(ct) = targets.color.as_ref() {
+                let out = if state.blend == super::state::BlendMode::Replace && full_mask {
+                    src
+                } else {
+                    let dst = unsafe { ct.get(x, y) }.to_vec4();
+                    let b = blend(state.blend, src, dst);
+                    Vec4::new(
+                        if mask[0] { b.x } else { dst.x },
+                        if mask[1] { b.y } else { dst.y },
+                        if mask[2] { b.z } else { dst.z },
+                        if mask[3] { b.w } else { dst.w },
+                    )
+                };
+                unsafe { ct.set(x, y, C::from_vec4(out)) };
+            }
+            if targets.lists {
+                if lists.nodes.len() >= targets.list_capacity {
+                    lists.overflow += 1;
+                    return;
+                }
+                let idx = lists.nodes.len() as u32;
+                lists.nodes.push(ListNode { depth: z, value: src, prim: tri.prim, draw: 0, next: NONE });
+                let li = (y - oy) as usize * tw + (x - ox) as usize;
+                if lists.head[li] == NONE {
+                    lists.head[li] = idx;
+                } else {
+                    lists.nodes[lists.tail[li] as usize].next = idx;
+                }
+                lists.tail[li] = idx;
+                stats.list_nodes += 1;
+            }
+        });
+        stats.fragments_rasterized += emitted;
+    }
+}

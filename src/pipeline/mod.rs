@@ -1,0 +1,401 @@
+//! The software GPU: a tiled, deterministic triangle pipeline.
+//!
+//! Stages, in order (one file each):
+//! 1. [`vertex`]: user vertex programs, object -> clip space, varyings out.
+//! 2. [`clip`]: homogeneous clipping against near (and far unless depth clamp is on); x/y by a
+//!    guard band, so triangles crossing `w = 0` are cut where they must be.
+//! 3. [`setup`]: snap to [`fixed::Fx8`] (8 sub-pixel bits), cull by winding, integer edge
+//!    functions with the top-left rule, plane equations, polygon offset.
+//! 4. [`bin`]: triangles into 64 x 64 tiles, in submission order.
+//! 5. [`raster`]: per tile, hierarchical block tests (16 x 16 -> 4 x 4 -> pixel) with trivial
+//!    accept/reject; standard, conservative overestimate and underestimate modes.
+//! 6. [`fragment`]: early/late depth and stencil tests, two-sided stencil ops, the fragment
+//!    program, depth write, blending with colour masks, per-pixel fragment [`lists`].
+//!
+//! Around them: [`surface`] (targets, cube maps, arrays, mip chains), [`sampler`] (nearest,
+//! bilinear, 2x2 comparison PCF, gather, explicit mip level) and [`compute`] (min/max reduce,
+//! histogram, summed-area table, separable blur).
+//!
+//! Invariants (each one a test in `tests/raster.rs`):
+//! - watertight: triangles sharing edges cover each pixel centre exactly once;
+//! - conservative overestimate is a superset of standard coverage and equals the exact
+//!   "closed pixel square touches closed triangle" test; underestimate is the exact "square
+//!   inside triangle" test;
+//! - fragment-list node count equals the fragments that passed, lists in submission order;
+//! - two-sided stencil incr/decr over closed meshes counts surfaces crossed;
+//! - every output (targets, lists, counters) is bit-identical for any thread count: a tile is
+//!   owned by one worker per draw and walks its triangles in submission order, and all partial
+//!   results are combined in tile order.
+
+pub mod bin;
+pub mod clip;
+pub mod compute;
+pub mod fixed;
+pub mod fragment;
+pub mod lists;
+pub mod raster;
+pub mod sampler;
+pub mod setup;
+pub mod state;
+pub mod surface;
+pub mod vertex;
+
+pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
+pub use lists::{FragmentLists, ListNode};
+pub use state::*;
+pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
+pub use vertex::{ClipPassthrough, TransformPositions, Varyings, VertexProgram};
+
+use bin::{process_chunk, TileGrid, CHUNK};
+use clip::{ClipVertex, Clipper};
+use fragment::{shade_tile, RawSurface, RawTargets, TileLists};
+use rayon::prelude::*;
+use setup::SetupParams;
+use std::fmt;
+
+/// Chunks set up and binned before their tiles are rasterized (bounds memory per draw).
+const CHUNKS_PER_BATCH: usize = 32;
+
+/// Everything that can go wrong in the pipeline, as a value (never a panic).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum PipelineError {
+    /// A surface size of zero or above [`MAX_DIMENSION`].
+    BadSize {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+    },
+    /// Targets of one draw differ in size.
+    SizeMismatch {
+        /// Which target.
+        what: &'static str,
+        /// Size of the first target.
+        expected: (u32, u32),
+        /// Size of this one.
+        got: (u32, u32),
+    },
+    /// The index buffer's length is not a multiple of 3.
+    BadIndexCount(usize),
+    /// An index points past the vertex buffer.
+    IndexOutOfRange {
+        /// Triangle number.
+        triangle: usize,
+        /// The bad index.
+        index: u32,
+        /// Vertex count.
+        vertices: usize,
+    },
+    /// A fragment-list pool would have overflowed; nothing of this draw was appended.
+    FragmentPoolFull {
+        /// Pool capacity.
+        capacity: usize,
+        /// Nodes the pool would have needed.
+        needed: usize,
+    },
+    /// A mip level that does not exist.
+    BadMipLevel {
+        /// Requested level.
+        level: usize,
+        /// Levels in the chain.
+        levels: usize,
+    },
+    /// Any other invalid argument, described.
+    BadArgument(String),
+}
+
+impl fmt::Display for PipelineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PipelineError::BadSize { width, height } => {
+                write!(f, "surface size {width}x{height} is invalid (each side must be 1..={MAX_DIMENSION})")
+            }
+            PipelineError::SizeMismatch { what, expected, got } => write!(
+                f,
+                "{what} target is {}x{} but the draw's other targets are {}x{}",
+                got.0, got.1, expected.0, expected.1
+            ),
+            PipelineError::BadIndexCount(n) => write!(f, "index count {n} is not a multiple of 3"),
+            PipelineError::IndexOutOfRange { triangle, index, vertices } => {
+                write!(f, "triangle {triangle} uses vertex index {index} but there are only {vertices} vertices")
+            }
+            PipelineError::FragmentPoolFull { capacity, needed } => {
+                write!(f, "fragment-list pool full: capacity {capacity} nodes, the draw needed {needed}")
+            }
+            PipelineError::BadMipLevel { level, levels } => {
+                write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
+            }
+            PipelineError::BadArgument(s) => write!(f, "{s}"),
+        }
+    }
+}
+
+impl std::error::Error for PipelineError {}
+
+/// Per-draw counters, for users exploring internals. Summed over draws with `+=`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct DrawStats {
+    /// Triangles submitted.
+    pub triangles_in: u64,
+    /// Triangles dropped for non-finite (NaN/inf) or out-of-range coordinates.
+    pub dropped_nonfinite: u64,
+    /// Triangles that needed clipping.
+    pub clipped: u64,
+    /// Triangles produced by clipping (fans of clipped polygons).
+    pub clip_triangles_out: u64,
+    /// Triangles culled by winding.
+    pub culled_backface: u64,
+    /// Triangles with zero area after snapping.
+    pub culled_degenerate: u64,
+    /// Triangles entirely outside the view or covering no pixel of the viewport.
+    pub culled_outside: u64,
+    /// Triangles that reached binning.
+    pub triangles_setup: u64,
+    /// (triangle, tile) pairs binned.
+    pub bin_entries: u64,
+    /// Pixels covered (fragments generated).
+    pub fragments_rasterized: u64,
+    /// Fragments killed by the early depth test (never shaded).
+    pub early_z_killed: u64,
+    /// Fragments failing the late depth test (after shading).
+    pub depth_failed: u64,
+    /// Fragments failing the stencil test.
+    pub stencil_failed: u64,
+    /// Fragment-program invocations.
+    pub fragments_shaded: u64,
+    /// Fragments discarded by the program.
+    pub fragments_discarded: u64,
+    /// Fragments that passed every test (depth/stencil written, colour blended).
+    pub fragments_passed: u64,
+    /// Nodes appended to fragment lists.
+    pub list_nodes: u64,
+}
+
+macro_rules! add_fields {
+    ($s:ident, $o:ident; $($f:ident),*) => { $( $s.$f += $o.$f; )* };
+}
+
+impl std::ops::AddAssign for DrawStats {
+    fn add_assign(&mut self, o: DrawStats) {
+        add_fields!(self, o; triangles_in, dropped_nonfinite, clipped, clip_triangles_out, culled_backface,
+            culled_degenerate, culled_outside, triangles_setup, bin_entries, fragments_rasterized,
+            early_z_killed, depth_failed, stencil_failed, fragments_shaded, fragments_discarded,
+            fragments_passed, list_nodes);
+    }
+}
+
+/// The render targets of one draw. All present targets must have the same size.
+pub struct Targets<'a, C = Rgba8> {
+    /// Colour target.
+    pub color: Option<&'a mut Surface<C>>,
+    /// Depth target (values in [0, 1]).
+    pub depth: Option<&'a mut Surface<f32>>,
+    /// Stencil target.
+    pub stencil: Option<&'a mut Surface<u8>>,
+    /// Per-pixel fragment lists.
+    pub lists: Option<&'a mut FragmentLists>,
+}
+
+impl<'a> Targets<'a, Rgba8> {
+    /// Only a depth target.
+    pub fn depth_only(depth: &'a mut Surface<f32>) -> Self {
+        Targets { color: None, depth: Some(depth), stencil: None, lists: None }
+    }
+
+    /// No colour target (add depth, stencil, lists with the builder methods).
+    pub fn none() -> Self {
+        Targets { color: None, depth: None, stencil: None, lists: None }
+    }
+}
+
+impl<'a, C: ColorFormat> Targets<'a, C> {
+    /// A colour target (add the others with the builder methods).
+    pub fn color(color: &'a mut Surface<C>) -> Self {
+        Targets { color: Some(color), depth: None, stencil: None, lists: None }
+    }
+
+    /// Adds a depth target.
+    pub fn with_depth(mut self, depth: &'a mut Surface<f32>) -> Self {
+        self.depth = Some(depth);
+        self
+    }
+
+    /// Adds a stencil target.
+    pub fn with_stencil(mut self, stencil: &'a mut Surface<u8>) -> Self {
+        self.stencil = Some(stencil);
+        self
+    }
+
+    /// Adds fragment lists.
+    pub fn with_lists(mut self, lists: &'a mut FragmentLists) -> Self {
+        self.lists = Some(lists);
+        self
+    }
+
+    /// The common size of the targets, or an error if they disagree or there are none.
+    pub fn size(&self) -> Result<(u32, u32), PipelineError> {
+        let mut sizes: Vec<(&'static str, (u32, u32))> = Vec::new();
+        if let Some(c) = &self.color {
+            sizes.push(("color", (c.width(), c.height())));
+        }
+        if let Some(d) = &self.depth {
+            sizes.push(("depth", (d.width(), d.height())));
+        }
+        if let Some(s) = &self.stencil {
+            sizes.push(("stencil", (s.width(), s.height())));
+        }
+        if let Some(l) = &self.lists {
+            sizes.push(("fragment-list", (l.width(), l.height())));
+        }
+        let Some(&(_, first)) = sizes.first() else {
+            return Err(PipelineError::BadArgument("a draw needs at least one target".into()));
+        };
+        for &(what, s) in &sizes[1..] {
+            if s != first {
+                return Err(PipelineError::SizeMismatch { what, expected: first, got: s });
+            }
+        }
+        Ok(first)
+    }
+}
+
+/// The pipeline: a worker pool and the draw call. Output never depends on the thread count.
+pub struct Pipeline {
+    pool: rayon::ThreadPool,
+    threads: usize,
+}
+
+impl fmt::Debug for Pipeline {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Pipeline").field("threads", &self.threads).finish()
+    }
+}
+
+impl Pipeline {
+    /// A pipeline with `threads` workers (0: one per available core).
+    pub fn new(threads: usize) -> Result<Self, PipelineError> {
+        let n = if threads == 0 { std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) } else { threads };
+        if n > 1024 {
+            return Err(PipelineError::BadArgument(format!("thread count {n} is absurd (at most 1024)")));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| PipelineError::BadArgument(format!("cannot start {n} worker threads: {e}")))?;
+        Ok(Pipeline { pool, threads: n })
+    }
+
+    /// Worker count.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Runs `f` on the pipeline's workers (for compute passes that use rayon).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(f)
+    }
+
+    /// Draws an indexed triangle list: `indices` holds 3 vertex indices per triangle.
+    ///
+    /// Errors (and draws nothing) on a bad index buffer or mismatched targets; a full
+    /// fragment-list pool is reported after the draw (other targets are written, the lists
+    /// are left as they were).
+    pub fn draw<VP, P, C>(
+        &self,
+        targets: &mut Targets<'_, C>,
+        state: &RenderState,
+        vertices: &[VP::In],
+        indices: &[u32],
+        vp: &VP,
+        fp: &P,
+    ) -> Result<DrawStats, PipelineError>
+    where
+        VP: VertexProgram,
+        P: FragmentProgram<VP::Out>,
+        C: ColorFormat,
+    {
+        let (width, height) = targets.size()?;
+        if indices.len() % 3 != 0 {
+            return Err(PipelineError::BadIndexCount(indices.len()));
+        }
+        if let Some(p) = indices.iter().position(|&i| i as usize >= vertices.len()) {
+            return Err(PipelineError::IndexOutOfRange { triangle: p / 3, index: indices[p], vertices: vertices.len() });
+        }
+        let grid = TileGrid::new(width, height);
+        let params = SetupParams::new(state, width, height);
+        let clipper = Clipper::new(width, height, !state.depth.clamp);
+        let raw = RawTargets {
+            color: targets.color.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
+            depth: targets.depth.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
+            stencil: targets.stencil.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
+            lists: targets.lists.is_some(),
+            list_capacity: targets.lists.as_ref().map_or(0, |l| l.capacity().saturating_sub(l.len())),
+        };
+        let ntri = indices.len() / 3;
+        let (stats, tile_lists) = self.pool.install(|| {
+            // Stage 1: vertex programs (an indexed map: order-independent).
+            let verts: Vec<ClipVertex<VP::Out>> = vertices
+                .par_iter()
+                .with_min_len(1024)
+                .map(|v| {
+                    let (pos, var) = vp.run(v);
+                    ClipVertex { pos, var }
+                })
+                .collect();
+            let finite: Vec<bool> = verts.iter().map(|v| v.pos.is_finite()).collect();
+            let mut stats = DrawStats::default();
+            let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
+            let nchunks = ntri.div_ceil(CHUNK);
+            for batch in (0..nchunks).step_by(CHUNKS_PER_BATCH) {
+                let batch_end = (batch + CHUNKS_PER_BATCH).min(nchunks);
+                // Stages 2-4: clip, set up and bin each chunk.
+                let chunks: Vec<_> = (batch..batch_end)
+                    .into_par_iter()
+                    .map(|c| {
+                        let first = c * CHUNK;
+                        let count = CHUNK.min(ntri - first);
+                        process_chunk(&verts, &finite, indices, first, count, &params, &clipper, &grid)
+                    })
+                    .collect();
+                for c in &chunks {
+                    stats += c.stats;
+                }
+                // Stages 5-6: each tile walks the chunks in order (= submission order).
+                let tiles: Vec<usize> = (0..grid.count())
+                    .filter(|&t| chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
+                    .collect();
+                let results: Vec<(DrawStats, TileLists)> = tiles
+                    .par_iter()
+                    .map(|&t| {
+                        let mut s = DrawStats::default();
+                        let mut l = TileLists::default();
+                        let tris = chunks.iter().flat_map(|c| {
+                            c.ids[c.offsets[t] as usize..c.offsets[t + 1] as usize].iter().map(move |&i| &c.tris[i as usize])
+                        });
+                        shade_tile(tris, grid.rect(t), state, &raw, fp, &mut s, &mut l);
+                        (s, l)
+                    })
+                    .collect();
+                for (&t, (s, l)) in tiles.iter().zip(results) {
+                    stats += s;
+                    if raw.lists && !l.nodes.is_empty() || l.overflow > 0 {
+                        all_lists.push((t, l));
+                    }
+                }
+            }
+            (stats, all_lists)
+        });
+        if let Some(lists) = targets.lists.as_mut() {
+            let needed: usize = tile_lists.iter().map(|(_, l)| l.nodes.len() + l.overflow as usize).sum();
+            if lists.len() + needed > lists.capacity() {
+                return Err(PipelineError::FragmentPoolFull { capacity: lists.capacity(), needed: lists.len() + needed });
+            }
+            // Merge per-tile pools in tile order (deterministic node indices).
+            for (t, l) in &tile_lists {
+                lists.merge_tile(grid.rect(*t), &l.nodes, &l.head, &l.tail);
+            }
+            lists.end_draw();
+        }
+        Ok(stats)
+    }
+}

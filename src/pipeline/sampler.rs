@@ -1,0 +1,197 @@
+//! Texture sampling: nearest, bilinear, 2x2 comparison (hardware PCF, as `sampler2DShadow`),
+//! gather, and explicit or derivative-selected mip levels.
+//!
+//! Coordinates: `uv` in [0, 1]^2 with the origin at the top-left; texel centres at
+//! `(i + 0.5) / size`, so the texel-space position of `uv` is `uv * size - 0.5`.
+
+use super::state::CompareFunc;
+use super::surface::{MipChain, Surface, Texel};
+use glam::{Vec2, Vec3, Vec4};
+
+/// What happens outside [0, 1].
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
+pub enum Address {
+    /// Clamp to the edge texel. (Default.)
+    #[default]
+    Clamp,
+    /// Wrap around.
+    Repeat,
+}
+
+/// Texel types that can be filtered (weighted sums).
+pub trait Filterable: Texel {
+    /// `a * wa + b * wb`.
+    fn mix(a: Self, wa: f32, b: Self, wb: f32) -> Self;
+}
+
+impl Filterable for f32 {
+    #[inline(always)]
+    fn mix(a: f32, wa: f32, b: f32, wb: f32) -> f32 {
+        a * wa + b * wb
+    }
+}
+
+macro_rules! filterable_vec {
+    ($($t:ty),*) => {$(
+        impl Filterable for $t {
+            #[inline(always)]
+            fn mix(a: Self, wa: f32, b: Self, wb: f32) -> Self { a * wa + b * wb }
+        }
+    )*};
+}
+filterable_vec!(Vec2, Vec3, Vec4);
+
+#[inline(always)]
+fn wrap(i: i64, n: u32, addr: Address) -> i64 {
+    match addr {
+        Address::Clamp => i.clamp(0, n as i64 - 1),
+        Address::Repeat => i.rem_euclid(n as i64),
+    }
+}
+
+/// The 2x2 footprint of `uv`: integer corner and bilinear fractions.
+#[inline(always)]
+pub fn footprint(size: (u32, u32), uv: Vec2) -> (i64, i64, f32, f32) {
+    let tx = uv.x * size.0 as f32 - 0.5;
+    let ty = uv.y * size.1 as f32 - 0.5;
+    let (fx, fy) = (tx.floor(), ty.floor());
+    (fx as i64, fy as i64, tx - fx, ty - fy)
+}
+
+/// Nearest-texel lookup.
+#[inline]
+pub fn sample_nearest<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> T {
+    let x = (uv.x * s.width() as f32).floor() as i64;
+    let y = (uv.y * s.height() as f32).floor() as i64;
+    s.at(wrap(x, s.width(), addr) as u32, wrap(y, s.height(), addr) as u32)
+}
+
+/// The four texels of the bilinear footprint: `[top-left, top-right, bottom-left, bottom-right]`.
+#[inline]
+pub fn gather<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> [T; 4] {
+    let (x, y, _, _) = footprint((s.width(), s.height()), uv);
+    let (x0, x1) = (wrap(x, s.width(), addr) as u32, wrap(x + 1, s.width(), addr) as u32);
+    let (y0, y1) = (wrap(y, s.height(), addr) as u32, wrap(y + 1, s.height(), addr) as u32);
+    [s.at(x0, y0), s.at(x1, y0), s.at(x0, y1), s.at(x1, y1)]
+}
+
+/// Bilinear lookup.
+#[inline]
+pub fn sample_bilinear<T: Filterable>(s: &Surface<T>, uv: Vec2, addr: Address) -> T {
+    let (_, _, fx, fy) = footprint((s.width(), s.height()), uv);
+    let [a, b, c, d] = gather(s, uv, addr);
+    let top = T::mix(a, 1.0 - fx, b, fx);
+    let bottom = T::mix(c, 1.0 - fx, d, fx);
+    T::mix(top, 1.0 - fy, bottom, fy)
+}
+
+/// A depth-comparison sampler (GL `sampler2DShadow` with linear filtering).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct CompareSampler {
+    /// `reference FUNC texel` is "lit". Default: `LessEqual`.
+    pub func: CompareFunc,
+    /// Result for `uv` outside [0, 1]^2 (`None`: clamp to edge). Default: `Some(1.0)` (lit).
+    pub border: Option<f32>,
+}
+
+impl Default for CompareSampler {
+    fn default() -> Self {
+        CompareSampler { func: CompareFunc::LessEqual, border: Some(1.0) }
+    }
+}
+
+impl CompareSampler {
+    /// One comparison against the nearest texel (0 or 1).
+    #[inline]
+    pub fn nearest(&self, s: &Surface<f32>, uv: Vec2, reference: f32) -> f32 {
+        if let Some(b) = self.border_for(uv) {
+            return b;
+        }
+        let t = sample_nearest(s, uv, Address::Clamp);
+        if self.func.test(reference, t) {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    #[inline(always)]
+    fn border_for(&self, uv: Vec2) -> Option<f32> {
+        match self.border {
+            Some(b) if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// Hardware PCF: the four texels of the bilinear footprint are compared with `reference`
+    /// and the 0/1 results weighted bilinearly.
+    #[inline]
+    pub fn pcf2x2(&self, s: &Surface<f32>, uv: Vec2, reference: f32) -> f32 {
+        if let Some(b) = self.border_for(uv) {
+            return b;
+        }
+        let (w, h) = (s.width(), s.height());
+        let (x, y, fx, fy) = footprint((w, h), uv);
+        let x0 = x.clamp(0, w as i64 - 1) as usize;
+        let x1 = (x + 1).clamp(0, w as i64 - 1) as usize;
+        let y0 = y.clamp(0, h as i64 - 1) as usize;
+        let y1 = (y + 1).clamp(0, h as i64 - 1) as usize;
+        let d = s.data();
+        let ws = w as usize;
+        let c = |t: f32| if self.func.test(reference, t) { 1.0f32 } else { 0.0 };
+        let a = c(d[y0 * ws + x0]);
+        let b = c(d[y0 * ws + x1]);
+        let cc = c(d[y1 * ws + x0]);
+        let dd = c(d[y1 * ws + x1]);
+        let top = a + (b - a) * fx;
+        let bottom = cc + (dd - cc) * fx;
+        top + (bottom - top) * fy
+    }
+}
+
+/// Bilinear lookup in mip level `level` (an error value for a level that does not exist).
+pub fn sample_level<T: Filterable>(m: &MipChain<T>, uv: Vec2, level: usize, addr: Address) -> Result<T, super::PipelineError> {
+    Ok(sample_bilinear(m.level(level)?, uv, addr))
+}
+
+/// The mip level (fractional, clamped to the chain) for texture-coordinate derivatives
+/// `duv_dx`, `duv_dy` per pixel, as GPUs select it: `log2(max(|d/dx|, |d/dy|) * size)`.
+pub fn select_level<T: Texel>(m: &MipChain<T>, duv_dx: Vec2, duv_dy: Vec2) -> f32 {
+    let base = &m.levels()[0];
+    let size = Vec2::new(base.width() as f32, base.height() as f32);
+    let rho = (duv_dx * size).length().max((duv_dy * size).length());
+    if !(rho > 1.0) {
+        return 0.0;
+    }
+    rho.log2().min((m.level_count() - 1) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_at_texel_centre_is_exact() {
+        let s = Surface::from_vec(2, 1, vec![0.0f32, 1.0]).unwrap();
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.25, 0.5), Address::Clamp), 0.0);
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.75, 0.5), Address::Clamp), 1.0);
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.5, 0.5), Address::Clamp), 0.5);
+    }
+
+    #[test]
+    fn pcf_weights_comparisons_bilinearly() {
+        let s = Surface::from_vec(2, 2, vec![0.2f32, 0.8, 0.2, 0.8]).unwrap();
+        let cs = CompareSampler::default();
+        // Halfway between the columns: one column lit, one shadowed.
+        assert!((cs.pcf2x2(&s, Vec2::new(0.5, 0.5), 0.5) - 0.5).abs() < 1e-6);
+        assert_eq!(cs.pcf2x2(&s, Vec2::new(0.25, 0.25), 0.5), 0.0);
+        assert_eq!(cs.pcf2x2(&s, Vec2::new(1.5, 0.5), 0.5), 1.0);
+    }
+
+    #[test]
+    fn repeat_wraps() {
+        let s = Surface::from_vec(2, 1, vec![3u8, 7]).unwrap();
+        assert_eq!(sample_nearest(&s, Vec2::new(1.25, 0.5), Address::Repeat), 3);
+        assert_eq!(sample_nearest(&s, Vec2::new(1.25, 0.5), Address::Clamp), 7);
+    }
+}

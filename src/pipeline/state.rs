@@ -1,0 +1,281 @@
+//! Fixed-function state of a draw: culling, raster mode, depth, stencil, polygon offset,
+//! blending and write masks. Every mode is an enum; every default is documented and matches
+//! the usual GPU default unless stated.
+
+/// Which faces to discard before rasterization.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum CullMode {
+    /// Draw both faces. (Default.)
+    #[default]
+    None,
+    /// Discard back faces.
+    Back,
+    /// Discard front faces.
+    Front,
+}
+
+/// Which winding is the front face, seen in NDC (y up) as GL and D3D define it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum FrontFace {
+    /// Counter-clockwise triangles are front-facing. (Default.)
+    #[default]
+    Ccw,
+    /// Clockwise triangles are front-facing.
+    Cw,
+}
+
+/// Which pixels a triangle covers.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum RasterMode {
+    /// Pixel centres inside the triangle, top-left fill rule. (Default.)
+    #[default]
+    Standard,
+    /// Conservative overestimate: every pixel whose closed square touches the closed triangle.
+    Overestimate,
+    /// Conservative underestimate: only pixels whose closed square lies inside the closed triangle.
+    Underestimate,
+}
+
+/// A comparison function, for depth and stencil tests: `incoming OP stored`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum CompareFunc {
+    /// Never passes.
+    Never,
+    /// Passes if incoming < stored. (Default for depth.)
+    #[default]
+    Less,
+    /// Passes if incoming == stored.
+    Equal,
+    /// Passes if incoming <= stored.
+    LessEqual,
+    /// Passes if incoming > stored.
+    Greater,
+    /// Passes if incoming != stored.
+    NotEqual,
+    /// Passes if incoming >= stored.
+    GreaterEqual,
+    /// Always passes.
+    Always,
+}
+
+impl CompareFunc {
+    /// Evaluates `a OP b`.
+    #[inline(always)]
+    pub fn test<T: PartialOrd>(self, a: T, b: T) -> bool {
+        match self {
+            CompareFunc::Never => false,
+            CompareFunc::Less => a < b,
+            CompareFunc::Equal => a == b,
+            CompareFunc::LessEqual => a <= b,
+            CompareFunc::Greater => a > b,
+            CompareFunc::NotEqual => a != b,
+            CompareFunc::GreaterEqual => a >= b,
+            CompareFunc::Always => true,
+        }
+    }
+}
+
+/// How a depth value is stored: the precision a shadow map has.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum DepthFormat {
+    /// 32-bit float. (Default.)
+    #[default]
+    F32,
+    /// 24-bit normalized integer (stored quantized as `f32`).
+    Unorm24,
+    /// 16-bit normalized integer (stored quantized as `f32`).
+    Unorm16,
+}
+
+impl DepthFormat {
+    /// Rounds a depth in [0, 1] to the format's precision.
+    #[inline(always)]
+    pub fn quantize(self, z: f32) -> f32 {
+        match self {
+            DepthFormat::F32 => z,
+            DepthFormat::Unorm24 => ((z as f64 * 16_777_215.0).round() / 16_777_215.0) as f32,
+            DepthFormat::Unorm16 => (z * 65535.0).round() / 65535.0,
+        }
+    }
+
+    /// The minimum resolvable depth difference `r` of glPolygonOffset for a triangle whose
+    /// largest depth is `max_z` (D3D rules: 2^(exponent(max_z) - 23) for float, 1/2^n for unorm).
+    pub fn resolvable(self, max_z: f32) -> f32 {
+        match self {
+            DepthFormat::F32 => {
+                let m = max_z.abs().max(f32::MIN_POSITIVE);
+                let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
+                2f32.powi(e - 23)
+            }
+            DepthFormat::Unorm24 => 1.0 / 16_777_216.0,
+            DepthFormat::Unorm16 => 1.0 / 65536.0,
+        }
+    }
+}
+
+/// Depth test, write and clamp.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct DepthState {
+    /// Compare function; `Always` disables the test. Default: `Less`.
+    pub func: CompareFunc,
+    /// Write passing depths. Default: `true`.
+    pub write: bool,
+    /// Depth clamp: no far-plane clipping; fragment depth clamped to [0, 1]. Default: `false`.
+    /// (Near-plane clipping always happens.)
+    pub clamp: bool,
+    /// Storage precision of written and compared depths. Default: `F32`.
+    pub format: DepthFormat,
+}
+
+impl Default for DepthState {
+    fn default() -> Self {
+        DepthState { func: CompareFunc::Less, write: true, clamp: false, format: DepthFormat::F32 }
+    }
+}
+
+/// What a stencil update does to the stored value.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum StencilOp {
+    /// Leave it. (Default.)
+    #[default]
+    Keep,
+    /// Set to 0.
+    Zero,
+    /// Set to the reference value.
+    Replace,
+    /// Add 1, saturating at 255.
+    IncrSat,
+    /// Subtract 1, saturating at 0.
+    DecrSat,
+    /// Add 1, wrapping 255 to 0.
+    IncrWrap,
+    /// Subtract 1, wrapping 0 to 255.
+    DecrWrap,
+    /// Bitwise invert.
+    Invert,
+}
+
+impl StencilOp {
+    /// Applies the op to `s` with reference `r`.
+    #[inline(always)]
+    pub fn apply(self, s: u8, r: u8) -> u8 {
+        match self {
+            StencilOp::Keep => s,
+            StencilOp::Zero => 0,
+            StencilOp::Replace => r,
+            StencilOp::IncrSat => s.saturating_add(1),
+            StencilOp::DecrSat => s.saturating_sub(1),
+            StencilOp::IncrWrap => s.wrapping_add(1),
+            StencilOp::DecrWrap => s.wrapping_sub(1),
+            StencilOp::Invert => !s,
+        }
+    }
+}
+
+/// Stencil test and ops for one face.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct StencilFace {
+    /// `(ref & read_mask) FUNC (stored & read_mask)`. Default: `Always`.
+    pub func: CompareFunc,
+    /// Op when the stencil test fails. Default: `Keep`.
+    pub fail: StencilOp,
+    /// Op when the stencil test passes and the depth test fails. Default: `Keep`.
+    pub depth_fail: StencilOp,
+    /// Op when both pass. Default: `Keep`.
+    pub pass: StencilOp,
+}
+
+impl Default for StencilFace {
+    fn default() -> Self {
+        StencilFace { func: CompareFunc::Always, fail: StencilOp::Keep, depth_fail: StencilOp::Keep, pass: StencilOp::Keep }
+    }
+}
+
+/// Two-sided stencil state.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct StencilState {
+    /// Stencil test and ops on at all. Default: `false`.
+    pub enabled: bool,
+    /// Ops for front-facing triangles. Default: [`StencilFace::default`].
+    pub front: StencilFace,
+    /// Ops for back-facing triangles. Default: [`StencilFace::default`].
+    pub back: StencilFace,
+    /// Reference value. Default: 0.
+    pub reference: u8,
+    /// Mask applied to reference and stored value before the compare. Default: 0xff.
+    pub read_mask: u8,
+    /// Bits the ops may change. Default: 0xff.
+    pub write_mask: u8,
+}
+
+impl Default for StencilState {
+    fn default() -> Self {
+        StencilState {
+            enabled: false,
+            front: StencilFace::default(),
+            back: StencilFace::default(),
+            reference: 0,
+            read_mask: 0xff,
+            write_mask: 0xff,
+        }
+    }
+}
+
+/// glPolygonOffset: `offset = factor * max|dz/dx, dz/dy| + units * r`, added to fragment depth.
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
+pub struct PolygonOffset {
+    /// Slope-scaled factor. Default: 0.
+    pub factor: f32,
+    /// Constant, in units of the depth format's minimum resolvable difference. Default: 0.
+    pub units: f32,
+}
+
+/// How the fragment's colour combines with the stored colour (`s` source, `d` destination).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum BlendMode {
+    /// `s`. (Default.)
+    #[default]
+    Replace,
+    /// `s + d`.
+    Add,
+    /// `s * s.a + d * (1 - s.a)`, alpha channel `s.a + d.a * (1 - s.a)`.
+    Alpha,
+    /// `s * d`.
+    Multiply,
+    /// `min(s, d)`.
+    Min,
+    /// `max(s, d)`.
+    Max,
+}
+
+/// Which colour channels are written.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct ColorMask(pub [bool; 4]);
+
+impl Default for ColorMask {
+    /// All four channels.
+    fn default() -> Self {
+        ColorMask([true; 4])
+    }
+}
+
+/// All fixed-function state of one draw.
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
+pub struct RenderState {
+    /// Face culling. Default: `None`.
+    pub cull: CullMode,
+    /// Front-face winding. Default: `Ccw`.
+    pub front_face: FrontFace,
+    /// Coverage rule. Default: `Standard`.
+    pub raster: RasterMode,
+    /// Depth test. Default: [`DepthState::default`].
+    pub depth: DepthState,
+    /// Stencil. Default: disabled.
+    pub stencil: StencilState,
+    /// Polygon offset. Default: none.
+    pub offset: PolygonOffset,
+    /// Blending. Default: `Replace`.
+    pub blend: BlendMode,
+    /// Colour write mask. Default: all channels.
+    pub color_mask: ColorMask,
+}
