@@ -55,7 +55,11 @@ pub fn spheres_scene(t: usize) -> BenchMesh {
     let mut m = BenchMesh::default();
     let g = Vec3::splat(0.7);
     for (x, z) in [(-12.0, -12.0), (12.0, -12.0), (12.0, 12.0), (-12.0, 12.0)] {
-        m.vertices.push(BenchVertex { pos: Vec3::new(x, 0.0, z), normal: Vec3::Y, albedo: g });
+        m.vertices.push(BenchVertex {
+            pos: Vec3::new(x, 0.0, z),
+            normal: Vec3::Y,
+            albedo: g,
+        });
     }
     // Counter-clockwise seen from above (+y).
     m.indices.extend_from_slice(&[0, 2, 1, 0, 3, 2]);
@@ -70,8 +74,16 @@ pub fn spheres_scene(t: usize) -> BenchMesh {
                 let theta = std::f32::consts::PI * s as f32 / (stacks - 1) as f32;
                 for k in 0..=slices {
                     let phi = 2.0 * std::f32::consts::PI * k as f32 / slices as f32;
-                    let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
-                    m.vertices.push(BenchVertex { pos: c + n * r, normal: n, albedo });
+                    let n = Vec3::new(
+                        theta.sin() * phi.cos(),
+                        theta.cos(),
+                        -theta.sin() * phi.sin(),
+                    );
+                    m.vertices.push(BenchVertex {
+                        pos: c + n * r,
+                        normal: n,
+                        albedo,
+                    });
                 }
             }
             let row = slices as u32 + 1;
@@ -106,7 +118,9 @@ impl std::str::FromStr for FrameMode {
             "depth" => Ok(FrameMode::Depth),
             "pcf2" => Ok(FrameMode::Pcf2),
             "pcf5" => Ok(FrameMode::Pcf5),
-            _ => Err(format!("unknown frame mode '{s}' (expected depth, pcf2 or pcf5)")),
+            _ => Err(format!(
+                "unknown frame mode '{s}' (expected depth, pcf2 or pcf5)"
+            )),
         }
     }
 }
@@ -125,21 +139,43 @@ pub struct FrameSetup {
 /// The fixed camera and the light frustum fitted to the scene bounds (+0.1 in x/y, +1 in depth).
 pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
     let to_light = Vec3::new(0.55, 1.0, 0.35).normalize();
-    let (lo, hi) = mesh.vertices.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), v| (a.min(v.pos), b.max(v.pos)));
+    let (lo, hi) = mesh.vertices.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(a, b), v| (a.min(v.pos), b.max(v.pos)),
+    );
     let center = (lo + hi) * 0.5;
     let view = Mat4::look_at_rh(center + to_light * 50.0, center, Vec3::Z);
     let mut vlo = Vec3::splat(f32::MAX);
     let mut vhi = Vec3::splat(f32::MIN);
     for i in 0..8 {
-        let c = Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+        let c = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
         let p = view.transform_point3(c);
         vlo = vlo.min(p);
         vhi = vhi.max(p);
     }
-    let proj = Mat4::orthographic_rh(vlo.x - 0.1, vhi.x + 0.1, vlo.y - 0.1, vhi.y + 0.1, -vhi.z - 1.0, -vlo.z + 1.0);
+    let proj = Mat4::orthographic_rh(
+        vlo.x - 0.1,
+        vhi.x + 0.1,
+        vlo.y - 0.1,
+        vhi.y + 0.1,
+        -vhi.z - 1.0,
+        -vlo.z + 1.0,
+    );
     let camera = Mat4::perspective_rh(45f32.to_radians(), width as f32 / height as f32, 0.5, 100.0)
-        * Mat4::look_at_rh(Vec3::new(0.0, 13.0, 21.0), Vec3::new(0.0, 0.0, 1.0), Vec3::Y);
-    FrameSetup { light_vp: proj * view, camera_vp: camera, to_light }
+        * Mat4::look_at_rh(
+            Vec3::new(0.0, 13.0, 21.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::Y,
+        );
+    FrameSetup {
+        light_vp: proj * view,
+        camera_vp: camera,
+        to_light,
+    }
 }
 
 struct LightDepthVs(Mat4);
@@ -162,7 +198,10 @@ impl VertexProgram for CameraVs {
     #[inline(always)]
     fn run(&self, v: &BenchVertex) -> (Vec4, (Vec3, Vec3, Vec3)) {
         let p = v.pos.extend(1.0);
-        (self.vp * p, (v.normal, (self.light * p).truncate(), v.albedo))
+        (
+            self.vp * p,
+            (v.normal, (self.light * p).truncate(), v.albedo),
+        )
     }
 }
 
@@ -184,7 +223,11 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
                 let mut s = 0.0;
                 for j in -2..=2 {
                     for i in -2..=2 {
-                        s += self.sampler.pcf2x2(self.map, uv + Vec2::new(i as f32, j as f32) * t, l.z);
+                        s += self.sampler.pcf2x2(
+                            self.map,
+                            uv + Vec2::new(i as f32, j as f32) * t,
+                            l.z,
+                        );
                     }
                 }
                 s * (1.0 / 25.0)
@@ -208,7 +251,11 @@ pub struct FrameTargets {
 impl FrameTargets {
     /// Targets for an `s` x `s` map and a `w` x `h` image.
     pub fn new(s: u32, w: u32, h: u32) -> Result<Self, PipelineError> {
-        Ok(FrameTargets { shadow: Surface::new(s, s, 1.0)?, color: Surface::new(w, h, [0; 4])?, depth: Surface::new(w, h, 1.0)? })
+        Ok(FrameTargets {
+            shadow: Surface::new(s, s, 1.0)?,
+            color: Surface::new(w, h, [0; 4])?,
+            depth: Surface::new(w, h, 1.0)?,
+        })
     }
 }
 
@@ -226,13 +273,32 @@ pub struct FrameTimes {
 }
 
 /// Renders one spheres frame into `t`.
-pub fn render_frame(p: &Pipeline, mesh: &BenchMesh, setup: &FrameSetup, mode: FrameMode, t: &mut FrameTargets) -> Result<FrameTimes, PipelineError> {
+pub fn render_frame(
+    p: &Pipeline,
+    mesh: &BenchMesh,
+    setup: &FrameSetup,
+    mode: FrameMode,
+    t: &mut FrameTargets,
+) -> Result<FrameTimes, PipelineError> {
     let mut out = FrameTimes::default();
     // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
     let t0 = Instant::now();
     t.shadow.fill(1.0);
-    let state = RenderState { offset: PolygonOffset { factor: 1.1, units: 4.0 }, ..Default::default() };
-    out.depth_stats = p.draw(&mut Targets::depth_only(&mut t.shadow), &state, &mesh.vertices, &mesh.indices, &LightDepthVs(setup.light_vp), &DepthOnly)?;
+    let state = RenderState {
+        offset: PolygonOffset {
+            factor: 1.1,
+            units: 4.0,
+        },
+        ..Default::default()
+    };
+    out.depth_stats = p.draw(
+        &mut Targets::depth_only(&mut t.shadow),
+        &state,
+        &mesh.vertices,
+        &mesh.indices,
+        &LightDepthVs(setup.light_vp),
+        &DepthOnly,
+    )?;
     out.ms_depth = t0.elapsed().as_secs_f64() * 1e3;
     if mode == FrameMode::Depth {
         return Ok(out);
@@ -241,9 +307,24 @@ pub fn render_frame(p: &Pipeline, mesh: &BenchMesh, setup: &FrameSetup, mode: Fr
     let t1 = Instant::now();
     t.color.fill([13, 13, 20, 255]);
     t.depth.fill(1.0);
-    let fs = CameraFs { map: &t.shadow, to_light: setup.to_light, mode, sampler: CompareSampler::default() };
-    let vs = CameraVs { vp: setup.camera_vp, light: setup.light_vp };
-    out.main_stats = p.draw(&mut Targets::color(&mut t.color).with_depth(&mut t.depth), &RenderState::default(), &mesh.vertices, &mesh.indices, &vs, &fs)?;
+    let fs = CameraFs {
+        map: &t.shadow,
+        to_light: setup.to_light,
+        mode,
+        sampler: CompareSampler::default(),
+    };
+    let vs = CameraVs {
+        vp: setup.camera_vp,
+        light: setup.light_vp,
+    };
+    out.main_stats = p.draw(
+        &mut Targets::color(&mut t.color).with_depth(&mut t.depth),
+        &RenderState::default(),
+        &mesh.vertices,
+        &mesh.indices,
+        &vs,
+        &fs,
+    )?;
     out.ms_main = t1.elapsed().as_secs_f64() * 1e3;
     Ok(out)
 }
@@ -278,7 +359,13 @@ impl SplitMix {
 
 /// `t` random triangles of about `area` pixels each (equilateral, random rotation, position and
 /// depth) in clip space for a `w` x `h` target, with a per-vertex colour.
-pub fn random_triangles(t: usize, area: f32, w: u32, h: u32, seed: u64) -> (Vec<(Vec4, Vec4)>, Vec<u32>) {
+pub fn random_triangles(
+    t: usize,
+    area: f32,
+    w: u32,
+    h: u32,
+    seed: u64,
+) -> (Vec<(Vec4, Vec4)>, Vec<u32>) {
     let mut rng = SplitMix(seed);
     let side = (4.0 * area / 3f32.sqrt()).sqrt();
     let circum = side / 3f32.sqrt();
@@ -293,7 +380,10 @@ pub fn random_triangles(t: usize, area: f32, w: u32, h: u32, seed: u64) -> (Vec<
             let a = rot + k as f32 * std::f32::consts::TAU / 3.0;
             let x = cx + circum * a.cos();
             let y = cy + circum * a.sin();
-            verts.push((Vec4::new(x / w as f32 * 2.0 - 1.0, 1.0 - y / h as f32 * 2.0, z, 1.0), col));
+            verts.push((
+                Vec4::new(x / w as f32 * 2.0 - 1.0, 1.0 - y / h as f32 * 2.0, z, 1.0),
+                col,
+            ));
         }
     }
     let indices = (0..3 * t as u32).collect();

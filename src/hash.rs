@@ -15,7 +15,8 @@ pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
 /// Hashes a slice of `f32` by bit pattern.
 pub fn hash_f32(data: &[f32]) -> u64 {
-    data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_bits().to_le_bytes()))
+    data.iter()
+        .fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_bits().to_le_bytes()))
 }
 
 /// Hashes a slice of plain bytes.
@@ -30,5 +31,6 @@ pub fn hash_rgba8(data: &[[u8; 4]]) -> u64 {
 
 /// Hashes `u32` values.
 pub fn hash_u32(data: &[u32]) -> u64 {
-    data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_le_bytes()))
+    data.iter()
+        .fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_le_bytes()))
 }

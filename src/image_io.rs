@@ -7,11 +7,13 @@ use std::path::Path;
 pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), String> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder {}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create folder {}: {e}", dir.display()))?;
         }
     }
     let bytes: Vec<u8> = s.data().iter().flat_map(|p| p.iter().copied()).collect();
-    image::save_buffer(path, &bytes, s.width(), s.height(), image::ColorType::Rgba8).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    image::save_buffer(path, &bytes, s.width(), s.height(), image::ColorType::Rgba8)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// A grey-scale view of a float surface mapped from `[lo, hi]` to black..white.

@@ -10,7 +10,11 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "penumbra", version, about = "A deterministic CPU rasterizer and shadow-algorithm lab")]
+#[command(
+    name = "penumbra",
+    version,
+    about = "A deterministic CPU rasterizer and shadow-algorithm lab"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Option<Cmd>,
@@ -89,7 +93,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.cmd {
         None => {
-            println!("penumbra: no command given; running the benchmark frame (see `penumbra --help`).");
+            println!(
+                "penumbra: no command given; running the benchmark frame (see `penumbra --help`)."
+            );
             bench_frame(FrameArgs {
                 triangles: 100_000,
                 mode: FrameMode::Pcf2,
@@ -97,11 +103,19 @@ fn main() -> ExitCode {
                 width: 1920,
                 height: 1080,
                 out: Some(PathBuf::from("out")),
-                common: Common { threads: 0, reps: 5, json: false },
+                common: Common {
+                    threads: 0,
+                    reps: 5,
+                    json: false,
+                },
             })
         }
-        Some(Cmd::Bench { which: BenchCmd::Frame(a) }) => bench_frame(a),
-        Some(Cmd::Bench { which: BenchCmd::Raster(a) }) => bench_raster(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Frame(a),
+        }) => bench_frame(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Raster(a),
+        }) => bench_raster(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -150,6 +164,7 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         depth.push(last.ms_depth);
         main.push(last.ms_main);
     }
+    let st = p.take_times();
     let (md, mm, mf) = (median(&mut depth), median(&mut main), median(&mut frame));
     let hash = frame_hash(&t, a.mode);
     let tris = mesh.triangles() as f64;
@@ -171,12 +186,23 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         );
     }
     println!("frame:      {mf:8.2} ms (median of {})", frame.len());
+    let per = 1e3 / st.draws.max(1) as f64;
+    println!(
+        "stages (mean per draw): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms, list merge {:.2} ms",
+        st.vertex * per,
+        st.setup_bin * per,
+        st.raster_fragment * per,
+        st.list_merge * per
+    );
     println!("hash:       {hash:016x}");
     if let Some(dir) = &a.out {
         if a.mode != FrameMode::Depth {
             write_png(&dir.join("spheres.png"), &t.color)?;
         }
-        write_png(&dir.join("spheres_shadow_map.png"), &grey(&t.shadow, 0.0, 1.0))?;
+        write_png(
+            &dir.join("spheres_shadow_map.png"),
+            &grey(&t.shadow, 0.0, 1.0),
+        )?;
         println!("wrote {}", dir.join("spheres.png").display());
     }
     if a.common.json {
@@ -199,7 +225,11 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let color_mode = match a.mode.as_str() {
         "color" => true,
         "depth" => false,
-        m => return Err(format!("unknown raster mode '{m}' (expected depth or color)")),
+        m => {
+            return Err(format!(
+                "unknown raster mode '{m}' (expected depth or color)"
+            ))
+        }
     };
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let (w, h) = (1920, 1080);
@@ -211,9 +241,23 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
         color.fill([0, 0, 0, 255]);
         depth.fill(1.0);
         let r = if color_mode {
-            p.draw(&mut Targets::color(color).with_depth(depth), &state, &verts, &idx, &ColoredClip, &VaryingColor)
+            p.draw(
+                &mut Targets::color(color).with_depth(depth),
+                &state,
+                &verts,
+                &idx,
+                &ColoredClip,
+                &VaryingColor,
+            )
         } else {
-            p.draw(&mut Targets::depth_only(depth), &state, &verts, &idx, &ColoredClip, &DepthOnly)
+            p.draw(
+                &mut Targets::depth_only(depth),
+                &state,
+                &verts,
+                &idx,
+                &ColoredClip,
+                &DepthOnly,
+            )
         };
         r.map_err(|e| e.to_string())
     };
@@ -230,7 +274,11 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let s = median(&mut times);
     let mtri = a.triangles as f64 / s / 1e6;
     let gpix = stats.fragments_rasterized as f64 / s / 1e9;
-    let hash = if color_mode { hash_rgba8(color.data()) } else { hash_f32(depth.data()) };
+    let hash = if color_mode {
+        hash_rgba8(color.data())
+    } else {
+        hash_f32(depth.data())
+    };
     println!(
         "raster {}: {} triangles of ~{} px, {} threads: {:.3} ms, {mtri:.2} Mtri/s, {gpix:.3} Gpix/s ({} fragments), hash {hash:016x}",
         a.mode,

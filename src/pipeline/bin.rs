@@ -15,7 +15,7 @@ pub const TILE: i32 = 64;
 /// log2 of [`TILE`].
 pub const TILE_SHIFT: i32 = 6;
 /// Triangles per binning chunk (fixed, so results never depend on the thread count).
-pub const CHUNK: usize = 2048;
+pub const CHUNK: usize = 1024;
 
 /// The tile grid of a target.
 #[derive(Copy, Clone, Debug)]
@@ -34,7 +34,12 @@ impl TileGrid {
     /// The grid covering a `width` x `height` target.
     pub fn new(width: u32, height: u32) -> Self {
         let (w, h) = (width as i32, height as i32);
-        TileGrid { nx: (w + TILE - 1) / TILE, ny: (h + TILE - 1) / TILE, width: w, height: h }
+        TileGrid {
+            nx: (w + TILE - 1) / TILE,
+            ny: (h + TILE - 1) / TILE,
+            width: w,
+            height: h,
+        }
     }
 
     /// Number of tiles.
@@ -48,7 +53,12 @@ impl TileGrid {
         let ty = t as i32 / self.nx;
         let x0 = tx * TILE;
         let y0 = ty * TILE;
-        [x0, y0, (x0 + TILE - 1).min(self.width - 1), (y0 + TILE - 1).min(self.height - 1)]
+        [
+            x0,
+            y0,
+            (x0 + TILE - 1).min(self.width - 1),
+            (y0 + TILE - 1).min(self.height - 1),
+        ]
     }
 }
 
@@ -68,7 +78,12 @@ pub struct Chunk<V> {
 /// ends up empty, never drops a covered one).
 #[inline]
 pub fn rect_rejected<V>(tri: &SetupTri<V>, rect: [i32; 4]) -> bool {
-    let (x0, y0, x1, y1) = (rect[0] as i64, rect[1] as i64, rect[2] as i64, rect[3] as i64);
+    let (x0, y0, x1, y1) = (
+        rect[0] as i64,
+        rect[1] as i64,
+        rect[2] as i64,
+        rect[3] as i64,
+    );
     tri.edges.iter().any(|e| {
         let x = if e.dx > 0 { x1 } else { x0 };
         let y = if e.dy > 0 { y1 } else { y0 };
@@ -93,7 +108,9 @@ pub fn process_chunk<V: Varyings>(
     let mut tris: Vec<SetupTri<V>> = Vec::with_capacity(count);
     let mut poly = Vec::with_capacity(12);
     let mut tmp = Vec::with_capacity(12);
-    let push = |r: Result<SetupTri<V>, Rejected>, stats: &mut DrawStats, tris: &mut Vec<SetupTri<V>>| match r {
+    let push = |r: Result<SetupTri<V>, Rejected>,
+                stats: &mut DrawStats,
+                tris: &mut Vec<SetupTri<V>>| match r {
         Ok(t) => tris.push(t),
         Err(Rejected::Degenerate) => stats.culled_degenerate += 1,
         Err(Rejected::Culled) => stats.culled_backface += 1,
@@ -102,13 +119,21 @@ pub fn process_chunk<V: Varyings>(
     };
     for t in first..first + count {
         stats.triangles_in += 1;
-        let ia = [indices[3 * t] as usize, indices[3 * t + 1] as usize, indices[3 * t + 2] as usize];
+        let ia = [
+            indices[3 * t] as usize,
+            indices[3 * t + 1] as usize,
+            indices[3 * t + 2] as usize,
+        ];
         if !(finite[ia[0]] && finite[ia[1]] && finite[ia[2]]) {
             stats.dropped_nonfinite += 1;
             continue;
         }
         let tri = [verts[ia[0]], verts[ia[1]], verts[ia[2]]];
-        let c = [clipper.outcode(tri[0].pos), clipper.outcode(tri[1].pos), clipper.outcode(tri[2].pos)];
+        let c = [
+            clipper.outcode(tri[0].pos),
+            clipper.outcode(tri[1].pos),
+            clipper.outcode(tri[2].pos),
+        ];
         if c[0] & c[1] & c[2] != 0 {
             stats.culled_outside += 1;
             continue;
@@ -126,7 +151,11 @@ pub fn process_chunk<V: Varyings>(
         }
         for k in 1..poly.len() - 1 {
             stats.clip_triangles_out += 1;
-            push(setup_triangle(params, [poly[0], poly[k], poly[k + 1]], t as u32), &mut stats, &mut tris);
+            push(
+                setup_triangle(params, [poly[0], poly[k], poly[k + 1]], t as u32),
+                &mut stats,
+                &mut tris,
+            );
         }
     }
 
@@ -162,5 +191,10 @@ pub fn process_chunk<V: Varyings>(
     }
     stats.bin_entries += ids.len() as u64;
     stats.triangles_setup += tris.len() as u64;
-    Chunk { tris, offsets, ids, stats }
+    Chunk {
+        tris,
+        offsets,
+        ids,
+        stats,
+    }
 }

@@ -48,7 +48,11 @@ pub struct Clipper {
 impl Clipper {
     /// Clipper for a `width` x `height` viewport; `clip_far` is false under depth clamp.
     pub fn new(width: u32, height: u32, clip_far: bool) -> Self {
-        Clipper { gx: GUARD_PX / (width as f32 * 0.5), gy: GUARD_PX / (height as f32 * 0.5), far: clip_far }
+        Clipper {
+            gx: GUARD_PX / (width as f32 * 0.5),
+            gy: GUARD_PX / (height as f32 * 0.5),
+            far: clip_far,
+        }
     }
 
     #[inline(always)]
@@ -96,7 +100,13 @@ impl Clipper {
 
     /// Clips a triangle against the planes in `mask` (the OR of its vertices' outcodes).
     /// The result polygon (0 or 3+ vertices, a convex fan in the input's winding) is left in `out`.
-    pub fn clip_polygon<V: Varyings>(&self, tri: [ClipVertex<V>; 3], mask: u32, out: &mut Vec<ClipVertex<V>>, tmp: &mut Vec<ClipVertex<V>>) {
+    pub fn clip_polygon<V: Varyings>(
+        &self,
+        tri: [ClipVertex<V>; 3],
+        mask: u32,
+        out: &mut Vec<ClipVertex<V>>,
+        tmp: &mut Vec<ClipVertex<V>>,
+    ) {
         out.clear();
         out.extend_from_slice(&tri);
         for plane in PLANES {
@@ -120,7 +130,10 @@ impl Clipper {
                     // Interpolate from the inside vertex to the outside one (canonical direction).
                     let (p, q, dp, dq) = if ina { (a, b, da, db) } else { (b, a, db, da) };
                     let t = dp / (dp - dq);
-                    out.push(ClipVertex { pos: p.pos + (q.pos - p.pos) * t, var: V::lerp(&p.var, &q.var, t) });
+                    out.push(ClipVertex {
+                        pos: p.pos + (q.pos - p.pos) * t,
+                        var: V::lerp(&p.var, &q.var, t),
+                    });
                 }
             }
             if out.len() < 3 {
@@ -136,13 +149,20 @@ mod tests {
     use super::*;
 
     fn v(x: f32, y: f32, z: f32, w: f32) -> ClipVertex<()> {
-        ClipVertex { pos: Vec4::new(x, y, z, w), var: () }
+        ClipVertex {
+            pos: Vec4::new(x, y, z, w),
+            var: (),
+        }
     }
 
     #[test]
     fn near_plane_cuts_triangle_into_quad() {
         let c = Clipper::new(100, 100, true);
-        let tri = [v(0.0, 0.0, -1.0, 1.0), v(1.0, 0.0, 0.5, 1.0), v(0.0, 1.0, 0.5, 1.0)];
+        let tri = [
+            v(0.0, 0.0, -1.0, 1.0),
+            v(1.0, 0.0, 0.5, 1.0),
+            v(0.0, 1.0, 0.5, 1.0),
+        ];
         let mask = tri.iter().fold(0, |m, p| m | c.outcode(p.pos));
         let (mut o, mut t) = (Vec::new(), Vec::new());
         c.clip_polygon(tri, mask, &mut o, &mut t);
@@ -153,7 +173,11 @@ mod tests {
     #[test]
     fn crossing_w_zero_keeps_only_the_front_part() {
         let c = Clipper::new(100, 100, false);
-        let tri = [v(0.0, 0.0, 0.5, 1.0), v(0.5, 0.0, 0.5, -1.0), v(0.0, 0.5, 0.5, 1.0)];
+        let tri = [
+            v(0.0, 0.0, 0.5, 1.0),
+            v(0.5, 0.0, 0.5, -1.0),
+            v(0.0, 0.5, 0.5, 1.0),
+        ];
         let mask = tri.iter().fold(0, |m, p| m | c.outcode(p.pos));
         let (mut o, mut t) = (Vec::new(), Vec::new());
         c.clip_polygon(tri, mask, &mut o, &mut t);

@@ -10,27 +10,44 @@ use rayon::prelude::*;
 
 /// Minimum and maximum of the finite texels accepted by `keep` (e.g. depth < 1 for "covered"),
 /// or `None` if there is none. Used by SDSM and frustum fitting.
-pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync) -> Option<(f32, f32)> {
+pub fn min_max(
+    p: &Pipeline,
+    s: &Surface<f32>,
+    keep: impl Fn(f32) -> bool + Sync,
+) -> Option<(f32, f32)> {
     let w = s.width() as usize;
     let rows: Vec<Option<(f32, f32)>> = p.install(|| {
         s.data()
             .par_chunks(w)
             .map(|row| {
-                row.iter().filter(|v| v.is_finite() && keep(**v)).fold(None, |acc: Option<(f32, f32)>, &v| match acc {
-                    None => Some((v, v)),
-                    Some((a, b)) => Some((a.min(v), b.max(v))),
-                })
+                row.iter().filter(|v| v.is_finite() && keep(**v)).fold(
+                    None,
+                    |acc: Option<(f32, f32)>, &v| match acc {
+                        None => Some((v, v)),
+                        Some((a, b)) => Some((a.min(v), b.max(v))),
+                    },
+                )
             })
             .collect()
     });
-    rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    rows.into_iter()
+        .flatten()
+        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
 }
 
 /// Histogram of the finite texels in `[lo, hi)` over `bins` equal bins (values outside are not
 /// counted). Errors on zero bins or an empty range.
-pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) -> Result<Vec<u64>, PipelineError> {
+pub fn histogram(
+    p: &Pipeline,
+    s: &Surface<f32>,
+    bins: usize,
+    lo: f32,
+    hi: f32,
+) -> Result<Vec<u64>, PipelineError> {
     if bins == 0 || bins > 1 << 24 || !(hi > lo) || !lo.is_finite() || !hi.is_finite() {
-        return Err(PipelineError::BadArgument(format!("histogram of {bins} bins over [{lo}, {hi}) is invalid")));
+        return Err(PipelineError::BadArgument(format!(
+            "histogram of {bins} bins over [{lo}, {hi}) is invalid"
+        )));
     }
     let w = s.width() as usize;
     let scale = bins as f64 / (hi as f64 - lo as f64);
@@ -65,24 +82,29 @@ pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
     let mut out = vec![DVec4::ZERO; w * h];
     p.install(|| {
         // Row prefix sums (parallel over rows).
-        out.par_chunks_mut(w).zip(s.data().par_chunks(w)).for_each(|(o, i)| {
-            let mut acc = DVec4::ZERO;
-            for (o, v) in o.iter_mut().zip(i) {
-                acc += v.as_dvec4();
-                *o = acc;
-            }
-        });
+        out.par_chunks_mut(w)
+            .zip(s.data().par_chunks(w))
+            .for_each(|(o, i)| {
+                let mut acc = DVec4::ZERO;
+                for (o, v) in o.iter_mut().zip(i) {
+                    acc += v.as_dvec4();
+                    *o = acc;
+                }
+            });
     });
     // Column prefix sums: row by row, each row parallel over its columns.
     for y in 1..h {
         let (prev, cur) = out.split_at_mut(y * w);
         let prev = &prev[(y - 1) * w..];
         p.install(|| {
-            cur[..w].par_chunks_mut(256).zip(prev.par_chunks(256)).for_each(|(c, p)| {
-                for (c, p) in c.iter_mut().zip(p) {
-                    *c += *p;
-                }
-            })
+            cur[..w]
+                .par_chunks_mut(256)
+                .zip(prev.par_chunks(256))
+                .for_each(|(c, p)| {
+                    for (c, p) in c.iter_mut().zip(p) {
+                        *c += *p;
+                    }
+                })
         });
     }
     Surface::from_vec(s.width(), s.height(), out).expect("same size as input")
@@ -94,7 +116,13 @@ pub fn sat_box(sat: &Surface<DVec4>, x0: i64, y0: i64, x1: i64, y1: i64) -> DVec
     let (w, h) = (sat.width() as i64, sat.height() as i64);
     let (x0, x1) = (x0.clamp(0, w - 1), x1.clamp(0, w - 1));
     let (y0, y1) = (y0.clamp(0, h - 1), y1.clamp(0, h - 1));
-    let g = |x: i64, y: i64| if x < 0 || y < 0 { DVec4::ZERO } else { sat.at(x as u32, y as u32) };
+    let g = |x: i64, y: i64| {
+        if x < 0 || y < 0 {
+            DVec4::ZERO
+        } else {
+            sat.at(x as u32, y as u32)
+        }
+    };
     g(x1, y1) - g(x0 - 1, y1) - g(x1, y0 - 1) + g(x0 - 1, y0 - 1)
 }
 
@@ -105,16 +133,25 @@ pub fn gaussian_weights(radius: usize) -> Vec<f32> {
         return vec![1.0];
     }
     let sigma = radius as f64 / 2.0;
-    let w: Vec<f64> = (-(radius as i64)..=radius as i64).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp()).collect();
+    let w: Vec<f64> = (-(radius as i64)..=radius as i64)
+        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
     let sum: f64 = w.iter().sum();
     w.iter().map(|v| (v / sum) as f32).collect()
 }
 
 /// Separable blur with an odd-length kernel (`weights.len() = 2r + 1`), edges clamped:
 /// horizontal pass then vertical pass.
-pub fn separable_blur<T: Filterable + Default>(p: &Pipeline, s: &Surface<T>, weights: &[f32]) -> Result<Surface<T>, PipelineError> {
+pub fn separable_blur<T: Filterable + Default>(
+    p: &Pipeline,
+    s: &Surface<T>,
+    weights: &[f32],
+) -> Result<Surface<T>, PipelineError> {
     if weights.len() % 2 == 0 {
-        return Err(PipelineError::BadArgument(format!("blur kernel length {} must be odd", weights.len())));
+        return Err(PipelineError::BadArgument(format!(
+            "blur kernel length {} must be odd",
+            weights.len()
+        )));
     }
     let r = (weights.len() / 2) as i64;
     let (w, h) = (s.width() as usize, s.height() as usize);
@@ -155,7 +192,9 @@ mod tests {
         let data: Vec<Vec4> = (0..35).map(|i| Vec4::splat(i as f32)).collect();
         let s = Surface::from_vec(7, 5, data).unwrap();
         let sat = summed_area_table(&p, &s);
-        let direct: f32 = (1..=3).flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32)).sum();
+        let direct: f32 = (1..=3)
+            .flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32))
+            .sum();
         assert_eq!(sat_box(&sat, 2, 1, 5, 3).x, direct as f64);
     }
 

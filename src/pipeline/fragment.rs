@@ -9,9 +9,9 @@
 //! shaded); the result is identical to the late path.
 
 use super::lists::{ListNode, NONE};
-use super::raster::raster_tile;
+use super::raster::{raster_tile, TileMask};
 use super::setup::SetupTri;
-use super::state::{BlendMode, CompareFunc, RenderState};
+use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::DrawStats;
 use glam::{Vec2, Vec4};
@@ -31,7 +31,12 @@ pub type Rgba8 = [u8; 4];
 impl ColorFormat for [u8; 4] {
     #[inline(always)]
     fn to_vec4(self) -> Vec4 {
-        Vec4::new(self[0] as f32, self[1] as f32, self[2] as f32, self[3] as f32) * (1.0 / 255.0)
+        Vec4::new(
+            self[0] as f32,
+            self[1] as f32,
+            self[2] as f32,
+            self[3] as f32,
+        ) * (1.0 / 255.0)
     }
     #[inline(always)]
     fn from_vec4(v: Vec4) -> Self {
@@ -192,7 +197,27 @@ pub(crate) struct TileLists {
     pub overflow: u64,
 }
 
+/// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
+/// Returns the number of fragments that passed.
+#[inline(always)]
+fn depth_span(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: bool, test: impl Fn(f32, f32) -> bool) -> u64 {
+    // SAFETY: `row` points at this worker's tile row and lo <= hi < TILE.
+    let span = unsafe { std::slice::from_raw_parts_mut(row.add(lo as usize), (hi - lo + 1) as usize) };
+    let mut passed = 0u32;
+    // Branch-free: depth tests of a shadow-map pass are data-dependent coin flips.
+    for (i, d) in span.iter_mut().enumerate() {
+        let z = (zrow + dzdx * (lo + i as u32) as f32).clamp(0.0, 1.0);
+        let t = test(z, *d);
+        passed += t as u32;
+        *d = if t & write { z } else { *d };
+    }
+    passed as u64
+}
+
 /// Runs stages 5 and 6 for one tile over `tris` (in submission order).
+///
+/// Fragment depth is `((c + dz/dy * ly) + offset) + dz/dx * lx` at tile-local pixel (lx, ly),
+/// then clamped to [0, 1] and quantized to the depth format; every path uses this one formula.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     tris: impl Iterator<Item = &'a SetupTri<V>>,
@@ -209,6 +234,8 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
     let stencil_on = targets.stencil.is_some() && state.stencil.enabled;
     let st = state.stencil;
     let fmt = state.depth.format;
+    let fast_depth =
+        !needs_shading && !stencil_on && targets.depth.is_some() && fmt == DepthFormat::F32;
     let (ox, oy) = (rect[0], rect[1]);
     let tw = (rect[2] - rect[0] + 1) as usize;
     if targets.lists && lists.head.is_empty() {
@@ -218,9 +245,53 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
     }
     let mask = state.color_mask.0;
     let full_mask = mask == [true; 4];
+    let mut cover = TileMask::default();
 
     for tri in tris {
+        // Stage 5: coverage mask of this triangle in this tile.
+        let emitted = raster_tile(tri, rect, &mut cover);
+        stats.fragments_rasterized += emitted;
+        if emitted == 0 {
+            continue;
+        }
         let zp = tri.z.at_origin(ox as i64, oy as i64);
+        let zoff = tri.z_offset;
+
+        // Fast path: depth-only spans.
+        if fast_depth {
+            let depth = targets.depth.as_ref().unwrap();
+            let mut passed = 0;
+            for ly in cover.y0..=cover.y1 {
+                let bits = cover.rows[ly as usize];
+                if bits == 0 {
+                    continue;
+                }
+                let (lo, hi) = (bits.trailing_zeros(), 63 - bits.leading_zeros());
+                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+                // SAFETY: the row start is inside this worker's tile.
+                let row = unsafe {
+                    depth
+                        .ptr
+                        .add((oy + ly) as usize * depth.stride + ox as usize)
+                };
+                let w = depth_write;
+                passed += match state.depth.func {
+                    CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
+                    CompareFunc::LessEqual => {
+                        depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b)
+                    }
+                    CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
+                    CompareFunc::GreaterEqual => {
+                        depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b)
+                    }
+                    f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
+                };
+            }
+            stats.fragments_passed += passed;
+            stats.early_z_killed += emitted - passed;
+            continue;
+        }
+
         let persp = if V::EMPTY || !needs_shading {
             [zp; 3]
         } else {
@@ -231,111 +302,162 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
             ]
         };
         let face = if tri.front { st.front } else { st.back };
-        let zoff = tri.z_offset;
-        let emitted = raster_tile(tri, rect, |x, y| {
-            let (lx, ly) = ((x - ox) as f32, (y - oy) as f32);
-            let z = fmt.quantize((zp.at(lx, ly) + zoff).clamp(0.0, 1.0));
-            let shade = |stats: &mut DrawStats| -> Option<Vec4> {
-                stats.fragments_shaded += 1;
-                let var = if V::EMPTY {
-                    tri.var[0]
-                } else {
-                    let iw = persp[0].at(lx, ly);
-                    let b1 = persp[1].at(lx, ly) / iw;
-                    let b2 = persp[2].at(lx, ly) / iw;
-                    V::combine(&tri.var[0], &tri.var[1], &tri.var[2], [1.0 - b1 - b2, b1, b2])
-                };
-                program.shade(&Fragment { x: x as u32, y: y as u32, z, var, front: tri.front, prim: tri.prim })
-            };
-            // Late path: the program runs first and may discard.
-            let mut color = None;
-            if P::MAY_DISCARD {
-                color = shade(stats);
-                if color.is_none() {
-                    stats.fragments_discarded += 1;
-                    return;
-                }
+        // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
+        for lyi in cover.y0..=cover.y1 {
+            let bits = cover.rows[lyi as usize];
+            if bits == 0 {
+                continue;
             }
-            // Stencil test.
-            let mut sval = 0u8;
-            if stencil_on {
-                // SAFETY: (x, y) is inside this worker's tile.
-                sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
-                let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
-                if !pass {
-                    stats.stencil_failed += 1;
-                    let nv = face.fail.apply(sval, st.reference);
-                    unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
-                    return;
-                }
-            }
-            // Depth test.
-            if depth_test {
-                let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
-                if !state.depth.func.test(z, d) {
-                    if stencil_on {
-                        let nv = face.depth_fail.apply(sval, st.reference);
-                        unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
-                    }
-                    if P::MAY_DISCARD {
-                        stats.depth_failed += 1;
+            let (lo, hi) = (
+                bits.trailing_zeros() as i32,
+                63 - bits.leading_zeros() as i32,
+            );
+            let y = oy + lyi;
+            let ly = lyi as f32;
+            let zrow = (zp.c + zp.dy * ly) + zoff;
+            for lxi in lo..=hi {
+                let x = ox + lxi;
+                let lx = lxi as f32;
+                let z = fmt.quantize((zrow + zp.dx * lx).clamp(0.0, 1.0));
+                let shade = |stats: &mut DrawStats| -> Option<Vec4> {
+                    stats.fragments_shaded += 1;
+                    let var = if V::EMPTY {
+                        tri.var[0]
                     } else {
-                        stats.early_z_killed += 1;
-                    }
-                    return;
-                }
-            }
-            if stencil_on {
-                let nv = face.pass.apply(sval, st.reference);
-                unsafe { targets.stencil.as_ref().unwrap().set(x, y, (sval & !st.write_mask) | (nv & st.write_mask)) };
-            }
-            if depth_write {
-                unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };
-            }
-            stats.fragments_passed += 1;
-            if !needs_shading {
-                return;
-            }
-            // Early path: the program runs after the tests.
-            if !P::MAY_DISCARD {
-                color = shade(stats);
-            }
-            let Some(src) = color else {
-                stats.fragments_discarded += 1;
-                return;
-            };
-            if let Some(ct) = targets.color.as_ref() {
-                let out = if state.blend == super::state::BlendMode::Replace && full_mask {
-                    src
-                } else {
-                    let dst = unsafe { ct.get(x, y) }.to_vec4();
-                    let b = blend(state.blend, src, dst);
-                    Vec4::new(
-                        if mask[0] { b.x } else { dst.x },
-                        if mask[1] { b.y } else { dst.y },
-                        if mask[2] { b.z } else { dst.z },
-                        if mask[3] { b.w } else { dst.w },
-                    )
+                        let iw = persp[0].at(lx, ly);
+                        let b1 = persp[1].at(lx, ly) / iw;
+                        let b2 = persp[2].at(lx, ly) / iw;
+                        V::combine(
+                            &tri.var[0],
+                            &tri.var[1],
+                            &tri.var[2],
+                            [1.0 - b1 - b2, b1, b2],
+                        )
+                    };
+                    program.shade(&Fragment {
+                        x: x as u32,
+                        y: y as u32,
+                        z,
+                        var,
+                        front: tri.front,
+                        prim: tri.prim,
+                    })
                 };
-                unsafe { ct.set(x, y, C::from_vec4(out)) };
-            }
-            if targets.lists {
-                if lists.nodes.len() >= targets.list_capacity {
-                    lists.overflow += 1;
-                    return;
+                // Late path: the program runs first and may discard.
+                let mut color = None;
+                if P::MAY_DISCARD {
+                    color = shade(stats);
+                    if color.is_none() {
+                        stats.fragments_discarded += 1;
+                        continue;
+                    }
                 }
-                let idx = lists.nodes.len() as u32;
-                lists.nodes.push(ListNode { depth: z, value: src, prim: tri.prim, draw: 0, next: NONE });
-                let li = (y - oy) as usize * tw + (x - ox) as usize;
-                if lists.head[li] == NONE {
-                    lists.head[li] = idx;
-                } else {
-                    lists.nodes[lists.tail[li] as usize].next = idx;
+                // Stencil test.
+                let mut sval = 0u8;
+                if stencil_on {
+                    // SAFETY: (x, y) is inside this worker's tile.
+                    sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
+                    let pass = face
+                        .func
+                        .test(st.reference & st.read_mask, sval & st.read_mask);
+                    if !pass {
+                        stats.stencil_failed += 1;
+                        let nv = face.fail.apply(sval, st.reference);
+                        unsafe {
+                            targets.stencil.as_ref().unwrap().set(
+                                x,
+                                y,
+                                (sval & !st.write_mask) | (nv & st.write_mask),
+                            )
+                        };
+                        continue;
+                    }
                 }
-                lists.tail[li] = idx;
-                stats.list_nodes += 1;
+                // Depth test.
+                if depth_test {
+                    let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
+                    if !state.depth.func.test(z, d) {
+                        if stencil_on {
+                            let nv = face.depth_fail.apply(sval, st.reference);
+                            unsafe {
+                                targets.stencil.as_ref().unwrap().set(
+                                    x,
+                                    y,
+                                    (sval & !st.write_mask) | (nv & st.write_mask),
+                                )
+                            };
+                        }
+                        if P::MAY_DISCARD {
+                            stats.depth_failed += 1;
+                        } else {
+                            stats.early_z_killed += 1;
+                        }
+                        continue;
+                    }
+                }
+                if stencil_on {
+                    let nv = face.pass.apply(sval, st.reference);
+                    unsafe {
+                        targets.stencil.as_ref().unwrap().set(
+                            x,
+                            y,
+                            (sval & !st.write_mask) | (nv & st.write_mask),
+                        )
+                    };
+                }
+                if depth_write {
+                    unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };
+                }
+                stats.fragments_passed += 1;
+                if !needs_shading {
+                    continue;
+                }
+                // Early path: the program runs after the tests.
+                if !P::MAY_DISCARD {
+                    color = shade(stats);
+                }
+                let Some(src) = color else {
+                    stats.fragments_discarded += 1;
+                    continue;
+                };
+                if let Some(ct) = targets.color.as_ref() {
+                    let out = if state.blend == super::state::BlendMode::Replace && full_mask {
+                        src
+                    } else {
+                        let dst = unsafe { ct.get(x, y) }.to_vec4();
+                        let b = blend(state.blend, src, dst);
+                        Vec4::new(
+                            if mask[0] { b.x } else { dst.x },
+                            if mask[1] { b.y } else { dst.y },
+                            if mask[2] { b.z } else { dst.z },
+                            if mask[3] { b.w } else { dst.w },
+                        )
+                    };
+                    unsafe { ct.set(x, y, C::from_vec4(out)) };
+                }
+                if targets.lists {
+                    if lists.nodes.len() >= targets.list_capacity {
+                        lists.overflow += 1;
+                        continue;
+                    }
+                    let idx = lists.nodes.len() as u32;
+                    lists.nodes.push(ListNode {
+                        depth: z,
+                        value: src,
+                        prim: tri.prim,
+                        draw: 0,
+                        next: NONE,
+                    });
+                    let li = (y - oy) as usize * tw + (x - ox) as usize;
+                    if lists.head[li] == NONE {
+                        lists.head[li] = idx;
+                    } else {
+                        lists.nodes[lists.tail[li] as usize].next = idx;
+                    }
+                    lists.tail[li] = idx;
+                    stats.list_nodes += 1;
+                }
             }
-        });
-        stats.fragments_rasterized += emitted;
+        }
     }
 }

@@ -40,7 +40,9 @@ pub mod state;
 pub mod surface;
 pub mod vertex;
 
-pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
+pub use fragment::{
+    ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader,
+};
 pub use lists::{FragmentLists, ListNode};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
@@ -54,7 +56,7 @@ use setup::SetupParams;
 use std::fmt;
 
 /// Chunks set up and binned before their tiles are rasterized (bounds memory per draw).
-const CHUNKS_PER_BATCH: usize = 32;
+const CHUNKS_PER_BATCH: usize = 4;
 
 /// Everything that can go wrong in the pipeline, as a value (never a panic).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -110,20 +112,34 @@ impl fmt::Display for PipelineError {
             PipelineError::BadSize { width, height } => {
                 write!(f, "surface size {width}x{height} is invalid (each side must be 1..={MAX_DIMENSION})")
             }
-            PipelineError::SizeMismatch { what, expected, got } => write!(
+            PipelineError::SizeMismatch {
+                what,
+                expected,
+                got,
+            } => write!(
                 f,
                 "{what} target is {}x{} but the draw's other targets are {}x{}",
                 got.0, got.1, expected.0, expected.1
             ),
             PipelineError::BadIndexCount(n) => write!(f, "index count {n} is not a multiple of 3"),
-            PipelineError::IndexOutOfRange { triangle, index, vertices } => {
+            PipelineError::IndexOutOfRange {
+                triangle,
+                index,
+                vertices,
+            } => {
                 write!(f, "triangle {triangle} uses vertex index {index} but there are only {vertices} vertices")
             }
             PipelineError::FragmentPoolFull { capacity, needed } => {
-                write!(f, "fragment-list pool full: capacity {capacity} nodes, the draw needed {needed}")
+                write!(
+                    f,
+                    "fragment-list pool full: capacity {capacity} nodes, the draw needed {needed}"
+                )
             }
             PipelineError::BadMipLevel { level, levels } => {
-                write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
+                write!(
+                    f,
+                    "mip level {level} does not exist (the chain has {levels} levels)"
+                )
             }
             PipelineError::BadArgument(s) => write!(f, "{s}"),
         }
@@ -199,19 +215,34 @@ pub struct Targets<'a, C = Rgba8> {
 impl<'a> Targets<'a, Rgba8> {
     /// Only a depth target.
     pub fn depth_only(depth: &'a mut Surface<f32>) -> Self {
-        Targets { color: None, depth: Some(depth), stencil: None, lists: None }
+        Targets {
+            color: None,
+            depth: Some(depth),
+            stencil: None,
+            lists: None,
+        }
     }
 
     /// No colour target (add depth, stencil, lists with the builder methods).
     pub fn none() -> Self {
-        Targets { color: None, depth: None, stencil: None, lists: None }
+        Targets {
+            color: None,
+            depth: None,
+            stencil: None,
+            lists: None,
+        }
     }
 }
 
 impl<'a, C: ColorFormat> Targets<'a, C> {
     /// A colour target (add the others with the builder methods).
     pub fn color(color: &'a mut Surface<C>) -> Self {
-        Targets { color: Some(color), depth: None, stencil: None, lists: None }
+        Targets {
+            color: Some(color),
+            depth: None,
+            stencil: None,
+            lists: None,
+        }
     }
 
     /// Adds a depth target.
@@ -248,14 +279,46 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
             sizes.push(("fragment-list", (l.width(), l.height())));
         }
         let Some(&(_, first)) = sizes.first() else {
-            return Err(PipelineError::BadArgument("a draw needs at least one target".into()));
+            return Err(PipelineError::BadArgument(
+                "a draw needs at least one target".into(),
+            ));
         };
         for &(what, s) in &sizes[1..] {
             if s != first {
-                return Err(PipelineError::SizeMismatch { what, expected: first, got: s });
+                return Err(PipelineError::SizeMismatch {
+                    what,
+                    expected: first,
+                    got: s,
+                });
             }
         }
         Ok(first)
+    }
+}
+
+/// Wall-clock time spent per stage, summed over draws since the last
+/// [`Pipeline::take_times`] (not part of the deterministic output).
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Stage 1, vertex programs, seconds.
+    pub vertex: f64,
+    /// Stages 2-4, clip + setup + bin, seconds.
+    pub setup_bin: f64,
+    /// Stages 5-6, raster + fragment operations, seconds.
+    pub raster_fragment: f64,
+    /// Fragment-list merging, seconds.
+    pub list_merge: f64,
+    /// Draw calls timed.
+    pub draws: u64,
+}
+
+impl std::ops::AddAssign for StageTimes {
+    fn add_assign(&mut self, o: StageTimes) {
+        self.vertex += o.vertex;
+        self.setup_bin += o.setup_bin;
+        self.raster_fragment += o.raster_fragment;
+        self.list_merge += o.list_merge;
+        self.draws += o.draws;
     }
 }
 
@@ -263,31 +326,49 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
 pub struct Pipeline {
     pool: rayon::ThreadPool,
     threads: usize,
+    times: std::sync::Mutex<StageTimes>,
 }
 
 impl fmt::Debug for Pipeline {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Pipeline").field("threads", &self.threads).finish()
+        f.debug_struct("Pipeline")
+            .field("threads", &self.threads)
+            .finish()
     }
 }
 
 impl Pipeline {
     /// A pipeline with `threads` workers (0: one per available core).
     pub fn new(threads: usize) -> Result<Self, PipelineError> {
-        let n = if threads == 0 { std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) } else { threads };
+        let n = if threads == 0 {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        } else {
+            threads
+        };
         if n > 1024 {
-            return Err(PipelineError::BadArgument(format!("thread count {n} is absurd (at most 1024)")));
+            return Err(PipelineError::BadArgument(format!(
+                "thread count {n} is absurd (at most 1024)"
+            )));
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
-            .map_err(|e| PipelineError::BadArgument(format!("cannot start {n} worker threads: {e}")))?;
-        Ok(Pipeline { pool, threads: n })
+            .map_err(|e| {
+                PipelineError::BadArgument(format!("cannot start {n} worker threads: {e}"))
+            })?;
+        Ok(Pipeline { pool, threads: n, times: Default::default() })
     }
 
     /// Worker count.
     pub fn threads(&self) -> usize {
         self.threads
+    }
+
+    /// Per-stage times accumulated since the last call, and resets them.
+    pub fn take_times(&self) -> StageTimes {
+        std::mem::take(&mut *self.times.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
     /// Runs `f` on the pipeline's workers (for compute passes that use rayon).
@@ -319,20 +400,38 @@ impl Pipeline {
             return Err(PipelineError::BadIndexCount(indices.len()));
         }
         if let Some(p) = indices.iter().position(|&i| i as usize >= vertices.len()) {
-            return Err(PipelineError::IndexOutOfRange { triangle: p / 3, index: indices[p], vertices: vertices.len() });
+            return Err(PipelineError::IndexOutOfRange {
+                triangle: p / 3,
+                index: indices[p],
+                vertices: vertices.len(),
+            });
         }
         let grid = TileGrid::new(width, height);
         let params = SetupParams::new(state, width, height);
         let clipper = Clipper::new(width, height, !state.depth.clamp);
         let raw = RawTargets {
-            color: targets.color.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
-            depth: targets.depth.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
-            stencil: targets.stencil.as_mut().map(|s| RawSurface { ptr: s.data_mut().as_mut_ptr(), stride: width as usize }),
+            color: targets.color.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
+            depth: targets.depth.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
+            stencil: targets.stencil.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
             lists: targets.lists.is_some(),
-            list_capacity: targets.lists.as_ref().map_or(0, |l| l.capacity().saturating_sub(l.len())),
+            list_capacity: targets
+                .lists
+                .as_ref()
+                .map_or(0, |l| l.capacity().saturating_sub(l.len())),
         };
         let ntri = indices.len() / 3;
+        let mut times = StageTimes { draws: 1, ..Default::default() };
         let (stats, tile_lists) = self.pool.install(|| {
+            let t0 = std::time::Instant::now();
             // Stage 1: vertex programs (an indexed map: order-independent).
             let verts: Vec<ClipVertex<VP::Out>> = vertices
                 .par_iter()
@@ -343,23 +442,29 @@ impl Pipeline {
                 })
                 .collect();
             let finite: Vec<bool> = verts.iter().map(|v| v.pos.is_finite()).collect();
+            times.vertex += t0.elapsed().as_secs_f64();
             let mut stats = DrawStats::default();
             let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
             let nchunks = ntri.div_ceil(CHUNK);
             for batch in (0..nchunks).step_by(CHUNKS_PER_BATCH) {
                 let batch_end = (batch + CHUNKS_PER_BATCH).min(nchunks);
                 // Stages 2-4: clip, set up and bin each chunk.
+                let t1 = std::time::Instant::now();
                 let chunks: Vec<_> = (batch..batch_end)
                     .into_par_iter()
                     .map(|c| {
                         let first = c * CHUNK;
                         let count = CHUNK.min(ntri - first);
-                        process_chunk(&verts, &finite, indices, first, count, &params, &clipper, &grid)
+                        process_chunk(
+                            &verts, &finite, indices, first, count, &params, &clipper, &grid,
+                        )
                     })
                     .collect();
                 for c in &chunks {
                     stats += c.stats;
                 }
+                times.setup_bin += t1.elapsed().as_secs_f64();
+                let t2 = std::time::Instant::now();
                 // Stages 5-6: each tile walks the chunks in order (= submission order).
                 let tiles: Vec<usize> = (0..grid.count())
                     .filter(|&t| chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
@@ -370,12 +475,15 @@ impl Pipeline {
                         let mut s = DrawStats::default();
                         let mut l = TileLists::default();
                         let tris = chunks.iter().flat_map(|c| {
-                            c.ids[c.offsets[t] as usize..c.offsets[t + 1] as usize].iter().map(move |&i| &c.tris[i as usize])
+                            c.ids[c.offsets[t] as usize..c.offsets[t + 1] as usize]
+                                .iter()
+                                .map(move |&i| &c.tris[i as usize])
                         });
                         shade_tile(tris, grid.rect(t), state, &raw, fp, &mut s, &mut l);
                         (s, l)
                     })
                     .collect();
+                times.raster_fragment += t2.elapsed().as_secs_f64();
                 for (&t, (s, l)) in tiles.iter().zip(results) {
                     stats += s;
                     if raw.lists && !l.nodes.is_empty() || l.overflow > 0 {
@@ -385,10 +493,17 @@ impl Pipeline {
             }
             (stats, all_lists)
         });
+        let t3 = std::time::Instant::now();
         if let Some(lists) = targets.lists.as_mut() {
-            let needed: usize = tile_lists.iter().map(|(_, l)| l.nodes.len() + l.overflow as usize).sum();
+            let needed: usize = tile_lists
+                .iter()
+                .map(|(_, l)| l.nodes.len() + l.overflow as usize)
+                .sum();
             if lists.len() + needed > lists.capacity() {
-                return Err(PipelineError::FragmentPoolFull { capacity: lists.capacity(), needed: lists.len() + needed });
+                return Err(PipelineError::FragmentPoolFull {
+                    capacity: lists.capacity(),
+                    needed: lists.len() + needed,
+                });
             }
             // Merge per-tile pools in tile order (deterministic node indices).
             for (t, l) in &tile_lists {
@@ -396,6 +511,8 @@ impl Pipeline {
             }
             lists.end_draw();
         }
+        times.list_merge += t3.elapsed().as_secs_f64();
+        *self.times.lock().unwrap_or_else(|e| e.into_inner()) += times;
         Ok(stats)
     }
 }

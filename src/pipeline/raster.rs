@@ -3,12 +3,50 @@
 //! Tile (64 x 64, from binning) -> 16 x 16 blocks -> 4 x 4 blocks -> pixels. At each block
 //! level every edge is evaluated at the block's two extreme sample corners: if the largest
 //! value is negative the block is trivially rejected; if the smallest is non-negative for all
-//! three edges the block is trivially accepted and all its pixels are emitted with no further
+//! three edges the block is trivially accepted and all its pixels are set with no further
 //! edge test. The same integer edge functions decide every mode (the fill-rule bias or the
 //! conservative half-pixel shift is already folded into them by setup), so all modes share
 //! this traversal.
+//!
+//! The output is a coverage mask of the tile, one `u64` per row (bit `x` = pixel `x` of the
+//! tile), which the fragment stage walks in row order.
 
+use super::bin::TILE;
 use super::setup::{Edge, SetupTri};
+
+/// Coverage of one triangle in one tile: bit `lx` of `rows[ly]` is pixel (lx, ly) of the tile.
+#[derive(Clone, Debug)]
+pub struct TileMask {
+    /// One word per tile row.
+    pub rows: [u64; TILE as usize],
+    /// First row that may be non-zero (tile-local).
+    pub y0: i32,
+    /// Last row that may be non-zero (tile-local, inclusive).
+    pub y1: i32,
+}
+
+impl Default for TileMask {
+    fn default() -> Self {
+        TileMask {
+            rows: [0; TILE as usize],
+            y0: 0,
+            y1: -1,
+        }
+    }
+}
+
+impl TileMask {
+    /// Number of covered pixels.
+    pub fn count(&self) -> u64 {
+        if self.y1 < self.y0 {
+            return 0;
+        }
+        self.rows[self.y0 as usize..=self.y1 as usize]
+            .iter()
+            .map(|r| r.count_ones() as u64)
+            .sum()
+    }
+}
 
 /// Classification of a block against the three edges.
 #[derive(Copy, Clone, PartialEq, Eq, Debug)]
@@ -38,19 +76,53 @@ fn classify(edges: &[Edge; 3], x0: i64, y0: i64, x1: i64, y1: i64) -> Class {
     }
 }
 
-/// Calls `emit(x, y)` for every covered pixel of `tri` inside the inclusive rectangle `rect`,
-/// row by row within each block, blocks in raster order. Returns the number of pixels emitted.
+/// Bits `a..=b` set.
 #[inline(always)]
-pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mut emit: impl FnMut(i32, i32)) -> u64 {
+fn span_bits(a: i32, b: i32) -> u64 {
+    let n = (b - a + 1) as u32;
+    let m = if n >= 64 { u64::MAX } else { (1u64 << n) - 1 };
+    m << a
+}
+
+/// Computes the coverage of `tri` inside the tile whose inclusive pixel rectangle is `rect`
+/// (origin `rect[0], rect[1]`) into `mask`. Returns the number of covered pixels.
+pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mask: &mut TileMask) -> u64 {
     let x0 = tri.bbox[0].max(rect[0]);
     let y0 = tri.bbox[1].max(rect[1]);
     let x1 = tri.bbox[2].min(rect[2]);
     let y1 = tri.bbox[3].min(rect[3]);
+    let (ox, oy) = (rect[0], rect[1]);
+    mask.y0 = 0;
+    mask.y1 = -1;
     if x0 > x1 || y0 > y1 {
         return 0;
     }
+    mask.y0 = y0 - oy;
+    mask.y1 = y1 - oy;
+    for r in &mut mask.rows[(y0 - oy) as usize..=(y1 - oy) as usize] {
+        *r = 0;
+    }
     let e = &tri.edges;
     let mut n = 0u64;
+    // Small triangles: a hierarchy level costs more than it saves; test every pixel of the
+    // (at most 16 x 16) bounding box, building each row's bits without branches.
+    if x1 - x0 < 16 && y1 - y0 < 16 {
+        for y in y0..=y1 {
+            let mut e0 = e[0].at(x0 as i64, y as i64);
+            let mut e1 = e[1].at(x0 as i64, y as i64);
+            let mut e2 = e[2].at(x0 as i64, y as i64);
+            let mut bits = 0u64;
+            for i in 0..=(x1 - x0) {
+                bits |= (((e0 | e1 | e2) >= 0) as u64) << i;
+                e0 += e[0].dx;
+                e1 += e[1].dx;
+                e2 += e[2].dx;
+            }
+            n += bits.count_ones() as u64;
+            mask.rows[(y - oy) as usize] = bits << (x0 - ox);
+        }
+        return n;
+    }
     let mut by = y0 & !15;
     while by <= y1 {
         let (cy0, cy1) = (by.max(y0), (by + 15).min(y1));
@@ -60,10 +132,9 @@ pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mut emit: impl FnMut(i3
             match classify(e, cx0 as i64, cy0 as i64, cx1 as i64, cy1 as i64) {
                 Class::Out => {}
                 Class::In => {
+                    let bits = span_bits(cx0 - ox, cx1 - ox);
                     for y in cy0..=cy1 {
-                        for x in cx0..=cx1 {
-                            emit(x, y);
-                        }
+                        mask.rows[(y - oy) as usize] |= bits;
                     }
                     n += ((cx1 - cx0 + 1) * (cy1 - cy0 + 1)) as u64;
                 }
@@ -77,10 +148,9 @@ pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mut emit: impl FnMut(i3
                             match classify(e, sx0 as i64, sy0 as i64, sx1 as i64, sy1 as i64) {
                                 Class::Out => {}
                                 Class::In => {
+                                    let bits = span_bits(sx0 - ox, sx1 - ox);
                                     for y in sy0..=sy1 {
-                                        for x in sx0..=sx1 {
-                                            emit(x, y);
-                                        }
+                                        mask.rows[(y - oy) as usize] |= bits;
                                     }
                                     n += ((sx1 - sx0 + 1) * (sy1 - sy0 + 1)) as u64;
                                 }
@@ -89,15 +159,17 @@ pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mut emit: impl FnMut(i3
                                         let mut e0 = e[0].at(sx0 as i64, y as i64);
                                         let mut e1 = e[1].at(sx0 as i64, y as i64);
                                         let mut e2 = e[2].at(sx0 as i64, y as i64);
+                                        let mut bits = 0u64;
                                         for x in sx0..=sx1 {
                                             if (e0 | e1 | e2) >= 0 {
-                                                emit(x, y);
+                                                bits |= 1u64 << (x - ox);
                                                 n += 1;
                                             }
                                             e0 += e[0].dx;
                                             e1 += e[1].dx;
                                             e2 += e[2].dx;
                                         }
+                                        mask.rows[(y - oy) as usize] |= bits;
                                     }
                                 }
                             }

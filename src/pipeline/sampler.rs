@@ -63,15 +63,24 @@ pub fn footprint(size: (u32, u32), uv: Vec2) -> (i64, i64, f32, f32) {
 pub fn sample_nearest<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> T {
     let x = (uv.x * s.width() as f32).floor() as i64;
     let y = (uv.y * s.height() as f32).floor() as i64;
-    s.at(wrap(x, s.width(), addr) as u32, wrap(y, s.height(), addr) as u32)
+    s.at(
+        wrap(x, s.width(), addr) as u32,
+        wrap(y, s.height(), addr) as u32,
+    )
 }
 
 /// The four texels of the bilinear footprint: `[top-left, top-right, bottom-left, bottom-right]`.
 #[inline]
 pub fn gather<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> [T; 4] {
     let (x, y, _, _) = footprint((s.width(), s.height()), uv);
-    let (x0, x1) = (wrap(x, s.width(), addr) as u32, wrap(x + 1, s.width(), addr) as u32);
-    let (y0, y1) = (wrap(y, s.height(), addr) as u32, wrap(y + 1, s.height(), addr) as u32);
+    let (x0, x1) = (
+        wrap(x, s.width(), addr) as u32,
+        wrap(x + 1, s.width(), addr) as u32,
+    );
+    let (y0, y1) = (
+        wrap(y, s.height(), addr) as u32,
+        wrap(y + 1, s.height(), addr) as u32,
+    );
     [s.at(x0, y0), s.at(x1, y0), s.at(x0, y1), s.at(x1, y1)]
 }
 
@@ -96,7 +105,10 @@ pub struct CompareSampler {
 
 impl Default for CompareSampler {
     fn default() -> Self {
-        CompareSampler { func: CompareFunc::LessEqual, border: Some(1.0) }
+        CompareSampler {
+            func: CompareFunc::LessEqual,
+            border: Some(1.0),
+        }
     }
 }
 
@@ -138,7 +150,13 @@ impl CompareSampler {
         let y1 = (y + 1).clamp(0, h as i64 - 1) as usize;
         let d = s.data();
         let ws = w as usize;
-        let c = |t: f32| if self.func.test(reference, t) { 1.0f32 } else { 0.0 };
+        let c = |t: f32| {
+            if self.func.test(reference, t) {
+                1.0f32
+            } else {
+                0.0
+            }
+        };
         let a = c(d[y0 * ws + x0]);
         let b = c(d[y0 * ws + x1]);
         let cc = c(d[y1 * ws + x0]);
@@ -150,7 +168,12 @@ impl CompareSampler {
 }
 
 /// Bilinear lookup in mip level `level` (an error value for a level that does not exist).
-pub fn sample_level<T: Filterable>(m: &MipChain<T>, uv: Vec2, level: usize, addr: Address) -> Result<T, super::PipelineError> {
+pub fn sample_level<T: Filterable>(
+    m: &MipChain<T>,
+    uv: Vec2,
+    level: usize,
+    addr: Address,
+) -> Result<T, super::PipelineError> {
     Ok(sample_bilinear(m.level(level)?, uv, addr))
 }
 
@@ -173,9 +196,18 @@ mod tests {
     #[test]
     fn bilinear_at_texel_centre_is_exact() {
         let s = Surface::from_vec(2, 1, vec![0.0f32, 1.0]).unwrap();
-        assert_eq!(sample_bilinear(&s, Vec2::new(0.25, 0.5), Address::Clamp), 0.0);
-        assert_eq!(sample_bilinear(&s, Vec2::new(0.75, 0.5), Address::Clamp), 1.0);
-        assert_eq!(sample_bilinear(&s, Vec2::new(0.5, 0.5), Address::Clamp), 0.5);
+        assert_eq!(
+            sample_bilinear(&s, Vec2::new(0.25, 0.5), Address::Clamp),
+            0.0
+        );
+        assert_eq!(
+            sample_bilinear(&s, Vec2::new(0.75, 0.5), Address::Clamp),
+            1.0
+        );
+        assert_eq!(
+            sample_bilinear(&s, Vec2::new(0.5, 0.5), Address::Clamp),
+            0.5
+        );
     }
 
     #[test]

@@ -164,7 +164,11 @@ impl SetupParams {
 }
 
 /// Sets up one (clipped) triangle.
-pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim: u32) -> Result<SetupTri<V>, Rejected> {
+pub fn setup_triangle<V: Varyings>(
+    p: &SetupParams,
+    v: [ClipVertex<V>; 3],
+    prim: u32,
+) -> Result<SetupTri<V>, Rejected> {
     // Viewport transform: NDC y up -> window y down; depth z/w.
     let hw = p.width as f64 * 0.5;
     let hh = p.height as f64 * 0.5;
@@ -187,7 +191,8 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
     let fx = |t: f64| Fx8((t * ONE as f64).round() as i64);
     let mut xs = [fx(win[0].0), fx(win[1].0), fx(win[2].0)];
     let mut ys = [fx(win[0].1), fx(win[1].1), fx(win[2].1)];
-    let area = (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
+    let area =
+        (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
     if area == 0 {
         return Err(Rejected::Degenerate);
     }
@@ -214,9 +219,12 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
     let (xmin, xmax) = (xs.iter().min().unwrap().0, xs.iter().max().unwrap().0);
     let (ymin, ymax) = (ys.iter().min().unwrap().0, ys.iter().max().unwrap().0);
     let (bx0, bx1, by0, by1) = match p.raster {
-        RasterMode::Overestimate => {
-            (Fx8(xmin).ceil_pixel() - 1, Fx8(xmax).floor_pixel(), Fx8(ymin).ceil_pixel() - 1, Fx8(ymax).floor_pixel())
-        }
+        RasterMode::Overestimate => (
+            Fx8(xmin).ceil_pixel() - 1,
+            Fx8(xmax).floor_pixel(),
+            Fx8(ymin).ceil_pixel() - 1,
+            Fx8(ymax).floor_pixel(),
+        ),
         _ => (
             Fx8(xmin - HALF).ceil_pixel(),
             Fx8(xmax - HALF).floor_pixel(),
@@ -238,7 +246,7 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
         let j = (i + 1) % 3;
         let a = -(ys[j].0 - ys[i].0); // dE/dx (fixed units)
         let b = xs[j].0 - xs[i].0; // dE/dy
-        // E at the centre of pixel (0, 0), i.e. fixed (HALF, HALF).
+                                   // E at the centre of pixel (0, 0), i.e. fixed (HALF, HALF).
         let mut c = a * (HALF - xs[i].0) + b * (HALF - ys[i].0);
         let shift = (a.abs() + b.abs()) * HALF;
         match p.raster {
@@ -251,7 +259,11 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
             RasterMode::Overestimate => c += shift,
             RasterMode::Underestimate => c -= shift,
         }
-        edges[i] = Edge { dx: a * ONE, dy: b * ONE, c };
+        edges[i] = Edge {
+            dx: a * ONE,
+            dy: b * ONE,
+            c,
+        };
     }
 
     // Plane equations from the snapped positions.

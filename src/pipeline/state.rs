@@ -129,7 +129,12 @@ pub struct DepthState {
 
 impl Default for DepthState {
     fn default() -> Self {
-        DepthState { func: CompareFunc::Less, write: true, clamp: false, format: DepthFormat::F32 }
+        DepthState {
+            func: CompareFunc::Less,
+            write: true,
+            clamp: false,
+            format: DepthFormat::F32,
+        }
     }
 }
 
@@ -187,7 +192,12 @@ pub struct StencilFace {
 
 impl Default for StencilFace {
     fn default() -> Self {
-        StencilFace { func: CompareFunc::Always, fail: StencilOp::Keep, depth_fail: StencilOp::Keep, pass: StencilOp::Keep }
+        StencilFace {
+            func: CompareFunc::Always,
+            fail: StencilOp::Keep,
+            depth_fail: StencilOp::Keep,
+            pass: StencilOp::Keep,
+        }
     }
 }
 

@@ -35,7 +35,11 @@ impl<T: Texel> Surface<T> {
     /// Errors when a side is zero or above [`MAX_DIMENSION`].
     pub fn new(width: u32, height: u32, value: T) -> Result<Self, PipelineError> {
         check_size(width, height)?;
-        Ok(Surface { width, height, data: vec![value; width as usize * height as usize] })
+        Ok(Surface {
+            width,
+            height,
+            data: vec![value; width as usize * height as usize],
+        })
     }
 
     /// Wraps existing row-major data; errors if the length does not match the size.
@@ -44,7 +48,11 @@ impl<T: Texel> Surface<T> {
         if data.len() != width as usize * height as usize {
             return Err(PipelineError::BadSize { width, height });
         }
-        Ok(Surface { width, height, data })
+        Ok(Surface {
+            width,
+            height,
+            data,
+        })
     }
 
     /// Width in texels.
@@ -117,7 +125,11 @@ impl<T: Texel> Surface<T> {
 
     /// A new surface of the same size with `f` applied to every texel.
     pub fn map<U: Texel>(&self, f: impl Fn(T) -> U) -> Surface<U> {
-        Surface { width: self.width, height: self.height, data: self.data.iter().map(|&t| f(t)).collect() }
+        Surface {
+            width: self.width,
+            height: self.height,
+            data: self.data.iter().map(|&t| f(t)).collect(),
+        }
     }
 }
 
@@ -140,8 +152,14 @@ pub enum CubeFace {
 
 impl CubeFace {
     /// All six faces in order.
-    pub const ALL: [CubeFace; 6] =
-        [CubeFace::PosX, CubeFace::NegX, CubeFace::PosY, CubeFace::NegY, CubeFace::PosZ, CubeFace::NegZ];
+    pub const ALL: [CubeFace; 6] = [
+        CubeFace::PosX,
+        CubeFace::NegX,
+        CubeFace::PosY,
+        CubeFace::NegY,
+        CubeFace::PosZ,
+        CubeFace::NegZ,
+    ];
 
     /// The face's forward axis, and the world directions of its +u (right) and +v (down) texture axes,
     /// per the GL/D3D cube-map table (`ma`, `sc`, `tc` selection).
@@ -200,7 +218,9 @@ impl<T: Texel> CubeMap<T> {
     /// A cube map with `size` x `size` faces filled with `value`.
     pub fn new(size: u32, value: T) -> Result<Self, PipelineError> {
         let f = Surface::new(size, size, value)?;
-        Ok(CubeMap { faces: [f.clone(), f.clone(), f.clone(), f.clone(), f.clone(), f] })
+        Ok(CubeMap {
+            faces: [f.clone(), f.clone(), f.clone(), f.clone(), f.clone(), f],
+        })
     }
 
     /// Face size in texels.
@@ -230,10 +250,14 @@ impl<T: Texel> SurfaceArray<T> {
     /// `count` layers of `width` x `height` filled with `value`.
     pub fn new(count: usize, width: u32, height: u32, value: T) -> Result<Self, PipelineError> {
         if count == 0 || count > 64 {
-            return Err(PipelineError::BadArgument(format!("surface array layer count {count} (must be 1..=64)")));
+            return Err(PipelineError::BadArgument(format!(
+                "surface array layer count {count} (must be 1..=64)"
+            )));
         }
         let s = Surface::new(width, height, value)?;
-        Ok(SurfaceArray { layers: vec![s; count] })
+        Ok(SurfaceArray {
+            layers: vec![s; count],
+        })
     }
 
     /// Number of layers.
@@ -284,7 +308,11 @@ impl<T: Texel> MipChain<T> {
                     data.push(reduce(&buf));
                 }
             }
-            levels.push(Surface { width: nw, height: nh, data });
+            levels.push(Surface {
+                width: nw,
+                height: nh,
+                data,
+            });
         }
         MipChain { levels }
     }
@@ -296,7 +324,10 @@ impl<T: Texel> MipChain<T> {
 
     /// Level `i`, or an error naming the valid range.
     pub fn level(&self, i: usize) -> Result<&Surface<T>, PipelineError> {
-        self.levels.get(i).ok_or(PipelineError::BadMipLevel { level: i, levels: self.levels.len() })
+        self.levels.get(i).ok_or(PipelineError::BadMipLevel {
+            level: i,
+            levels: self.levels.len(),
+        })
     }
 
     /// All levels.

@@ -45,14 +45,21 @@ impl<const N: usize> Varyings for [f32; N] {
 impl<A: Varyings, B: Varyings> Varyings for (A, B) {
     #[inline(always)]
     fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self {
-        (A::combine(&a.0, &b.0, &c.0, w), B::combine(&a.1, &b.1, &c.1, w))
+        (
+            A::combine(&a.0, &b.0, &c.0, w),
+            B::combine(&a.1, &b.1, &c.1, w),
+        )
     }
 }
 
 impl<A: Varyings, B: Varyings, C: Varyings> Varyings for (A, B, C) {
     #[inline(always)]
     fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self {
-        (A::combine(&a.0, &b.0, &c.0, w), B::combine(&a.1, &b.1, &c.1, w), C::combine(&a.2, &b.2, &c.2, w))
+        (
+            A::combine(&a.0, &b.0, &c.0, w),
+            B::combine(&a.1, &b.1, &c.1, w),
+            C::combine(&a.2, &b.2, &c.2, w),
+        )
     }
 }
 
