@@ -1,1 +1,76 @@
-fn main() {}
+//! Criterion benchmarks of the pipeline: the spheres frame per mode and triangle count, and
+//! random triangles per size, depth-only and colour + depth. Throughput is reported in
+//! triangles (elements) per second; pixels/s are printed by `penumbra bench raster`.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use penumbra::bench::*;
+use penumbra::pipeline::*;
+
+fn threads() -> usize {
+    std::env::var("PENUMBRA_THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0)
+}
+
+fn spheres(c: &mut Criterion) {
+    let p = Pipeline::new(threads()).unwrap();
+    let mut g = c.benchmark_group(format!("spheres_frame_{}t", p.threads()));
+    g.sample_size(10);
+    for t in [10_000usize, 100_000] {
+        let mesh = spheres_scene(t);
+        let setup = frame_setup(&mesh, 1920, 1080);
+        let mut targets = FrameTargets::new(2048, 1920, 1080).unwrap();
+        g.throughput(Throughput::Elements(mesh.triangles() as u64));
+        for mode in [FrameMode::Depth, FrameMode::Pcf2, FrameMode::Pcf5] {
+            g.bench_with_input(BenchmarkId::new(format!("{mode:?}"), t), &t, |b, _| {
+                b.iter(|| render_frame(&p, &mesh, &setup, mode, &mut targets).unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+fn random(c: &mut Criterion) {
+    let p = Pipeline::new(threads()).unwrap();
+    let mut g = c.benchmark_group(format!("random_triangles_{}t", p.threads()));
+    g.sample_size(10);
+    let mut color = Surface::new(1920, 1080, [0u8; 4]).unwrap();
+    let mut depth = Surface::new(1920, 1080, 1.0f32).unwrap();
+    for (n, area) in [(100_000usize, 50.0f32), (20_000, 1000.0), (2_000, 20_000.0)] {
+        let (verts, idx) = random_triangles(n, area, 1920, 1080, 1);
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::new("depth", area), &area, |b, _| {
+            b.iter(|| {
+                depth.fill(1.0);
+                p.draw(
+                    &mut Targets::depth_only(&mut depth),
+                    &RenderState::default(),
+                    &verts,
+                    &idx,
+                    &ColoredClip,
+                    &DepthOnly,
+                )
+                .unwrap()
+            })
+        });
+        g.bench_with_input(BenchmarkId::new("color", area), &area, |b, _| {
+            b.iter(|| {
+                depth.fill(1.0);
+                p.draw(
+                    &mut Targets::color(&mut color).with_depth(&mut depth),
+                    &RenderState::default(),
+                    &verts,
+                    &idx,
+                    &ColoredClip,
+                    &VaryingColor,
+                )
+                .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random);
+criterion_main!(benches);

@@ -74,11 +74,7 @@ pub fn spheres_scene(t: usize) -> BenchMesh {
                 let theta = std::f32::consts::PI * s as f32 / (stacks - 1) as f32;
                 for k in 0..=slices {
                     let phi = 2.0 * std::f32::consts::PI * k as f32 / slices as f32;
-                    let n = Vec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.cos(),
-                        -theta.sin() * phi.sin(),
-                    );
+                    let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
                     m.vertices.push(BenchVertex {
                         pos: c + n * r,
                         normal: n,
@@ -118,9 +114,7 @@ impl std::str::FromStr for FrameMode {
             "depth" => Ok(FrameMode::Depth),
             "pcf2" => Ok(FrameMode::Pcf2),
             "pcf5" => Ok(FrameMode::Pcf5),
-            _ => Err(format!(
-                "unknown frame mode '{s}' (expected depth, pcf2 or pcf5)"
-            )),
+            _ => Err(format!("unknown frame mode '{s}' (expected depth, pcf2 or pcf5)")),
         }
     }
 }
@@ -139,10 +133,12 @@ pub struct FrameSetup {
 /// The fixed camera and the light frustum fitted to the scene bounds (+0.1 in x/y, +1 in depth).
 pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
     let to_light = Vec3::new(0.55, 1.0, 0.35).normalize();
-    let (lo, hi) = mesh.vertices.iter().fold(
-        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
-        |(a, b), v| (a.min(v.pos), b.max(v.pos)),
-    );
+    let (lo, hi) = mesh
+        .vertices
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), v| {
+            (a.min(v.pos), b.max(v.pos))
+        });
     let center = (lo + hi) * 0.5;
     let view = Mat4::look_at_rh(center + to_light * 50.0, center, Vec3::Z);
     let mut vlo = Vec3::splat(f32::MAX);
@@ -166,11 +162,7 @@ pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
         -vlo.z + 1.0,
     );
     let camera = Mat4::perspective_rh(45f32.to_radians(), width as f32 / height as f32, 0.5, 100.0)
-        * Mat4::look_at_rh(
-            Vec3::new(0.0, 13.0, 21.0),
-            Vec3::new(0.0, 0.0, 1.0),
-            Vec3::Y,
-        );
+        * Mat4::look_at_rh(Vec3::new(0.0, 13.0, 21.0), Vec3::new(0.0, 0.0, 1.0), Vec3::Y);
     FrameSetup {
         light_vp: proj * view,
         camera_vp: camera,
@@ -198,10 +190,7 @@ impl VertexProgram for CameraVs {
     #[inline(always)]
     fn run(&self, v: &BenchVertex) -> (Vec4, (Vec3, Vec3, Vec3)) {
         let p = v.pos.extend(1.0);
-        (
-            self.vp * p,
-            (v.normal, (self.light * p).truncate(), v.albedo),
-        )
+        (self.vp * p, (v.normal, (self.light * p).truncate(), v.albedo))
     }
 }
 
@@ -223,11 +212,9 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
                 let mut s = 0.0;
                 for j in -2..=2 {
                     for i in -2..=2 {
-                        s += self.sampler.pcf2x2(
-                            self.map,
-                            uv + Vec2::new(i as f32, j as f32) * t,
-                            l.z,
-                        );
+                        s += self
+                            .sampler
+                            .pcf2x2(self.map, uv + Vec2::new(i as f32, j as f32) * t, l.z);
                     }
                 }
                 s * (1.0 / 25.0)
@@ -359,13 +346,7 @@ impl SplitMix {
 
 /// `t` random triangles of about `area` pixels each (equilateral, random rotation, position and
 /// depth) in clip space for a `w` x `h` target, with a per-vertex colour.
-pub fn random_triangles(
-    t: usize,
-    area: f32,
-    w: u32,
-    h: u32,
-    seed: u64,
-) -> (Vec<(Vec4, Vec4)>, Vec<u32>) {
+pub fn random_triangles(t: usize, area: f32, w: u32, h: u32, seed: u64) -> (Vec<(Vec4, Vec4)>, Vec<u32>) {
     let mut rng = SplitMix(seed);
     let side = (4.0 * area / 3f32.sqrt()).sqrt();
     let circum = side / 3f32.sqrt();

@@ -31,6 +31,5 @@ pub fn hash_rgba8(data: &[[u8; 4]]) -> u64 {
 
 /// Hashes `u32` values.
 pub fn hash_u32(data: &[u32]) -> u64 {
-    data.iter()
-        .fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_le_bytes()))
+    data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_le_bytes()))
 }

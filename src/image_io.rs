@@ -7,8 +7,7 @@ use std::path::Path;
 pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), String> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot create folder {}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder {}: {e}", dir.display()))?;
         }
     }
     let bytes: Vec<u8> = s.data().iter().flat_map(|p| p.iter().copied()).collect();

@@ -93,9 +93,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.cmd {
         None => {
-            println!(
-                "penumbra: no command given; running the benchmark frame (see `penumbra --help`)."
-            );
+            println!("penumbra: no command given; running the benchmark frame (see `penumbra --help`).");
             bench_frame(FrameArgs {
                 triangles: 100_000,
                 mode: FrameMode::Pcf2,
@@ -127,7 +125,7 @@ fn main() -> ExitCode {
 }
 
 fn check_triangles(t: usize) -> Result<(), String> {
-    if t < 2 || t > 50_000_000 {
+    if !(2..=50_000_000).contains(&t) {
         return Err(format!("--triangles {t} is out of range (2..=50000000)"));
     }
     Ok(())
@@ -199,10 +197,7 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         if a.mode != FrameMode::Depth {
             write_png(&dir.join("spheres.png"), &t.color)?;
         }
-        write_png(
-            &dir.join("spheres_shadow_map.png"),
-            &grey(&t.shadow, 0.0, 1.0),
-        )?;
+        write_png(&dir.join("spheres_shadow_map.png"), &grey(&t.shadow, 0.0, 1.0))?;
         println!("wrote {}", dir.join("spheres.png").display());
     }
     if a.common.json {
@@ -225,11 +220,7 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let color_mode = match a.mode.as_str() {
         "color" => true,
         "depth" => false,
-        m => {
-            return Err(format!(
-                "unknown raster mode '{m}' (expected depth or color)"
-            ))
-        }
+        m => return Err(format!("unknown raster mode '{m}' (expected depth or color)")),
     };
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let (w, h) = (1920, 1080);

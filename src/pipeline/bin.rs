@@ -78,12 +78,7 @@ pub struct Chunk<V> {
 /// ends up empty, never drops a covered one).
 #[inline]
 pub fn rect_rejected<V>(tri: &SetupTri<V>, rect: [i32; 4]) -> bool {
-    let (x0, y0, x1, y1) = (
-        rect[0] as i64,
-        rect[1] as i64,
-        rect[2] as i64,
-        rect[3] as i64,
-    );
+    let (x0, y0, x1, y1) = (rect[0] as i64, rect[1] as i64, rect[2] as i64, rect[3] as i64);
     tri.edges.iter().any(|e| {
         let x = if e.dx > 0 { x1 } else { x0 };
         let y = if e.dy > 0 { y1 } else { y0 };
@@ -108,9 +103,7 @@ pub fn process_chunk<V: Varyings>(
     let mut tris: Vec<SetupTri<V>> = Vec::with_capacity(count);
     let mut poly = Vec::with_capacity(12);
     let mut tmp = Vec::with_capacity(12);
-    let push = |r: Result<SetupTri<V>, Rejected>,
-                stats: &mut DrawStats,
-                tris: &mut Vec<SetupTri<V>>| match r {
+    let push = |r: Result<SetupTri<V>, Rejected>, stats: &mut DrawStats, tris: &mut Vec<SetupTri<V>>| match r {
         Ok(t) => tris.push(t),
         Err(Rejected::Degenerate) => stats.culled_degenerate += 1,
         Err(Rejected::Culled) => stats.culled_backface += 1,

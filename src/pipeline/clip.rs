@@ -16,6 +16,9 @@ use glam::Vec4;
 
 /// Guard band half-extent in pixels around the viewport centre.
 pub const GUARD_PX: f32 = 32768.0;
+/// Largest |component| of a clip-space vertex the pipeline accepts; triangles with a vertex
+/// beyond it are dropped and counted (the clipper could not place their edges to a pixel).
+pub const MAX_CLIP_COORD: f32 = 1e9;
 /// Smallest `w` a vertex may have after clipping.
 pub const W_EPSILON: f32 = 1e-12;
 
@@ -57,15 +60,17 @@ impl Clipper {
 
     #[inline(always)]
     fn dist(&self, plane: u32, p: Vec4) -> f32 {
-        match plane {
+        let p = p.as_dvec4();
+        let (gx, gy) = (self.gx as f64, self.gy as f64);
+        (match plane {
             NEAR => p.z,
             FAR => p.w - p.z,
-            LEFT => p.x + self.gx * p.w,
-            RIGHT => self.gx * p.w - p.x,
-            BOTTOM => p.y + self.gy * p.w,
-            TOP => self.gy * p.w - p.y,
-            _ => p.w - W_EPSILON,
-        }
+            LEFT => p.x + gx * p.w,
+            RIGHT => gx * p.w - p.x,
+            BOTTOM => p.y + gy * p.w,
+            TOP => gy * p.w - p.y,
+            _ => p.w - W_EPSILON as f64,
+        }) as f32
     }
 
     /// Bit set of the planes `p` is outside of.
@@ -158,11 +163,7 @@ mod tests {
     #[test]
     fn near_plane_cuts_triangle_into_quad() {
         let c = Clipper::new(100, 100, true);
-        let tri = [
-            v(0.0, 0.0, -1.0, 1.0),
-            v(1.0, 0.0, 0.5, 1.0),
-            v(0.0, 1.0, 0.5, 1.0),
-        ];
+        let tri = [v(0.0, 0.0, -1.0, 1.0), v(1.0, 0.0, 0.5, 1.0), v(0.0, 1.0, 0.5, 1.0)];
         let mask = tri.iter().fold(0, |m, p| m | c.outcode(p.pos));
         let (mut o, mut t) = (Vec::new(), Vec::new());
         c.clip_polygon(tri, mask, &mut o, &mut t);
@@ -173,11 +174,7 @@ mod tests {
     #[test]
     fn crossing_w_zero_keeps_only_the_front_part() {
         let c = Clipper::new(100, 100, false);
-        let tri = [
-            v(0.0, 0.0, 0.5, 1.0),
-            v(0.5, 0.0, 0.5, -1.0),
-            v(0.0, 0.5, 0.5, 1.0),
-        ];
+        let tri = [v(0.0, 0.0, 0.5, 1.0), v(0.5, 0.0, 0.5, -1.0), v(0.0, 0.5, 0.5, 1.0)];
         let mask = tri.iter().fold(0, |m, p| m | c.outcode(p.pos));
         let (mut o, mut t) = (Vec::new(), Vec::new());
         c.clip_polygon(tri, mask, &mut o, &mut t);

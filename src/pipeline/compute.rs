@@ -10,41 +10,28 @@ use rayon::prelude::*;
 
 /// Minimum and maximum of the finite texels accepted by `keep` (e.g. depth < 1 for "covered"),
 /// or `None` if there is none. Used by SDSM and frustum fitting.
-pub fn min_max(
-    p: &Pipeline,
-    s: &Surface<f32>,
-    keep: impl Fn(f32) -> bool + Sync,
-) -> Option<(f32, f32)> {
+pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync) -> Option<(f32, f32)> {
     let w = s.width() as usize;
     let rows: Vec<Option<(f32, f32)>> = p.install(|| {
         s.data()
             .par_chunks(w)
             .map(|row| {
-                row.iter().filter(|v| v.is_finite() && keep(**v)).fold(
-                    None,
-                    |acc: Option<(f32, f32)>, &v| match acc {
+                row.iter()
+                    .filter(|v| v.is_finite() && keep(**v))
+                    .fold(None, |acc: Option<(f32, f32)>, &v| match acc {
                         None => Some((v, v)),
                         Some((a, b)) => Some((a.min(v), b.max(v))),
-                    },
-                )
+                    })
             })
             .collect()
     });
-    rows.into_iter()
-        .flatten()
-        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
 }
 
 /// Histogram of the finite texels in `[lo, hi)` over `bins` equal bins (values outside are not
 /// counted). Errors on zero bins or an empty range.
-pub fn histogram(
-    p: &Pipeline,
-    s: &Surface<f32>,
-    bins: usize,
-    lo: f32,
-    hi: f32,
-) -> Result<Vec<u64>, PipelineError> {
-    if bins == 0 || bins > 1 << 24 || !(hi > lo) || !lo.is_finite() || !hi.is_finite() {
+pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) -> Result<Vec<u64>, PipelineError> {
+    if bins == 0 || bins > 1 << 24 || hi <= lo || !lo.is_finite() || !hi.is_finite() {
         return Err(PipelineError::BadArgument(format!(
             "histogram of {bins} bins over [{lo}, {hi}) is invalid"
         )));
@@ -82,15 +69,13 @@ pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
     let mut out = vec![DVec4::ZERO; w * h];
     p.install(|| {
         // Row prefix sums (parallel over rows).
-        out.par_chunks_mut(w)
-            .zip(s.data().par_chunks(w))
-            .for_each(|(o, i)| {
-                let mut acc = DVec4::ZERO;
-                for (o, v) in o.iter_mut().zip(i) {
-                    acc += v.as_dvec4();
-                    *o = acc;
-                }
-            });
+        out.par_chunks_mut(w).zip(s.data().par_chunks(w)).for_each(|(o, i)| {
+            let mut acc = DVec4::ZERO;
+            for (o, v) in o.iter_mut().zip(i) {
+                acc += v.as_dvec4();
+                *o = acc;
+            }
+        });
     });
     // Column prefix sums: row by row, each row parallel over its columns.
     for y in 1..h {
@@ -147,7 +132,7 @@ pub fn separable_blur<T: Filterable + Default>(
     s: &Surface<T>,
     weights: &[f32],
 ) -> Result<Surface<T>, PipelineError> {
-    if weights.len() % 2 == 0 {
+    if weights.len().is_multiple_of(2) {
         return Err(PipelineError::BadArgument(format!(
             "blur kernel length {} must be odd",
             weights.len()
@@ -192,9 +177,7 @@ mod tests {
         let data: Vec<Vec4> = (0..35).map(|i| Vec4::splat(i as f32)).collect();
         let s = Surface::from_vec(7, 5, data).unwrap();
         let sat = summed_area_table(&p, &s);
-        let direct: f32 = (1..=3)
-            .flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32))
-            .sum();
+        let direct: f32 = (1..=3).flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32)).sum();
         assert_eq!(sat_box(&sat, 2, 1, 5, 3).x, direct as f64);
     }
 

@@ -31,12 +31,7 @@ pub type Rgba8 = [u8; 4];
 impl ColorFormat for [u8; 4] {
     #[inline(always)]
     fn to_vec4(self) -> Vec4 {
-        Vec4::new(
-            self[0] as f32,
-            self[1] as f32,
-            self[2] as f32,
-            self[3] as f32,
-        ) * (1.0 / 255.0)
+        Vec4::new(self[0] as f32, self[1] as f32, self[2] as f32, self[3] as f32) * (1.0 / 255.0)
     }
     #[inline(always)]
     fn from_vec4(v: Vec4) -> Self {
@@ -200,7 +195,15 @@ pub(crate) struct TileLists {
 /// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
 /// Returns the number of fragments that passed.
 #[inline(always)]
-fn depth_span(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: bool, test: impl Fn(f32, f32) -> bool) -> u64 {
+fn depth_span(
+    row: *mut f32,
+    lo: u32,
+    hi: u32,
+    zrow: f32,
+    dzdx: f32,
+    write: bool,
+    test: impl Fn(f32, f32) -> bool,
+) -> u64 {
     // SAFETY: `row` points at this worker's tile row and lo <= hi < TILE.
     let span = unsafe { std::slice::from_raw_parts_mut(row.add(lo as usize), (hi - lo + 1) as usize) };
     let mut passed = 0u32;
@@ -234,8 +237,7 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
     let stencil_on = targets.stencil.is_some() && state.stencil.enabled;
     let st = state.stencil;
     let fmt = state.depth.format;
-    let fast_depth =
-        !needs_shading && !stencil_on && targets.depth.is_some() && fmt == DepthFormat::F32;
+    let fast_depth = !needs_shading && !stencil_on && targets.depth.is_some() && fmt == DepthFormat::F32;
     let (ox, oy) = (rect[0], rect[1]);
     let tw = (rect[2] - rect[0] + 1) as usize;
     if targets.lists && lists.head.is_empty() {
@@ -269,21 +271,13 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
                 let (lo, hi) = (bits.trailing_zeros(), 63 - bits.leading_zeros());
                 let zrow = (zp.c + zp.dy * ly as f32) + zoff;
                 // SAFETY: the row start is inside this worker's tile.
-                let row = unsafe {
-                    depth
-                        .ptr
-                        .add((oy + ly) as usize * depth.stride + ox as usize)
-                };
+                let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
                 let w = depth_write;
                 passed += match state.depth.func {
                     CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
-                    CompareFunc::LessEqual => {
-                        depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b)
-                    }
+                    CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b),
                     CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
-                    CompareFunc::GreaterEqual => {
-                        depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b)
-                    }
+                    CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b),
                     f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
                 };
             }
@@ -308,10 +302,7 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
             if bits == 0 {
                 continue;
             }
-            let (lo, hi) = (
-                bits.trailing_zeros() as i32,
-                63 - bits.leading_zeros() as i32,
-            );
+            let (lo, hi) = (bits.trailing_zeros() as i32, 63 - bits.leading_zeros() as i32);
             let y = oy + lyi;
             let ly = lyi as f32;
             let zrow = (zp.c + zp.dy * ly) + zoff;
@@ -327,12 +318,7 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
                         let iw = persp[0].at(lx, ly);
                         let b1 = persp[1].at(lx, ly) / iw;
                         let b2 = persp[2].at(lx, ly) / iw;
-                        V::combine(
-                            &tri.var[0],
-                            &tri.var[1],
-                            &tri.var[2],
-                            [1.0 - b1 - b2, b1, b2],
-                        )
+                        V::combine(&tri.var[0], &tri.var[1], &tri.var[2], [1.0 - b1 - b2, b1, b2])
                     };
                     program.shade(&Fragment {
                         x: x as u32,
@@ -357,18 +343,16 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
                 if stencil_on {
                     // SAFETY: (x, y) is inside this worker's tile.
                     sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
-                    let pass = face
-                        .func
-                        .test(st.reference & st.read_mask, sval & st.read_mask);
+                    let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
                     if !pass {
                         stats.stencil_failed += 1;
                         let nv = face.fail.apply(sval, st.reference);
                         unsafe {
-                            targets.stencil.as_ref().unwrap().set(
-                                x,
-                                y,
-                                (sval & !st.write_mask) | (nv & st.write_mask),
-                            )
+                            targets
+                                .stencil
+                                .as_ref()
+                                .unwrap()
+                                .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
                         };
                         continue;
                     }
@@ -398,11 +382,11 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
                 if stencil_on {
                     let nv = face.pass.apply(sval, st.reference);
                     unsafe {
-                        targets.stencil.as_ref().unwrap().set(
-                            x,
-                            y,
-                            (sval & !st.write_mask) | (nv & st.write_mask),
-                        )
+                        targets
+                            .stencil
+                            .as_ref()
+                            .unwrap()
+                            .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
                     };
                 }
                 if depth_write {

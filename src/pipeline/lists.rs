@@ -114,13 +114,7 @@ impl FragmentLists {
 
     /// Merges one tile's local pool (`nodes` with local `next` links; `local_head`/`local_tail`
     /// over the tile rectangle, row-major, `rect` inclusive) behind the existing lists.
-    pub(crate) fn merge_tile(
-        &mut self,
-        rect: [i32; 4],
-        nodes: &[ListNode],
-        local_head: &[u32],
-        local_tail: &[u32],
-    ) {
+    pub(crate) fn merge_tile(&mut self, rect: [i32; 4], nodes: &[ListNode], local_head: &[u32], local_tail: &[u32]) {
         let base = self.nodes.len() as u32;
         let draw = self.draws;
         self.nodes.extend(nodes.iter().map(|n| ListNode {

@@ -40,9 +40,7 @@ pub mod state;
 pub mod surface;
 pub mod vertex;
 
-pub use fragment::{
-    ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader,
-};
+pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
 pub use lists::{FragmentLists, ListNode};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
@@ -110,13 +108,12 @@ impl fmt::Display for PipelineError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             PipelineError::BadSize { width, height } => {
-                write!(f, "surface size {width}x{height} is invalid (each side must be 1..={MAX_DIMENSION})")
+                write!(
+                    f,
+                    "surface size {width}x{height} is invalid (each side must be 1..={MAX_DIMENSION})"
+                )
             }
-            PipelineError::SizeMismatch {
-                what,
-                expected,
-                got,
-            } => write!(
+            PipelineError::SizeMismatch { what, expected, got } => write!(
                 f,
                 "{what} target is {}x{} but the draw's other targets are {}x{}",
                 got.0, got.1, expected.0, expected.1
@@ -127,7 +124,10 @@ impl fmt::Display for PipelineError {
                 index,
                 vertices,
             } => {
-                write!(f, "triangle {triangle} uses vertex index {index} but there are only {vertices} vertices")
+                write!(
+                    f,
+                    "triangle {triangle} uses vertex index {index} but there are only {vertices} vertices"
+                )
             }
             PipelineError::FragmentPoolFull { capacity, needed } => {
                 write!(
@@ -136,10 +136,7 @@ impl fmt::Display for PipelineError {
                 )
             }
             PipelineError::BadMipLevel { level, levels } => {
-                write!(
-                    f,
-                    "mip level {level} does not exist (the chain has {levels} levels)"
-                )
+                write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
             }
             PipelineError::BadArgument(s) => write!(f, "{s}"),
         }
@@ -153,7 +150,8 @@ impl std::error::Error for PipelineError {}
 pub struct DrawStats {
     /// Triangles submitted.
     pub triangles_in: u64,
-    /// Triangles dropped for non-finite (NaN/inf) or out-of-range coordinates.
+    /// Triangles dropped for non-finite (NaN/inf) coordinates or a clip-space component
+    /// beyond [`clip::MAX_CLIP_COORD`].
     pub dropped_nonfinite: u64,
     /// Triangles that needed clipping.
     pub clipped: u64,
@@ -279,9 +277,7 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
             sizes.push(("fragment-list", (l.width(), l.height())));
         }
         let Some(&(_, first)) = sizes.first() else {
-            return Err(PipelineError::BadArgument(
-                "a draw needs at least one target".into(),
-            ));
+            return Err(PipelineError::BadArgument("a draw needs at least one target".into()));
         };
         for &(what, s) in &sizes[1..] {
             if s != first {
@@ -331,9 +327,7 @@ pub struct Pipeline {
 
 impl fmt::Debug for Pipeline {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Pipeline")
-            .field("threads", &self.threads)
-            .finish()
+        f.debug_struct("Pipeline").field("threads", &self.threads).finish()
     }
 }
 
@@ -341,9 +335,7 @@ impl Pipeline {
     /// A pipeline with `threads` workers (0: one per available core).
     pub fn new(threads: usize) -> Result<Self, PipelineError> {
         let n = if threads == 0 {
-            std::thread::available_parallelism()
-                .map(|n| n.get())
-                .unwrap_or(1)
+            std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
         } else {
             threads
         };
@@ -355,10 +347,12 @@ impl Pipeline {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
-            .map_err(|e| {
-                PipelineError::BadArgument(format!("cannot start {n} worker threads: {e}"))
-            })?;
-        Ok(Pipeline { pool, threads: n, times: Default::default() })
+            .map_err(|e| PipelineError::BadArgument(format!("cannot start {n} worker threads: {e}")))?;
+        Ok(Pipeline {
+            pool,
+            threads: n,
+            times: Default::default(),
+        })
     }
 
     /// Worker count.
@@ -396,7 +390,7 @@ impl Pipeline {
         C: ColorFormat,
     {
         let (width, height) = targets.size()?;
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(PipelineError::BadIndexCount(indices.len()));
         }
         if let Some(p) = indices.iter().position(|&i| i as usize >= vertices.len()) {
@@ -429,7 +423,10 @@ impl Pipeline {
                 .map_or(0, |l| l.capacity().saturating_sub(l.len())),
         };
         let ntri = indices.len() / 3;
-        let mut times = StageTimes { draws: 1, ..Default::default() };
+        let mut times = StageTimes {
+            draws: 1,
+            ..Default::default()
+        };
         let (stats, tile_lists) = self.pool.install(|| {
             let t0 = std::time::Instant::now();
             // Stage 1: vertex programs (an indexed map: order-independent).
@@ -441,7 +438,10 @@ impl Pipeline {
                     ClipVertex { pos, var }
                 })
                 .collect();
-            let finite: Vec<bool> = verts.iter().map(|v| v.pos.is_finite()).collect();
+            let finite: Vec<bool> = verts
+                .iter()
+                .map(|v| v.pos.is_finite() && v.pos.abs().max_element() <= clip::MAX_CLIP_COORD)
+                .collect();
             times.vertex += t0.elapsed().as_secs_f64();
             let mut stats = DrawStats::default();
             let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
@@ -455,9 +455,7 @@ impl Pipeline {
                     .map(|c| {
                         let first = c * CHUNK;
                         let count = CHUNK.min(ntri - first);
-                        process_chunk(
-                            &verts, &finite, indices, first, count, &params, &clipper, &grid,
-                        )
+                        process_chunk(&verts, &finite, indices, first, count, &params, &clipper, &grid)
                     })
                     .collect();
                 for c in &chunks {

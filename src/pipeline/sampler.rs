@@ -63,24 +63,15 @@ pub fn footprint(size: (u32, u32), uv: Vec2) -> (i64, i64, f32, f32) {
 pub fn sample_nearest<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> T {
     let x = (uv.x * s.width() as f32).floor() as i64;
     let y = (uv.y * s.height() as f32).floor() as i64;
-    s.at(
-        wrap(x, s.width(), addr) as u32,
-        wrap(y, s.height(), addr) as u32,
-    )
+    s.at(wrap(x, s.width(), addr) as u32, wrap(y, s.height(), addr) as u32)
 }
 
 /// The four texels of the bilinear footprint: `[top-left, top-right, bottom-left, bottom-right]`.
 #[inline]
 pub fn gather<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> [T; 4] {
     let (x, y, _, _) = footprint((s.width(), s.height()), uv);
-    let (x0, x1) = (
-        wrap(x, s.width(), addr) as u32,
-        wrap(x + 1, s.width(), addr) as u32,
-    );
-    let (y0, y1) = (
-        wrap(y, s.height(), addr) as u32,
-        wrap(y + 1, s.height(), addr) as u32,
-    );
+    let (x0, x1) = (wrap(x, s.width(), addr) as u32, wrap(x + 1, s.width(), addr) as u32);
+    let (y0, y1) = (wrap(y, s.height(), addr) as u32, wrap(y + 1, s.height(), addr) as u32);
     [s.at(x0, y0), s.at(x1, y0), s.at(x0, y1), s.at(x1, y1)]
 }
 
@@ -183,7 +174,7 @@ pub fn select_level<T: Texel>(m: &MipChain<T>, duv_dx: Vec2, duv_dy: Vec2) -> f3
     let base = &m.levels()[0];
     let size = Vec2::new(base.width() as f32, base.height() as f32);
     let rho = (duv_dx * size).length().max((duv_dy * size).length());
-    if !(rho > 1.0) {
+    if rho.is_nan() || rho <= 1.0 {
         return 0.0;
     }
     rho.log2().min((m.level_count() - 1) as f32)
@@ -196,18 +187,9 @@ mod tests {
     #[test]
     fn bilinear_at_texel_centre_is_exact() {
         let s = Surface::from_vec(2, 1, vec![0.0f32, 1.0]).unwrap();
-        assert_eq!(
-            sample_bilinear(&s, Vec2::new(0.25, 0.5), Address::Clamp),
-            0.0
-        );
-        assert_eq!(
-            sample_bilinear(&s, Vec2::new(0.75, 0.5), Address::Clamp),
-            1.0
-        );
-        assert_eq!(
-            sample_bilinear(&s, Vec2::new(0.5, 0.5), Address::Clamp),
-            0.5
-        );
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.25, 0.5), Address::Clamp), 0.0);
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.75, 0.5), Address::Clamp), 1.0);
+        assert_eq!(sample_bilinear(&s, Vec2::new(0.5, 0.5), Address::Clamp), 0.5);
     }
 
     #[test]

@@ -164,11 +164,7 @@ impl SetupParams {
 }
 
 /// Sets up one (clipped) triangle.
-pub fn setup_triangle<V: Varyings>(
-    p: &SetupParams,
-    v: [ClipVertex<V>; 3],
-    prim: u32,
-) -> Result<SetupTri<V>, Rejected> {
+pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim: u32) -> Result<SetupTri<V>, Rejected> {
     // Viewport transform: NDC y up -> window y down; depth z/w.
     let hw = p.width as f64 * 0.5;
     let hh = p.height as f64 * 0.5;
@@ -191,8 +187,7 @@ pub fn setup_triangle<V: Varyings>(
     let fx = |t: f64| Fx8((t * ONE as f64).round() as i64);
     let mut xs = [fx(win[0].0), fx(win[1].0), fx(win[2].0)];
     let mut ys = [fx(win[0].1), fx(win[1].1), fx(win[2].1)];
-    let area =
-        (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
+    let area = (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
     if area == 0 {
         return Err(Rejected::Degenerate);
     }

@@ -45,10 +45,7 @@ impl<const N: usize> Varyings for [f32; N] {
 impl<A: Varyings, B: Varyings> Varyings for (A, B) {
     #[inline(always)]
     fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self {
-        (
-            A::combine(&a.0, &b.0, &c.0, w),
-            B::combine(&a.1, &b.1, &c.1, w),
-        )
+        (A::combine(&a.0, &b.0, &c.0, w), B::combine(&a.1, &b.1, &c.1, w))
     }
 }
 

@@ -1,0 +1,931 @@
+//! Pipeline invariants: watertightness, conservative coverage against exact tests, fragment
+//! lists, stencil counting, clipping and depth clamp, blending, bad input, determinism.
+
+use glam::{Vec3, Vec4};
+use penumbra::bench::SplitMix;
+use penumbra::pipeline::*;
+use proptest::prelude::*;
+
+/// Target size used by the window-space tests: a power of two, so fixed-point window
+/// coordinates survive the trip through NDC exactly.
+const W: u32 = 256;
+const H: u32 = 256;
+
+/// A window position in 1/256 pixels to clip space (w = 1).
+fn clip(x: i64, y: i64, z: f32) -> Vec4 {
+    Vec4::new(
+        x as f32 / (128.0 * W as f32) - 1.0,
+        1.0 - y as f32 / (128.0 * H as f32),
+        z,
+        1.0,
+    )
+}
+
+/// Draws window-space triangles (fixed-point vertices) with additive blending into a count
+/// target; returns the per-pixel counts and the stats.
+fn coverage(p: &Pipeline, tris: &[[(i64, i64); 3]], mode: RasterMode) -> (Surface<f32>, DrawStats) {
+    let mut verts = Vec::new();
+    for t in tris {
+        for &(x, y) in t {
+            verts.push(clip(x, y, 0.5));
+        }
+    }
+    let idx: Vec<u32> = (0..verts.len() as u32).collect();
+    let mut count = Surface::new(W, H, 0.0f32).unwrap();
+    let state = RenderState {
+        raster: mode,
+        blend: BlendMode::Add,
+        depth: DepthState {
+            func: CompareFunc::Always,
+            write: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let stats = p
+        .draw(
+            &mut Targets::color(&mut count),
+            &state,
+            &verts,
+            &idx,
+            &ClipPassthrough,
+            &Shader(|_: &Fragment<()>| Vec4::ONE),
+        )
+        .unwrap();
+    (count, stats)
+}
+
+/// Exact orientation of (b - a) x (c - a), in i128.
+fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i128 {
+    (b.0 - a.0) as i128 * (c.1 - a.1) as i128 - (b.1 - a.1) as i128 * (c.0 - a.0) as i128
+}
+
+/// Point inside the closed triangle (either winding).
+fn in_closed_tri(t: &[(i64, i64); 3], p: (i64, i64)) -> bool {
+    let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
+    (d.iter().all(|&v| v >= 0)) || (d.iter().all(|&v| v <= 0))
+}
+
+/// Closed segments intersect (exact).
+fn segs_intersect(a: (i64, i64), b: (i64, i64), c: (i64, i64), d: (i64, i64)) -> bool {
+    let o1 = orient(a, b, c).signum();
+    let o2 = orient(a, b, d).signum();
+    let o3 = orient(c, d, a).signum();
+    let o4 = orient(c, d, b).signum();
+    let on = |p: (i64, i64), q: (i64, i64), r: (i64, i64)| {
+        r.0 >= p.0.min(q.0) && r.0 <= p.0.max(q.0) && r.1 >= p.1.min(q.1) && r.1 <= p.1.max(q.1)
+    };
+    if o1 != o2 && o3 != o4 {
+        return true;
+    }
+    (o1 == 0 && on(a, b, c)) || (o2 == 0 && on(a, b, d)) || (o3 == 0 && on(c, d, a)) || (o4 == 0 && on(c, d, b))
+}
+
+/// Exact test, independent of the rasterizer's edge-shift method: does the closed pixel
+/// square (px, py) touch the closed triangle? (A vertex inside the square, a corner inside the
+/// triangle, or two edges crossing.)
+fn square_touches(t: &[(i64, i64); 3], px: i64, py: i64) -> bool {
+    let (x0, y0, x1, y1) = (px * 256, py * 256, px * 256 + 256, py * 256 + 256);
+    if t.iter().any(|&(x, y)| x >= x0 && x <= x1 && y >= y0 && y <= y1) {
+        return true;
+    }
+    let c = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];
+    if c.iter().any(|&q| in_closed_tri(t, q)) {
+        return true;
+    }
+    (0..3).any(|i| (0..4).any(|j| segs_intersect(t[i], t[(i + 1) % 3], c[j], c[(j + 1) % 4])))
+}
+
+/// Exact test: the closed pixel square lies inside the closed triangle.
+fn square_inside(t: &[(i64, i64); 3], px: i64, py: i64) -> bool {
+    let (x0, y0, x1, y1) = (px * 256, py * 256, px * 256 + 256, py * 256 + 256);
+    [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        .iter()
+        .all(|&q| in_closed_tri(t, q))
+}
+
+fn center(px: i64, py: i64) -> (i64, i64) {
+    (px * 256 + 128, py * 256 + 128)
+}
+
+fn pipeline(threads: usize) -> Pipeline {
+    Pipeline::new(threads).unwrap()
+}
+
+fn fixed_coord() -> impl Strategy<Value = i64> {
+    // Inside and a little beyond a 256-pixel target (so triangles cross tile and target edges).
+    -2048i64..(W as i64 * 256 + 2048)
+}
+
+fn fixed_tri() -> impl Strategy<Value = [(i64, i64); 3]> {
+    proptest::array::uniform3((fixed_coord(), fixed_coord()))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// A jittered grid of quads (two triangles each, both diagonals) covers every pixel centre
+    /// inside it exactly once and nothing outside.
+    #[test]
+    fn grids_are_watertight(nx in 1usize..9, ny in 1usize..9, seed in any::<u64>(), x0 in 0i64..3000, y0 in 0i64..3000) {
+        let mut rng = SplitMix(seed);
+        let (x1, y1) = (W as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64, H as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64);
+        let mut grid = vec![vec![(0i64, 0i64); nx + 1]; ny + 1];
+        for (j, row) in grid.iter_mut().enumerate() {
+            for (i, v) in row.iter_mut().enumerate() {
+                let mut x = x0 + (x1 - x0) * i as i64 / nx as i64;
+                let mut y = y0 + (y1 - y0) * j as i64 / ny as i64;
+                // Jitter interior vertices only, so the union stays the rectangle.
+                if i > 0 && i < nx { x += (rng.next_u64() % 1024) as i64 - 512; }
+                if j > 0 && j < ny { y += (rng.next_u64() % 1024) as i64 - 512; }
+                *v = (x, y);
+            }
+        }
+        let mut tris = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let (a, b, c, d) = (grid[j][i], grid[j][i + 1], grid[j + 1][i + 1], grid[j + 1][i]);
+                if rng.next_u64() & 1 == 0 {
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                } else {
+                    tris.push([a, b, d]);
+                    tris.push([b, c, d]);
+                }
+            }
+        }
+        let (count, _) = coverage(&pipeline(2), &tris, RasterMode::Standard);
+        for py in 0..H as i64 {
+            for px in 0..W as i64 {
+                let (cx, cy) = center(px, py);
+                let c = count.at(px as u32, py as u32);
+                let inside = cx > x0 && cx < x1 && cy > y0 && cy < y1;
+                let outside = cx < x0 || cx > x1 || cy < y0 || cy > y1;
+                if inside { prop_assert_eq!(c, 1.0, "pixel ({}, {}) inside the grid", px, py); }
+                if outside { prop_assert_eq!(c, 0.0, "pixel ({}, {}) outside the grid", px, py); }
+                prop_assert!(c <= 1.0);
+            }
+        }
+    }
+
+    /// A fan of triangles around a centre (including thin slivers) never covers a pixel twice,
+    /// and covers every centre that is strictly inside one of its triangles or on a spoke.
+    #[test]
+    fn fans_are_watertight(n in 3usize..40, cx in 0i64..65536, cy in 0i64..65536, seed in any::<u64>()) {
+        let mut rng = SplitMix(seed);
+        // Angular steps in [1, 1.9], scaled to a full turn: every gap is below pi, so the fan's
+        // triangles never overlap.
+        let steps: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * rng.next_f32() as f64).collect();
+        let total: f64 = steps.iter().sum();
+        let start = rng.next_f32() as f64 * std::f64::consts::TAU;
+        let angles: Vec<f64> = (0..n).map(|i| start + steps[..i].iter().sum::<f64>() / total * std::f64::consts::TAU).collect();
+        let rim: Vec<(i64, i64)> = angles.iter().map(|a| {
+            let r = 2000.0 + rng.next_f32() as f64 * 60000.0;
+            (cx + (r * a.cos()) as i64, cy + (r * a.sin()) as i64)
+        }).collect();
+        let c = (cx, cy);
+        let tris: Vec<[(i64, i64); 3]> = (0..n).map(|i| [c, rim[i], rim[(i + 1) % n]])
+            .filter(|t| orient(t[0], t[1], t[2]) != 0).collect();
+        let (count, _) = coverage(&pipeline(2), &tris, RasterMode::Standard);
+        for py in 0..H as i64 {
+            for px in 0..W as i64 {
+                let p = center(px, py);
+                let v = count.at(px as u32, py as u32);
+                prop_assert!(v <= 1.0, "pixel ({}, {}) covered {} times", px, py, v);
+                let strictly = tris.iter().any(|t| {
+                    let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
+                    d.iter().all(|&x| x > 0) || d.iter().all(|&x| x < 0)
+                });
+                // On a spoke (an edge shared by two triangles), strictly between the centre
+                // and the rim vertex.
+                let on_spoke = rim.iter().any(|&r| {
+                    orient(c, r, p) == 0 && p != c && p != r
+                        && p.0 >= c.0.min(r.0) && p.0 <= c.0.max(r.0) && p.1 >= c.1.min(r.1) && p.1 <= c.1.max(r.1)
+                });
+                if strictly || on_spoke {
+                    prop_assert_eq!(v, 1.0, "pixel ({}, {}) must be covered once", px, py);
+                }
+            }
+        }
+    }
+
+    /// Overestimate equals the exact "square touches triangle" test and contains standard
+    /// coverage; underestimate equals the exact "square inside triangle" test.
+    #[test]
+    fn conservative_modes_are_exact(t in fixed_tri()) {
+        prop_assume!(orient(t[0], t[1], t[2]) != 0);
+        let p = pipeline(2);
+        let (std_c, _) = coverage(&p, &[t], RasterMode::Standard);
+        let (over, _) = coverage(&p, &[t], RasterMode::Overestimate);
+        let (under, _) = coverage(&p, &[t], RasterMode::Underestimate);
+        for py in 0..H as i64 {
+            for px in 0..W as i64 {
+                let (s, o, u) = (std_c.at(px as u32, py as u32), over.at(px as u32, py as u32), under.at(px as u32, py as u32));
+                prop_assert_eq!(o == 1.0, square_touches(&t, px, py), "overestimate at ({}, {})", px, py);
+                prop_assert_eq!(u == 1.0, square_inside(&t, px, py), "underestimate at ({}, {})", px, py);
+                prop_assert!(s <= o && u <= s, "standard not between under and over at ({}, {})", px, py);
+                if s == 1.0 { prop_assert!(in_closed_tri(&t, center(px, py))); }
+            }
+        }
+    }
+
+    /// Lists hold exactly the fragments that passed, each pixel's list in submission order,
+    /// identically for 1 and 3 threads.
+    #[test]
+    fn fragment_lists_count_and_order(seed in any::<u64>(), n in 1usize..60) {
+        let mut rng = SplitMix(seed);
+        let tris: Vec<[(i64, i64); 3]> = (0..n).map(|_| {
+            let r = |rng: &mut SplitMix| (rng.next_u64() % (W as u64 * 256)) as i64;
+            [(r(&mut rng), r(&mut rng)), (r(&mut rng), r(&mut rng)), (r(&mut rng), r(&mut rng))]
+        }).collect();
+        let mut verts = Vec::new();
+        for t in &tris { for &(x, y) in t { verts.push(clip(x, y, rng.next_f32())); } }
+        let idx: Vec<u32> = (0..verts.len() as u32).collect();
+        let run = |threads: usize| {
+            let mut lists = FragmentLists::new(W, H, 1 << 22).unwrap();
+            let state = RenderState { depth: DepthState { func: CompareFunc::Always, write: false, ..Default::default() }, ..Default::default() };
+            let stats = pipeline(threads).draw(&mut Targets::none().with_lists(&mut lists), &state, &verts, &idx, &ClipPassthrough,
+                &Shader(|f: &Fragment<()>| Vec4::splat(f.prim as f32))).unwrap();
+            (lists, stats)
+        };
+        let (lists, stats) = run(1);
+        let (lists3, stats3) = run(3);
+        prop_assert_eq!(stats, stats3);
+        prop_assert_eq!(lists.nodes(), lists3.nodes());
+        prop_assert_eq!(lists.len() as u64, stats.fragments_passed);
+        prop_assert_eq!(stats.list_nodes, stats.fragments_passed);
+        let (count, _) = coverage(&pipeline(2), &tris, RasterMode::Standard);
+        for y in 0..H { for x in 0..W {
+            let prims: Vec<u32> = lists.iter(x, y).map(|n| n.prim).collect();
+            prop_assert!(prims.windows(2).all(|w| w[0] < w[1]), "list at ({}, {}) out of order: {:?}", x, y, prims);
+            prop_assert_eq!(prims.len() as f32, count.at(x, y));
+        }}
+    }
+
+    /// Two-sided stencil over closed boxes in front of a receiver: z-pass (incr front, decr back
+    /// on depth pass) and z-fail (incr back, decr front on depth fail) both give, per pixel,
+    /// the number of boxes containing the receiver point (exact ray cast, orthographic view).
+    #[test]
+    fn stencil_counts_volumes(seed in any::<u64>(), n in 1usize..12) {
+        let mut rng = SplitMix(seed);
+        let zr = 0.5f32;
+        let boxes: Vec<(Vec3, Vec3)> = (0..n).map(|_| {
+            let a = Vec3::new(rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 0.9 + 0.05);
+            let s = Vec3::new(rng.next_f32() * 0.8 + 0.05, rng.next_f32() * 0.8 + 0.05, rng.next_f32() * 0.5 + 0.05);
+            (a, (a + s).min(Vec3::new(1.5, 1.5, 0.99)))
+        }).collect();
+        let mut verts = Vec::new();
+        let mut idx = Vec::new();
+        for (lo, hi) in &boxes { push_box(&mut verts, &mut idx, *lo, *hi); }
+        let p = pipeline(2);
+        for zfail in [false, true] {
+            let mut depth = Surface::new(W, H, zr).unwrap();
+            let mut stencil = Surface::new(W, H, 0u8).unwrap();
+            let (front, back) = if zfail {
+                (StencilFace { depth_fail: StencilOp::DecrWrap, ..Default::default() }, StencilFace { depth_fail: StencilOp::IncrWrap, ..Default::default() })
+            } else {
+                (StencilFace { pass: StencilOp::IncrWrap, ..Default::default() }, StencilFace { pass: StencilOp::DecrWrap, ..Default::default() })
+            };
+            let state = RenderState {
+                depth: DepthState { func: CompareFunc::Less, write: false, ..Default::default() },
+                stencil: StencilState { enabled: true, front, back, ..Default::default() },
+                ..Default::default()
+            };
+            p.draw(&mut Targets::none().with_depth(&mut depth).with_stencil(&mut stencil), &state, &verts, &idx, &ClipPassthrough3, &DepthOnly).unwrap();
+            for py in 0..H { for px in 0..W {
+                let x = (px as f32 + 0.5) / W as f32 * 2.0 - 1.0;
+                let y = 1.0 - (py as f32 + 0.5) / H as f32 * 2.0;
+                let near_edge = boxes.iter().any(|(lo, hi)| {
+                    [lo.x - x, hi.x - x].iter().any(|d| d.abs() < 2e-3) || [lo.y - y, hi.y - y].iter().any(|d| d.abs() < 2e-3)
+                        || (lo.z - zr).abs() < 1e-4 || (hi.z - zr).abs() < 1e-4
+                });
+                if near_edge { continue; }
+                let expect = boxes.iter().filter(|(lo, hi)| x > lo.x && x < hi.x && y > lo.y && y < hi.y && zr > lo.z && zr < hi.z).count();
+                prop_assert_eq!(stencil.at(px, py) as usize, expect, "zfail={} pixel ({}, {})", zfail, px, py);
+            }}
+        }
+    }
+}
+
+/// Positions already in clip space (w = 1), as `Vec3`.
+struct ClipPassthrough3;
+impl VertexProgram for ClipPassthrough3 {
+    type In = Vec3;
+    type Out = ();
+    fn run(&self, v: &Vec3) -> (Vec4, ()) {
+        (v.extend(1.0), ())
+    }
+}
+
+/// An axis-aligned box as 12 outward-facing (CCW seen from outside, NDC y up) triangles.
+fn push_box(verts: &mut Vec<Vec3>, idx: &mut Vec<u32>, lo: Vec3, hi: Vec3) {
+    let b = verts.len() as u32;
+    for i in 0..8 {
+        verts.push(Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        ));
+    }
+    // Faces as quads (a, b, c, d) counter-clockwise seen from outside, in NDC (x right, y up,
+    // depth z away from the viewer: a left-handed frame). The z = lo face faces the viewer.
+    let quads = [
+        [0, 1, 3, 2], // z = lo
+        [4, 6, 7, 5], // z = hi
+        [0, 4, 5, 1], // y = lo
+        [2, 3, 7, 6], // y = hi
+        [0, 2, 6, 4], // x = lo
+        [1, 5, 7, 3], // x = hi
+    ];
+    for q in quads {
+        idx.extend_from_slice(&[b + q[0], b + q[1], b + q[2], b + q[0], b + q[2], b + q[3]]);
+    }
+}
+
+#[test]
+fn box_faces_toward_viewer_are_front_facing() {
+    // The z = lo face of a box seen from the viewer must count as front-facing (sanity check of
+    // push_box's winding against the pipeline's FrontFace::Ccw convention).
+    let (mut v, mut i) = (Vec::new(), Vec::new());
+    push_box(&mut v, &mut i, Vec3::new(-0.5, -0.5, 0.2), Vec3::new(0.5, 0.5, 0.6));
+    let p = pipeline(1);
+    let mut depth = Surface::new(64, 64, 1.0).unwrap();
+    let state = RenderState {
+        cull: CullMode::Back,
+        ..Default::default()
+    };
+    let stats = p
+        .draw(
+            &mut Targets::depth_only(&mut depth),
+            &state,
+            &v,
+            &i,
+            &ClipPassthrough3,
+            &DepthOnly,
+        )
+        .unwrap();
+    // Orthographic view along z: the four side faces are edge-on (zero area), the far face is
+    // a back face.
+    assert_eq!((stats.culled_backface, stats.culled_degenerate), (2, 8));
+    assert!(
+        (depth.at(32, 32) - 0.2).abs() < 1e-6,
+        "the front face at z = 0.2 is what remains"
+    );
+}
+
+#[test]
+fn near_plane_clipping_matches_analytic_depth() {
+    // A perspective view of a ground plane running from behind the camera to far away: pixels
+    // show the plane's analytic depth, and nothing of the part behind the near plane.
+    let proj = glam::Mat4::perspective_rh(60f32.to_radians(), 1.0, 0.5, 50.0);
+    let view = glam::Mat4::look_at_rh(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, -10.0), Vec3::Y);
+    let vp = proj * view;
+    let verts = [
+        Vec3::new(-100.0, 0.0, 20.0),
+        Vec3::new(100.0, 0.0, 20.0),
+        Vec3::new(0.0, 0.0, -40.0),
+    ];
+    let p = pipeline(2);
+    let mut depth = Surface::new(128, 128, 1.0).unwrap();
+    let stats = p
+        .draw(
+            &mut Targets::depth_only(&mut depth),
+            &RenderState::default(),
+            &verts,
+            &[0, 1, 2],
+            &TransformPositions(vp),
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(stats.clipped, 1);
+    let inv = vp.inverse();
+    let mut checked = 0;
+    for y in 0..128u32 {
+        for x in 0..128u32 {
+            let d = depth.at(x, y);
+            if d >= 1.0 {
+                continue;
+            }
+            // Unproject the pixel centre at the stored depth: the point must lie on the plane y = 0.
+            let ndc = Vec3::new((x as f32 + 0.5) / 64.0 - 1.0, 1.0 - (y as f32 + 0.5) / 64.0, d);
+            let w = inv.project_point3(ndc);
+            assert!(
+                w.y.abs() < 2e-3 * (1.0 + w.z.abs()),
+                "pixel ({x}, {y}) depth {d} unprojects to {w}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(
+        checked > 3000,
+        "the plane covers the lower half of the view ({checked} pixels)"
+    );
+}
+
+#[test]
+fn depth_clamp_keeps_geometry_beyond_the_far_plane() {
+    let verts = [
+        Vec4::new(-1.0, -1.0, 1.5, 1.0),
+        Vec4::new(3.0, -1.0, 1.5, 1.0),
+        Vec4::new(-1.0, 3.0, 1.5, 1.0),
+    ];
+    let p = pipeline(2);
+    let mut depth = Surface::new(32, 32, 1.0).unwrap();
+    let le = DepthState {
+        func: CompareFunc::LessEqual,
+        ..Default::default()
+    };
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut depth),
+            &RenderState {
+                depth: le,
+                ..Default::default()
+            },
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.fragments_rasterized, 0, "without clamp the far plane clips it away");
+    depth.fill(0.75);
+    let clamp = DepthState {
+        clamp: true,
+        func: CompareFunc::Always,
+        ..Default::default()
+    };
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut depth),
+            &RenderState {
+                depth: clamp,
+                ..Default::default()
+            },
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.fragments_rasterized, 32 * 32);
+    assert!(depth.data().iter().all(|&d| d == 1.0), "clamped to the far plane");
+}
+
+#[test]
+fn triangles_crossing_w_zero_render_only_their_visible_part() {
+    // One vertex behind the eye (w < 0): the visible part is bounded and covers no pixel twice.
+    let proj = glam::Mat4::perspective_rh(90f32.to_radians(), 1.0, 0.1, 10.0);
+    let verts = [
+        Vec3::new(-1.0, -0.5, -2.0),
+        Vec3::new(1.0, -0.5, -2.0),
+        Vec3::new(0.0, -0.5, 3.0),
+    ];
+    let p = pipeline(2);
+    let mut count = Surface::new(64, 64, 0.0f32).unwrap();
+    let state = RenderState {
+        blend: BlendMode::Add,
+        depth: DepthState {
+            func: CompareFunc::Always,
+            write: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let s = p
+        .draw(
+            &mut Targets::color(&mut count),
+            &state,
+            &verts,
+            &[0, 1, 2],
+            &TransformPositions(proj),
+            &Shader(|_: &Fragment<()>| Vec4::ONE),
+        )
+        .unwrap();
+    assert_eq!(s.clipped, 1);
+    assert!(count.data().iter().all(|&c| c <= 1.0));
+    // The floor below the eye fills the bottom rows and nothing above the horizon.
+    assert_eq!(count.at(32, 63), 1.0);
+    assert_eq!(count.at(32, 20), 0.0);
+}
+
+#[test]
+fn perspective_correct_varyings() {
+    // A quad receding in depth carries u in [0, 1]; at the pixel where the world-space
+    // midpoint projects, the interpolated u must be 0.5 (screen-linear would be wrong).
+    let proj = glam::Mat4::perspective_rh(90f32.to_radians(), 1.0, 0.1, 100.0);
+    struct Vs(glam::Mat4);
+    impl VertexProgram for Vs {
+        type In = (Vec3, f32);
+        type Out = f32;
+        fn run(&self, v: &(Vec3, f32)) -> (Vec4, f32) {
+            (self.0 * v.0.extend(1.0), v.1)
+        }
+    }
+    let verts = [
+        (Vec3::new(-1.0, -1.0, -1.0), 0.0),
+        (Vec3::new(1.0, -1.0, -1.0), 0.0),
+        (Vec3::new(1.0, -1.0, -21.0), 1.0),
+        (Vec3::new(-1.0, -1.0, -21.0), 1.0),
+    ];
+    let p = pipeline(2);
+    let mut out = Surface::new(256, 256, -1.0f32).unwrap();
+    p.draw(
+        &mut Targets::color(&mut out),
+        &RenderState::default(),
+        &verts,
+        &[0, 1, 2, 0, 2, 3],
+        &Vs(proj),
+        &Shader(|f: &Fragment<f32>| Vec4::splat(f.var)),
+    )
+    .unwrap();
+    let mid = proj.project_point3(Vec3::new(0.0, -1.0, -11.0));
+    let py = ((1.0 - mid.y) * 128.0) as u32;
+    let u = out.at(128, py);
+    assert!((u - 0.5).abs() < 0.02, "u at the midpoint's pixel is {u}");
+}
+
+#[test]
+fn polygon_offset_is_slope_scaled_plus_constant() {
+    // A plane with depth slope 0.001 per pixel in x; offset factor 2 and units 3 (float depth).
+    let verts = [
+        Vec4::new(-1.0, -1.0, 0.3, 1.0),
+        Vec4::new(1.0, -1.0, 0.3 + 0.001 * 64.0, 1.0),
+        Vec4::new(-1.0, 1.0, 0.3, 1.0),
+    ];
+    let p = pipeline(1);
+    let draw = |offset: PolygonOffset| {
+        let mut d = Surface::new(64, 64, 1.0).unwrap();
+        p.draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState {
+                offset,
+                ..Default::default()
+            },
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+        d.at(10, 40)
+    };
+    let base = draw(PolygonOffset::default());
+    let off = draw(PolygonOffset {
+        factor: 2.0,
+        units: 3.0,
+    });
+    let r = DepthFormat::F32.resolvable(0.3 + 0.064);
+    let expect = 2.0 * 0.001 + 3.0 * r;
+    assert!(
+        ((off - base) - expect).abs() < 1e-6,
+        "offset {} expected {}",
+        off - base,
+        expect
+    );
+}
+
+#[test]
+fn stencil_ops_and_masks() {
+    for (op, s, expect) in [
+        (StencilOp::Keep, 5u8, 5u8),
+        (StencilOp::Zero, 5, 0),
+        (StencilOp::Replace, 5, 9),
+        (StencilOp::IncrSat, 255, 255),
+        (StencilOp::DecrSat, 0, 0),
+        (StencilOp::IncrWrap, 255, 0),
+        (StencilOp::DecrWrap, 0, 255),
+        (StencilOp::Invert, 0x0f, 0xf0),
+    ] {
+        assert_eq!(op.apply(s, 9), expect, "{op:?}");
+    }
+    // Write mask keeps the masked-out bits; read mask applies to the compare.
+    let verts = [
+        Vec4::new(-1.0, -1.0, 0.5, 1.0),
+        Vec4::new(3.0, -1.0, 0.5, 1.0),
+        Vec4::new(-1.0, 3.0, 0.5, 1.0),
+    ];
+    let mut st = Surface::new(8, 8, 0xA5u8).unwrap();
+    let face = StencilFace {
+        func: CompareFunc::Equal,
+        pass: StencilOp::Replace,
+        fail: StencilOp::Zero,
+        ..Default::default()
+    };
+    let state = RenderState {
+        stencil: StencilState {
+            enabled: true,
+            front: face,
+            back: face,
+            reference: 0x15,
+            read_mask: 0x0f,
+            write_mask: 0xf0,
+        },
+        ..Default::default()
+    };
+    pipeline(1)
+        .draw(
+            &mut Targets::none().with_stencil(&mut st),
+            &state,
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    // (0x15 & 0x0f) == (0xA5 & 0x0f): pass -> replace with 0x15 under write mask 0xf0 -> 0x15.
+    assert!(st.data().iter().all(|&v| v == 0x15), "{:x}", st.at(0, 0));
+}
+
+#[test]
+fn blend_modes_and_color_mask() {
+    let s = Vec4::new(0.5, 0.25, 1.0, 0.5);
+    let d = Vec4::new(0.5, 1.0, 0.0, 1.0);
+    assert_eq!(fragment::blend(BlendMode::Replace, s, d), s);
+    assert_eq!(fragment::blend(BlendMode::Add, s, d), s + d);
+    assert_eq!(fragment::blend(BlendMode::Multiply, s, d), s * d);
+    assert_eq!(fragment::blend(BlendMode::Min, s, d), s.min(d));
+    assert_eq!(fragment::blend(BlendMode::Max, s, d), s.max(d));
+    assert_eq!(fragment::blend(BlendMode::Alpha, s, d), Vec4::new(0.5, 0.625, 0.5, 1.0));
+    let verts = [
+        Vec4::new(-1.0, -1.0, 0.5, 1.0),
+        Vec4::new(3.0, -1.0, 0.5, 1.0),
+        Vec4::new(-1.0, 3.0, 0.5, 1.0),
+    ];
+    let mut c = Surface::new(8, 8, Vec4::splat(0.25)).unwrap();
+    let state = RenderState {
+        color_mask: ColorMask([true, false, true, false]),
+        ..Default::default()
+    };
+    pipeline(1)
+        .draw(
+            &mut Targets::color(&mut c),
+            &state,
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &Shader(|_: &Fragment<()>| Vec4::ONE),
+        )
+        .unwrap();
+    assert!(c.data().iter().all(|&v| v == Vec4::new(1.0, 0.25, 1.0, 0.25)));
+}
+
+#[test]
+fn early_z_kills_are_counted_and_never_shaded() {
+    let near = [
+        Vec4::new(-1.0, -1.0, 0.2, 1.0),
+        Vec4::new(3.0, -1.0, 0.2, 1.0),
+        Vec4::new(-1.0, 3.0, 0.2, 1.0),
+    ];
+    let far = [
+        Vec4::new(-1.0, -1.0, 0.8, 1.0),
+        Vec4::new(3.0, -1.0, 0.8, 1.0),
+        Vec4::new(-1.0, 3.0, 0.8, 1.0),
+    ];
+    let p = pipeline(2);
+    let mut c = Surface::new(100, 100, [0u8; 4]).unwrap();
+    let mut d = Surface::new(100, 100, 1.0f32).unwrap();
+    let fs = Shader(|_: &Fragment<()>| Vec4::ONE);
+    p.draw(
+        &mut Targets::color(&mut c).with_depth(&mut d),
+        &RenderState::default(),
+        &near,
+        &[0, 1, 2],
+        &ClipPassthrough,
+        &fs,
+    )
+    .unwrap();
+    let s = p
+        .draw(
+            &mut Targets::color(&mut c).with_depth(&mut d),
+            &RenderState::default(),
+            &far,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &fs,
+        )
+        .unwrap();
+    assert_eq!(s.early_z_killed, 10_000);
+    assert_eq!(s.fragments_shaded, 0);
+    // A discarding program must run before the depth test: counted as late depth fails.
+    let ds = DiscardingShader(|_: &Fragment<()>| Some(Vec4::ONE));
+    let s = p
+        .draw(
+            &mut Targets::color(&mut c).with_depth(&mut d),
+            &RenderState::default(),
+            &far,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &ds,
+        )
+        .unwrap();
+    assert_eq!(
+        (s.early_z_killed, s.depth_failed, s.fragments_shaded),
+        (0, 10_000, 10_000)
+    );
+}
+
+#[test]
+fn bad_input_is_an_error_or_counted_never_a_panic() {
+    let p = pipeline(2);
+    let mut d = Surface::new(64, 64, 1.0f32).unwrap();
+    let nan = [
+        Vec4::new(f32::NAN, 0.0, 0.5, 1.0),
+        Vec4::new(1.0, 0.0, 0.5, 1.0),
+        Vec4::new(0.0, 1.0, 0.5, 1.0),
+    ];
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &nan,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.dropped_nonfinite, 1);
+    let inf = [
+        Vec4::new(f32::INFINITY, 0.0, 0.5, 1.0),
+        Vec4::new(1.0, 0.0, 0.5, 1.0),
+        Vec4::new(0.0, 1.0, 0.5, 1.0),
+    ];
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &inf,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.dropped_nonfinite, 1);
+    // Huge coordinates: clipped to the guard band (in f64) and drawn correctly ...
+    let huge = [
+        Vec4::new(-1e8, -1e8, 0.5, 1.0),
+        Vec4::new(1e8, -1e8, 0.5, 1.0),
+        Vec4::new(0.0, 1e8, 0.5, 1.0),
+    ];
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &huge,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.fragments_rasterized, 64 * 64);
+    // ... or, beyond what the clipper can place to a pixel, dropped and counted.
+    let absurd = [
+        Vec4::new(-1e30, -1e30, 0.5, 1.0),
+        Vec4::new(1e30, -1e30, 0.5, 1.0),
+        Vec4::new(0.0, 1e30, 0.5, 1.0),
+    ];
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &absurd,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.dropped_nonfinite, 1);
+    let huge_w = [
+        Vec4::new(1e38, 1e38, 1e38, 1e38),
+        Vec4::new(-3e38, 1e38, 0.5, 3e38),
+        Vec4::new(0.0, -1e38, 0.5, 1e-38),
+    ];
+    p.draw(
+        &mut Targets::depth_only(&mut d),
+        &RenderState::default(),
+        &huge_w,
+        &[0, 1, 2],
+        &ClipPassthrough,
+        &DepthOnly,
+    )
+    .unwrap();
+    // Degenerate (zero-area) triangles are counted.
+    let line = [
+        Vec4::new(0.0, 0.0, 0.5, 1.0),
+        Vec4::new(0.5, 0.5, 0.5, 1.0),
+        Vec4::new(1.0, 1.0, 0.5, 1.0),
+    ];
+    let s = p
+        .draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &line,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    assert_eq!(s.culled_degenerate, 1);
+    // Index errors, mismatched sizes, absurd sizes, missing mip level, thread count.
+    assert_eq!(
+        p.draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &line,
+            &[0, 1],
+            &ClipPassthrough,
+            &DepthOnly
+        ),
+        Err(PipelineError::BadIndexCount(2))
+    );
+    assert!(matches!(
+        p.draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &line,
+            &[0, 1, 7],
+            &ClipPassthrough,
+            &DepthOnly
+        ),
+        Err(PipelineError::IndexOutOfRange {
+            triangle: 0,
+            index: 7,
+            vertices: 3
+        })
+    ));
+    let mut c = Surface::new(32, 64, [0u8; 4]).unwrap();
+    let e = p.draw(
+        &mut Targets::color(&mut c).with_depth(&mut d),
+        &RenderState::default(),
+        &line,
+        &[0, 1, 2],
+        &ClipPassthrough,
+        &DepthOnly,
+    );
+    assert!(
+        matches!(e, Err(PipelineError::SizeMismatch { what: "depth", .. })),
+        "{e:?}"
+    );
+    assert!(Surface::new(0, 10, 0u8).is_err());
+    assert!(Surface::new(100_000, 10, 0u8).is_err());
+    let m = MipChain::build(Surface::new(4, 4, 1.0f32).unwrap(), surface::average_f32);
+    assert!(matches!(
+        sampler::sample_level(&m, glam::Vec2::ZERO, 9, sampler::Address::Clamp),
+        Err(PipelineError::BadMipLevel { level: 9, levels: 3 })
+    ));
+    assert!(Pipeline::new(100_000).is_err());
+    assert!(p
+        .draw(
+            &mut Targets::none(),
+            &RenderState::default(),
+            &line,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly
+        )
+        .is_err());
+}
+
+#[test]
+fn full_fragment_pool_is_an_error_and_leaves_lists_untouched() {
+    let verts = [
+        Vec4::new(-1.0, -1.0, 0.5, 1.0),
+        Vec4::new(3.0, -1.0, 0.5, 1.0),
+        Vec4::new(-1.0, 3.0, 0.5, 1.0),
+    ];
+    let mut lists = FragmentLists::new(16, 16, 100).unwrap();
+    let r = pipeline(2).draw(
+        &mut Targets::none().with_lists(&mut lists),
+        &RenderState::default(),
+        &verts,
+        &[0, 1, 2],
+        &ClipPassthrough,
+        &DepthOnly,
+    );
+    assert_eq!(
+        r,
+        Err(PipelineError::FragmentPoolFull {
+            capacity: 100,
+            needed: 256
+        })
+    );
+    assert!(lists.is_empty());
+    let mut lists = FragmentLists::new(16, 16, 512).unwrap();
+    let p = pipeline(2);
+    for _ in 0..2 {
+        p.draw(
+            &mut Targets::none().with_lists(&mut lists),
+            &RenderState::default(),
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    }
+    assert_eq!(lists.len(), 512);
+    assert!(
+        lists.iter(3, 3).map(|n| n.draw).eq([0, 1]),
+        "second draw appended behind the first"
+    );
+}
