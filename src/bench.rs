@@ -207,18 +207,7 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let ndl = n.normalize_or_zero().dot(self.to_light).max(0.0);
         let uv = Vec2::new(l.x * 0.5 + 0.5, 0.5 - l.y * 0.5);
         let shadow = match self.mode {
-            FrameMode::Pcf5 => {
-                let t = 1.0 / self.map.width() as f32;
-                let mut s = 0.0;
-                for j in -2..=2 {
-                    for i in -2..=2 {
-                        s += self
-                            .sampler
-                            .pcf2x2(self.map, uv + Vec2::new(i as f32, j as f32) * t, l.z);
-                    }
-                }
-                s * (1.0 / 25.0)
-            }
+            FrameMode::Pcf5 => self.sampler.pcf_grid(self.map, uv, l.z, 5),
             _ => self.sampler.pcf2x2(self.map, uv, l.z),
         };
         Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))

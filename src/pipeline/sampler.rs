@@ -158,6 +158,40 @@ impl CompareSampler {
     }
 }
 
+impl CompareSampler {
+    /// The sum of `n x n` hardware 2x2 comparisons on a grid of whole-texel offsets
+    /// (`-(n/2)..=n/2` texels in x and y), divided by `n^2`: a box-filtered PCF kernel of
+    /// `n + 1` texels with bilinear edges (RTR 7.5). All taps share one bilinear fraction, so
+    /// the sum collapses to `(n + 1)^2` comparisons with separable weights `1 - f, 1, ..., 1, f`
+    /// instead of `4 n^2`. `n` must be odd; `n = 1` is [`CompareSampler::pcf2x2`].
+    #[inline]
+    pub fn pcf_grid(&self, s: &Surface<f32>, uv: Vec2, reference: f32, n: u32) -> f32 {
+        if let Some(b) = self.border_for(uv) {
+            return b;
+        }
+        let (w, h) = (s.width() as i64, s.height() as i64);
+        let (x, y, fx, fy) = footprint((s.width(), s.height()), uv);
+        let r = (n / 2) as i64;
+        let d = s.data();
+        let mut sum = 0.0f32;
+        for j in 0..=n as i64 {
+            let wy = if j == 0 { 1.0 - fy } else if j == n as i64 { fy } else { 1.0 };
+            let yy = (y - r + j).clamp(0, h - 1) as usize;
+            let row = &d[yy * w as usize..(yy + 1) * w as usize];
+            let mut rs = 0.0f32;
+            for i in 0..=n as i64 {
+                let wx = if i == 0 { 1.0 - fx } else if i == n as i64 { fx } else { 1.0 };
+                let xx = (x - r + i).clamp(0, w - 1) as usize;
+                if self.func.test(reference, row[xx]) {
+                    rs += wx;
+                }
+            }
+            sum += wy * rs;
+        }
+        sum / (n * n) as f32
+    }
+}
+
 /// Bilinear lookup in mip level `level` (an error value for a level that does not exist).
 pub fn sample_level<T: Filterable>(
     m: &MipChain<T>,
@@ -200,6 +234,28 @@ mod tests {
         assert!((cs.pcf2x2(&s, Vec2::new(0.5, 0.5), 0.5) - 0.5).abs() < 1e-6);
         assert_eq!(cs.pcf2x2(&s, Vec2::new(0.25, 0.25), 0.5), 0.0);
         assert_eq!(cs.pcf2x2(&s, Vec2::new(1.5, 0.5), 0.5), 1.0);
+    }
+
+    #[test]
+    fn pcf_grid_equals_sum_of_2x2_taps() {
+        let data: Vec<f32> = (0..64 * 64).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
+        let s = Surface::from_vec(64, 64, data).unwrap();
+        let cs = CompareSampler::default();
+        for k in 0..50 {
+            let uv = Vec2::new(0.2 + 0.011 * k as f32, 0.7 - 0.009 * k as f32);
+            let reference = 0.3 + 0.01 * k as f32;
+            for n in [1u32, 3, 5] {
+                let r = (n / 2) as i32;
+                let mut taps = 0.0;
+                for j in -r..=r {
+                    for i in -r..=r {
+                        taps += cs.pcf2x2(&s, uv + Vec2::new(i as f32, j as f32) / 64.0, reference);
+                    }
+                }
+                let grid = cs.pcf_grid(&s, uv, reference, n);
+                assert!((grid - taps / (n * n) as f32).abs() < 1e-4, "n {n} uv {uv}: {grid} vs {}", taps / (n * n) as f32);
+            }
+        }
     }
 
     #[test]

@@ -29,30 +29,6 @@ pub fn check_size(width: u32, height: u32) -> Result<(), PipelineError> {
     Ok(())
 }
 
-/// Allocates `n` texels of `value`, asking Linux for transparent huge pages when the buffer is
-/// large (a texture fetch or a tile's rows then stay within few TLB entries). Contents are
-/// the same either way.
-fn alloc_filled<T: Texel>(n: usize, value: T) -> Vec<T> {
-    let mut v: Vec<T> = Vec::with_capacity(n);
-    #[cfg(target_os = "linux")]
-    {
-        let bytes = n * std::mem::size_of::<T>();
-        if bytes >= 4 << 20 {
-            let page = 4096usize;
-            let start = (v.as_mut_ptr() as usize).div_ceil(page) * page;
-            let end = (v.as_mut_ptr() as usize + bytes) / page * page;
-            if end > start {
-                // SAFETY: advisory call on memory this Vec owns; failure is harmless.
-                unsafe {
-                    libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
-                }
-            }
-        }
-    }
-    v.resize(n, value);
-    v
-}
-
 impl<T: Texel> Surface<T> {
     /// A `width` x `height` surface filled with `value`.
     ///
@@ -62,7 +38,7 @@ impl<T: Texel> Surface<T> {
         Ok(Surface {
             width,
             height,
-            data: alloc_filled(width as usize * height as usize, value),
+            data: vec![value; width as usize * height as usize],
         })
     }
 
