@@ -259,7 +259,7 @@ pub fn render_frame(
     let mut out = FrameTimes::default();
     // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
     let t0 = Instant::now();
-    t.shadow.fill(1.0);
+    p.clear(&mut t.shadow, 1.0);
     let state = RenderState {
         offset: PolygonOffset {
             factor: 1.1,
@@ -281,8 +281,8 @@ pub fn render_frame(
     }
     // Pass 2: camera view, colour + depth, shadowed Lambert.
     let t1 = Instant::now();
-    t.color.fill([13, 13, 20, 255]);
-    t.depth.fill(1.0);
+    p.clear(&mut t.color, [13, 13, 20, 255]);
+    p.clear(&mut t.depth, 1.0);
     let fs = CameraFs {
         map: &t.shadow,
         to_light: setup.to_light,

@@ -7,6 +7,7 @@
 //! - [`hash`]: stable hashing of outputs for golden tests.
 #![warn(missing_docs)]
 
+pub mod alloc;
 pub mod bench;
 pub mod hash;
 pub mod image_io;

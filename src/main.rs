@@ -90,6 +90,7 @@ struct RasterArgs {
 }
 
 fn main() -> ExitCode {
+    penumbra::alloc::keep_freed_memory();
     let cli = Cli::parse();
     let result = match cli.cmd {
         None => {
@@ -184,14 +185,7 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         );
     }
     println!("frame:      {mf:8.2} ms (median of {})", frame.len());
-    let per = 1e3 / st.draws.max(1) as f64;
-    println!(
-        "stages (mean per draw): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms, list merge {:.2} ms",
-        st.vertex * per,
-        st.setup_bin * per,
-        st.raster_fragment * per,
-        st.list_merge * per
-    );
+    print_stage_times(&st);
     println!("hash:       {hash:016x}");
     if let Some(dir) = &a.out {
         if a.mode != FrameMode::Depth {
@@ -262,6 +256,7 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
         stats = run(&mut color, &mut depth)?;
         times.push(t0.elapsed().as_secs_f64());
     }
+    let st = p.take_times();
     let s = median(&mut times);
     let mtri = a.triangles as f64 / s / 1e6;
     let gpix = stats.fragments_rasterized as f64 / s / 1e9;
@@ -279,6 +274,7 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
         s * 1e3,
         stats.fragments_rasterized
     );
+    print_stage_times(&st);
     if a.common.json {
         println!(
             "{{\"triangles\":{},\"area\":{},\"mode\":\"{}\",\"threads\":{},\"ms\":{:.4},\"mtri_per_s\":{mtri:.4},\"gpix_per_s\":{gpix:.4},\"hash\":\"{hash:016x}\"}}",
@@ -290,4 +286,15 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+fn print_stage_times(st: &StageTimes) {
+    let per = 1e3 / st.draws.max(1) as f64;
+    println!(
+        "stages (mean per draw): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms, list merge {:.2} ms",
+        st.vertex * per,
+        st.setup_bin * per,
+        st.raster_fragment * per,
+        st.list_merge * per
+    );
 }

@@ -6,7 +6,7 @@
 //! the chunks in order, which is the whole draw in submission order.
 
 use super::clip::{ClipVertex, Clipper};
-use super::setup::{setup_triangle, Rejected, SetupParams, SetupTri};
+use super::setup::{setup_triangle, Rejected, SetupParams, SetupTri, TriAttrs};
 use super::vertex::Varyings;
 use super::DrawStats;
 
@@ -65,7 +65,9 @@ impl TileGrid {
 /// The binned output of one chunk of triangles.
 pub struct Chunk<V> {
     /// Set-up triangles, in submission order.
-    pub tris: Vec<SetupTri<V>>,
+    pub tris: Vec<SetupTri>,
+    /// Their shading attributes (same order; empty when the varyings are empty).
+    pub attrs: Vec<TriAttrs<V>>,
     /// `ids[offsets[t]..offsets[t + 1]]` are the triangles (indices into `tris`) touching tile `t`.
     pub offsets: Vec<u32>,
     /// Triangle indices grouped by tile.
@@ -77,7 +79,7 @@ pub struct Chunk<V> {
 /// True if no pixel centre of `rect` can pass all edges (conservative: may keep a tile that
 /// ends up empty, never drops a covered one).
 #[inline]
-pub fn rect_rejected<V>(tri: &SetupTri<V>, rect: [i32; 4]) -> bool {
+pub fn rect_rejected(tri: &SetupTri, rect: [i32; 4]) -> bool {
     let (x0, y0, x1, y1) = (rect[0] as i64, rect[1] as i64, rect[2] as i64, rect[3] as i64);
     tri.edges.iter().any(|e| {
         let x = if e.dx > 0 { x1 } else { x0 };
@@ -89,6 +91,7 @@ pub fn rect_rejected<V>(tri: &SetupTri<V>, rect: [i32; 4]) -> bool {
 /// Stages 2-4 for triangles `first..first + count` of an indexed list: assemble, drop
 /// non-finite ones, clip, set up, bin.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 pub fn process_chunk<V: Varyings>(
     verts: &[ClipVertex<V>],
     finite: &[bool],
@@ -100,11 +103,18 @@ pub fn process_chunk<V: Varyings>(
     grid: &TileGrid,
 ) -> Chunk<V> {
     let mut stats = DrawStats::default();
-    let mut tris: Vec<SetupTri<V>> = Vec::with_capacity(count);
+    let mut tris: Vec<SetupTri> = Vec::with_capacity(count);
+    let mut attrs: Vec<TriAttrs<V>> = Vec::with_capacity(if V::EMPTY { 0 } else { count });
     let mut poly = Vec::with_capacity(12);
     let mut tmp = Vec::with_capacity(12);
-    let push = |r: Result<SetupTri<V>, Rejected>, stats: &mut DrawStats, tris: &mut Vec<SetupTri<V>>| match r {
-        Ok(t) => tris.push(t),
+    type Out<'a, V> = (&'a mut Vec<SetupTri>, &'a mut Vec<TriAttrs<V>>);
+    let push = |r: Result<(SetupTri, TriAttrs<V>), Rejected>, stats: &mut DrawStats, out: Out<'_, V>| match r {
+        Ok((t, a)) => {
+            out.0.push(t);
+            if !V::EMPTY {
+                out.1.push(a);
+            }
+        }
         Err(Rejected::Degenerate) => stats.culled_degenerate += 1,
         Err(Rejected::Culled) => stats.culled_backface += 1,
         Err(Rejected::Outside) => stats.culled_outside += 1,
@@ -133,7 +143,7 @@ pub fn process_chunk<V: Varyings>(
         }
         let mask = c[0] | c[1] | c[2];
         if mask == 0 {
-            push(setup_triangle(params, tri, t as u32), &mut stats, &mut tris);
+            push(setup_triangle(params, tri, t as u32), &mut stats, (&mut tris, &mut attrs));
             continue;
         }
         stats.clipped += 1;
@@ -147,7 +157,7 @@ pub fn process_chunk<V: Varyings>(
             push(
                 setup_triangle(params, [poly[0], poly[k], poly[k + 1]], t as u32),
                 &mut stats,
-                &mut tris,
+                (&mut tris, &mut attrs),
             );
         }
     }
@@ -186,6 +196,7 @@ pub fn process_chunk<V: Varyings>(
     stats.triangles_setup += tris.len() as u64;
     Chunk {
         tris,
+        attrs,
         offsets,
         ids,
         stats,

@@ -10,7 +10,7 @@
 
 use super::lists::{ListNode, NONE};
 use super::raster::{raster_tile, TileMask};
-use super::setup::SetupTri;
+use super::bin::Chunk;
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::DrawStats;
@@ -33,10 +33,13 @@ impl ColorFormat for [u8; 4] {
     fn to_vec4(self) -> Vec4 {
         Vec4::new(self[0] as f32, self[1] as f32, self[2] as f32, self[3] as f32) * (1.0 / 255.0)
     }
+    /// Round to nearest (ties to even) of `clamp(v, 0, 1) * 255`; NaN becomes 0.
     #[inline(always)]
     fn from_vec4(v: Vec4) -> Self {
-        let q = (v.clamp(Vec4::ZERO, Vec4::ONE) * 255.0 + Vec4::splat(0.5)).to_array();
-        [q[0] as u8, q[1] as u8, q[2] as u8, q[3] as u8]
+        // Adding 2^23 leaves the rounded integer in the low mantissa bits: no saturating
+        // float-to-int conversion (which costs more than the rest of the store).
+        let c = |x: f32| ((x.max(0.0).min(1.0) * 255.0 + 8_388_608.0).to_bits() & 0xff) as u8;
+        [c(v.x), c(v.y), c(v.z), c(v.w)]
     }
 }
 
@@ -192,6 +195,45 @@ pub(crate) struct TileLists {
     pub overflow: u64,
 }
 
+/// Asks the memory system for every cache line of a tile's rows at once. Rows of a target lie
+/// a whole row apart (usually in different pages), which defeats hardware prefetchers; issuing
+/// all misses together overlaps their latency instead of paying it line by line.
+#[inline(always)]
+fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let bytes = (rect[2] - rect[0] + 1) as usize * std::mem::size_of::<T>();
+        for y in rect[1]..=rect[3] {
+            // SAFETY: addresses inside the target; prefetch never faults.
+            let row = unsafe { s.ptr.add(y as usize * s.stride + rect[0] as usize) } as *const i8;
+            let mut off = 0;
+            while off < bytes {
+                unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(row.wrapping_add(off)) };
+                off += 64;
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (s, rect);
+}
+
+/// Prefetches the cache lines of one value.
+#[inline(always)]
+fn prefetch<T>(v: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = v as *const T as *const i8;
+        let mut off = 0;
+        while off < std::mem::size_of::<T>() {
+            // SAFETY: prefetch never faults.
+            unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(off)) };
+            off += 64;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = v;
+}
+
 /// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
 /// Returns the number of fragments that passed.
 #[inline(always)]
@@ -222,8 +264,10 @@ fn depth_span(
 /// Fragment depth is `((c + dz/dy * ly) + offset) + dz/dx * lx` at tile-local pixel (lx, ly),
 /// then clamped to [0, 1] and quantized to the depth format; every path uses this one formula.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
-    tris: impl Iterator<Item = &'a SetupTri<V>>,
+#[inline(never)]
+pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    chunks: &[Chunk<V>],
+    tile: usize,
     rect: [i32; 4],
     state: &RenderState,
     targets: &RawTargets<C>,
@@ -248,8 +292,25 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
     let mask = state.color_mask.0;
     let full_mask = mask == [true; 4];
     let mut cover = TileMask::default();
+    if let Some(d) = targets.depth.as_ref() {
+        prefetch_rows(d, rect);
+    }
+    if let Some(c) = targets.color.as_ref() {
+        prefetch_rows(c, rect);
+    }
 
-    for tri in tris {
+    // The tile's triangles, in submission order: chunk by chunk, each chunk's tile list.
+    let tris = chunks.iter().flat_map(|c| {
+        let ids = &c.ids[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
+        ids.iter().enumerate().map(move |(k, &i)| {
+            // Triangle data is read in index order but scattered: ask for a later one early.
+            if let Some(&next) = ids.get(k + 4) {
+                prefetch(&c.tris[next as usize]);
+            }
+            (&c.tris[i as usize], c.attrs.get(i as usize))
+        })
+    });
+    for (tri, attrs) in tris {
         // Stage 5: coverage mask of this triangle in this tile.
         let emitted = raster_tile(tri, rect, &mut cover);
         stats.fragments_rasterized += emitted;
@@ -286,14 +347,17 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
             continue;
         }
 
-        let persp = if V::EMPTY || !needs_shading {
-            [zp; 3]
-        } else {
-            [
-                tri.persp[0].at_origin(ox as i64, oy as i64),
-                tri.persp[1].at_origin(ox as i64, oy as i64),
-                tri.persp[2].at_origin(ox as i64, oy as i64),
-            ]
+        let (persp, var) = match attrs {
+            Some(a) if needs_shading => (
+                [
+                    a.persp[0].at_origin(ox as i64, oy as i64),
+                    a.persp[1].at_origin(ox as i64, oy as i64),
+                    a.persp[2].at_origin(ox as i64, oy as i64),
+                ],
+                a.var,
+            ),
+            // Empty varyings: any value of V is the value.
+            _ => ([zp; 3], [V::default(); 3]),
         };
         let face = if tri.front { st.front } else { st.back };
         // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
@@ -313,12 +377,12 @@ pub(crate) fn shade_tile<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat>
                 let shade = |stats: &mut DrawStats| -> Option<Vec4> {
                     stats.fragments_shaded += 1;
                     let var = if V::EMPTY {
-                        tri.var[0]
+                        var[0]
                     } else {
-                        let iw = persp[0].at(lx, ly);
-                        let b1 = persp[1].at(lx, ly) / iw;
-                        let b2 = persp[2].at(lx, ly) / iw;
-                        V::combine(&tri.var[0], &tri.var[1], &tri.var[2], [1.0 - b1 - b2, b1, b2])
+                        let w = 1.0 / persp[0].at(lx, ly);
+                        let b1 = persp[1].at(lx, ly) * w;
+                        let b2 = persp[2].at(lx, ly) * w;
+                        V::combine(&var[0], &var[1], &var[2], [1.0 - b1 - b2, b1, b2])
                     };
                     program.shade(&Fragment {
                         x: x as u32,

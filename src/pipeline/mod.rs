@@ -54,7 +54,7 @@ use setup::SetupParams;
 use std::fmt;
 
 /// Chunks set up and binned before their tiles are rasterized (bounds memory per draw).
-const CHUNKS_PER_BATCH: usize = 4;
+const CHUNKS_PER_BATCH: usize = 64;
 
 /// Everything that can go wrong in the pipeline, as a value (never a panic).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -365,6 +365,12 @@ impl Pipeline {
         std::mem::take(&mut *self.times.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
+    /// Fills a surface with `value` on the pipeline's workers (a render-target clear).
+    pub fn clear<T: surface::Texel>(&self, s: &mut Surface<T>, value: T) {
+        let w = s.width() as usize;
+        self.pool.install(|| s.data_mut().par_chunks_mut(w * 16).for_each(|c| c.fill(value)));
+    }
+
     /// Runs `f` on the pipeline's workers (for compute passes that use rayon).
     pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
         self.pool.install(f)
@@ -472,12 +478,7 @@ impl Pipeline {
                     .map(|&t| {
                         let mut s = DrawStats::default();
                         let mut l = TileLists::default();
-                        let tris = chunks.iter().flat_map(|c| {
-                            c.ids[c.offsets[t] as usize..c.offsets[t + 1] as usize]
-                                .iter()
-                                .map(move |&i| &c.tris[i as usize])
-                        });
-                        shade_tile(tris, grid.rect(t), state, &raw, fp, &mut s, &mut l);
+                        shade_tile(&chunks, t, grid.rect(t), state, &raw, fp, &mut s, &mut l);
                         (s, l)
                     })
                     .collect();

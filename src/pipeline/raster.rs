@@ -86,7 +86,7 @@ fn span_bits(a: i32, b: i32) -> u64 {
 
 /// Computes the coverage of `tri` inside the tile whose inclusive pixel rectangle is `rect`
 /// (origin `rect[0], rect[1]`) into `mask`. Returns the number of covered pixels.
-pub fn raster_tile<V>(tri: &SetupTri<V>, rect: [i32; 4], mask: &mut TileMask) -> u64 {
+pub fn raster_tile(tri: &SetupTri, rect: [i32; 4], mask: &mut TileMask) -> u64 {
     let x0 = tri.bbox[0].max(rect[0]);
     let y0 = tri.bbox[1].max(rect[1]);
     let x1 = tri.bbox[2].min(rect[2]);

@@ -95,9 +95,9 @@ impl TilePlane {
     }
 }
 
-/// A triangle ready to rasterize.
+/// A triangle ready to rasterize (what coverage and depth need: two cache lines).
 #[derive(Copy, Clone, Debug)]
-pub struct SetupTri<V> {
+pub struct SetupTri {
     /// Edge functions (fill rule or conservative shift already folded into `c`).
     pub edges: [Edge; 3],
     /// Inclusive pixel bounding box `[x0, y0, x1, y1]`, clipped to the viewport.
@@ -106,14 +106,19 @@ pub struct SetupTri<V> {
     pub z: Plane,
     /// Polygon offset added to every fragment's depth.
     pub z_offset: f32,
-    /// `1/w`, `b1/w`, `b2/w` for perspective-correct barycentrics (unused when `V` is empty).
-    pub persp: [Plane; 3],
-    /// Varyings at the three vertices (after the winding swap).
-    pub var: [V; 3],
     /// Triangle faces the viewer (per [`FrontFace`]).
     pub front: bool,
     /// Index of the source triangle in the draw.
     pub prim: u32,
+}
+
+/// What only shading needs, stored apart from [`SetupTri`] so depth-only passes never load it.
+#[derive(Copy, Clone, Debug)]
+pub struct TriAttrs<V> {
+    /// `1/w`, `b1/w`, `b2/w` for perspective-correct barycentrics.
+    pub persp: [Plane; 3],
+    /// Varyings at the three vertices (after the winding swap).
+    pub var: [V; 3],
 }
 
 /// Why setup produced no triangle.
@@ -164,7 +169,7 @@ impl SetupParams {
 }
 
 /// Sets up one (clipped) triangle.
-pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim: u32) -> Result<SetupTri<V>, Rejected> {
+pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim: u32) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
     // Viewport transform: NDC y up -> window y down; depth z/w.
     let hw = p.width as f64 * 0.5;
     let hh = p.height as f64 * 0.5;
@@ -287,14 +292,8 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
     } else {
         0.0
     };
-    Ok(SetupTri {
-        edges,
-        bbox: [bx0 as i32, by0 as i32, bx1 as i32, by1 as i32],
-        z,
-        z_offset,
-        persp,
-        var: [v[order[0]].var, v[order[1]].var, v[order[2]].var],
-        front,
-        prim,
-    })
+    Ok((
+        SetupTri { edges, bbox: [bx0 as i32, by0 as i32, bx1 as i32, by1 as i32], z, z_offset, front, prim },
+        TriAttrs { persp, var: [v[order[0]].var, v[order[1]].var, v[order[2]].var] },
+    ))
 }

@@ -6,7 +6,7 @@
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// Values interpolated across a triangle (perspective-correct).
-pub trait Varyings: Copy + Send + Sync + 'static {
+pub trait Varyings: Copy + Default + Send + Sync + 'static {
     /// `a * w[0] + b * w[1] + c * w[2]`.
     fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self;
     /// `a + (b - a) * t`, used by the clipper.
@@ -35,12 +35,17 @@ macro_rules! linear_varyings {
 }
 linear_varyings!(f32, Vec2, Vec3, Vec4);
 
-impl<const N: usize> Varyings for [f32; N] {
-    #[inline(always)]
-    fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self {
-        std::array::from_fn(|i| a[i] * w[0] + b[i] * w[1] + c[i] * w[2])
-    }
+macro_rules! array_varyings {
+    ($($n:literal),*) => {$(
+        impl Varyings for [f32; $n] {
+            #[inline(always)]
+            fn combine(a: &Self, b: &Self, c: &Self, w: [f32; 3]) -> Self {
+                std::array::from_fn(|i| a[i] * w[0] + b[i] * w[1] + c[i] * w[2])
+            }
+        }
+    )*};
 }
+array_varyings!(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16);
 
 impl<A: Varyings, B: Varyings> Varyings for (A, B) {
     #[inline(always)]
