@@ -209,25 +209,56 @@ proptest! {
         }
     }
 
+    /// The same for small triangles (under 32 pixels: the rasterizer's `i32` path), placed
+    /// across tile corners and the target's edges.
+    #[test]
+    fn conservative_modes_are_exact_for_small_triangles(c in (-4096i64..69632, -4096i64..69632), d in proptest::array::uniform3((-4000i64..4000, -4000i64..4000))) {
+        let t = [(c.0 + d[0].0, c.1 + d[0].1), (c.0 + d[1].0, c.1 + d[1].1), (c.0 + d[2].0, c.1 + d[2].1)];
+        check_modes(t)?;
+    }
+
     /// Overestimate equals the exact "square touches triangle" test and contains standard
     /// coverage; underestimate equals the exact "square inside triangle" test.
     #[test]
     fn conservative_modes_are_exact(t in fixed_tri()) {
-        prop_assume!(orient(t[0], t[1], t[2]) != 0);
-        let p = pipeline(2);
-        let (std_c, _) = coverage(&p, &[t], RasterMode::Standard);
-        let (over, _) = coverage(&p, &[t], RasterMode::Overestimate);
-        let (under, _) = coverage(&p, &[t], RasterMode::Underestimate);
-        for py in 0..H as i64 {
-            for px in 0..W as i64 {
-                let (s, o, u) = (std_c.at(px as u32, py as u32), over.at(px as u32, py as u32), under.at(px as u32, py as u32));
-                prop_assert_eq!(o == 1.0, square_touches(&t, px, py), "overestimate at ({}, {})", px, py);
-                prop_assert_eq!(u == 1.0, square_inside(&t, px, py), "underestimate at ({}, {})", px, py);
-                prop_assert!(s <= o && u <= s, "standard not between under and over at ({}, {})", px, py);
-                if s == 1.0 { prop_assert!(in_closed_tri(&t, center(px, py))); }
+        check_modes(t)?;
+    }
+
+}
+
+fn check_modes(t: [(i64, i64); 3]) -> Result<(), TestCaseError> {
+    if orient(t[0], t[1], t[2]) == 0 {
+        return Ok(());
+    }
+    let p = pipeline(2);
+    let (std_c, _) = coverage(&p, &[t], RasterMode::Standard);
+    let (over, _) = coverage(&p, &[t], RasterMode::Overestimate);
+    let (under, _) = coverage(&p, &[t], RasterMode::Underestimate);
+    for py in 0..H as i64 {
+        for px in 0..W as i64 {
+            let (s, o, u) = (
+                std_c.at(px as u32, py as u32),
+                over.at(px as u32, py as u32),
+                under.at(px as u32, py as u32),
+            );
+            prop_assert_eq!(o == 1.0, square_touches(&t, px, py), "overestimate at ({}, {})", px, py);
+            prop_assert_eq!(u == 1.0, square_inside(&t, px, py), "underestimate at ({}, {})", px, py);
+            prop_assert!(
+                s <= o && u <= s,
+                "standard not between under and over at ({}, {})",
+                px,
+                py
+            );
+            if s == 1.0 {
+                prop_assert!(in_closed_tri(&t, center(px, py)));
             }
         }
     }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     /// Lists hold exactly the fragments that passed, each pixel's list in submission order,
     /// identically for 1 and 3 threads.
@@ -928,4 +959,20 @@ fn full_fragment_pool_is_an_error_and_leaves_lists_untouched() {
         lists.iter(3, 3).map(|n| n.draw).eq([0, 1]),
         "second draw appended behind the first"
     );
+}
+
+#[test]
+fn unorm8_store_rounds_to_nearest_and_saturates() {
+    let c = |v: f32| <Rgba8 as ColorFormat>::from_vec4(Vec4::splat(v))[0];
+    assert_eq!(c(0.0), 0);
+    assert_eq!(c(1.0), 255);
+    assert_eq!(c(2.0), 255);
+    assert_eq!(c(-1.0), 0);
+    assert_eq!(c(f32::NAN), 0);
+    assert_eq!(c(0.4 / 255.0), 0);
+    assert_eq!(c(0.6 / 255.0), 1);
+    assert_eq!(c(127.4 / 255.0), 127);
+    for i in 0..=255u8 {
+        assert_eq!(c(i as f32 / 255.0), i, "round trip of {i}");
+    }
 }

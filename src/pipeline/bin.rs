@@ -143,7 +143,11 @@ pub fn process_chunk<V: Varyings>(
         }
         let mask = c[0] | c[1] | c[2];
         if mask == 0 {
-            push(setup_triangle(params, tri, t as u32), &mut stats, (&mut tris, &mut attrs));
+            push(
+                setup_triangle(params, tri, t as u32),
+                &mut stats,
+                (&mut tris, &mut attrs),
+            );
             continue;
         }
         stats.clipped += 1;

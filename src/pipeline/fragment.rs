@@ -8,9 +8,9 @@
 //! tests before the program when the program cannot discard (so killed fragments are never
 //! shaded); the result is identical to the late path.
 
+use super::bin::Chunk;
 use super::lists::{ListNode, NONE};
 use super::raster::{raster_tile, TileMask};
-use super::bin::Chunk;
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::DrawStats;

@@ -368,7 +368,8 @@ impl Pipeline {
     /// Fills a surface with `value` on the pipeline's workers (a render-target clear).
     pub fn clear<T: surface::Texel>(&self, s: &mut Surface<T>, value: T) {
         let w = s.width() as usize;
-        self.pool.install(|| s.data_mut().par_chunks_mut(w * 16).for_each(|c| c.fill(value)));
+        self.pool
+            .install(|| s.data_mut().par_chunks_mut(w * 16).for_each(|c| c.fill(value)));
     }
 
     /// Runs `f` on the pipeline's workers (for compute passes that use rayon).

@@ -105,21 +105,24 @@ pub fn raster_tile(tri: &SetupTri, rect: [i32; 4], mask: &mut TileMask) -> u64 {
     let e = &tri.edges;
     let mut n = 0u64;
     // Small triangles: a hierarchy level costs more than it saves; test every pixel of the
-    // (at most 16 x 16) bounding box, building each row's bits without branches.
-    if x1 - x0 < 16 && y1 - y0 < 16 {
+    // (at most 16 x 16) box. The triangle spans under 32 pixels, so every edge value within its
+    // bounding box is below 2^28 in magnitude and the test runs on 16 lanes of `i32`.
+    if tri.small && x1 - x0 < 16 && y1 - y0 < 16 {
+        let dx = [e[0].dx as i32, e[1].dx as i32, e[2].dx as i32];
+        let lane: [i32; 16] = std::array::from_fn(|i| i as i32);
+        let width_mask = span_bits(0, x1 - x0) as u32;
         for y in y0..=y1 {
-            let mut e0 = e[0].at(x0 as i64, y as i64);
-            let mut e1 = e[1].at(x0 as i64, y as i64);
-            let mut e2 = e[2].at(x0 as i64, y as i64);
-            let mut bits = 0u64;
-            for i in 0..=(x1 - x0) {
-                bits |= (((e0 | e1 | e2) >= 0) as u64) << i;
-                e0 += e[0].dx;
-                e1 += e[1].dx;
-                e2 += e[2].dx;
+            let b0 = e[0].at(x0 as i64, y as i64) as i32;
+            let b1 = e[1].at(x0 as i64, y as i64) as i32;
+            let b2 = e[2].at(x0 as i64, y as i64) as i32;
+            let mut bits = 0u32;
+            for i in 0..16 {
+                let v = (b0 + dx[0] * lane[i]) | (b1 + dx[1] * lane[i]) | (b2 + dx[2] * lane[i]);
+                bits |= ((v >= 0) as u32) << i;
             }
+            bits &= width_mask;
             n += bits.count_ones() as u64;
-            mask.rows[(y - oy) as usize] = bits << (x0 - ox);
+            mask.rows[(y - oy) as usize] = (bits as u64) << (x0 - ox);
         }
         return n;
     }

@@ -175,12 +175,24 @@ impl CompareSampler {
         let d = s.data();
         let mut sum = 0.0f32;
         for j in 0..=n as i64 {
-            let wy = if j == 0 { 1.0 - fy } else if j == n as i64 { fy } else { 1.0 };
+            let wy = if j == 0 {
+                1.0 - fy
+            } else if j == n as i64 {
+                fy
+            } else {
+                1.0
+            };
             let yy = (y - r + j).clamp(0, h - 1) as usize;
             let row = &d[yy * w as usize..(yy + 1) * w as usize];
             let mut rs = 0.0f32;
             for i in 0..=n as i64 {
-                let wx = if i == 0 { 1.0 - fx } else if i == n as i64 { fx } else { 1.0 };
+                let wx = if i == 0 {
+                    1.0 - fx
+                } else if i == n as i64 {
+                    fx
+                } else {
+                    1.0
+                };
                 let xx = (x - r + i).clamp(0, w - 1) as usize;
                 if self.func.test(reference, row[xx]) {
                     rs += wx;
@@ -253,7 +265,11 @@ mod tests {
                     }
                 }
                 let grid = cs.pcf_grid(&s, uv, reference, n);
-                assert!((grid - taps / (n * n) as f32).abs() < 1e-4, "n {n} uv {uv}: {grid} vs {}", taps / (n * n) as f32);
+                assert!(
+                    (grid - taps / (n * n) as f32).abs() < 1e-4,
+                    "n {n} uv {uv}: {grid} vs {}",
+                    taps / (n * n) as f32
+                );
             }
         }
     }

@@ -110,7 +110,13 @@ pub struct SetupTri {
     pub front: bool,
     /// Index of the source triangle in the draw.
     pub prim: u32,
+    /// Every edge spans less than [`SMALL_EXTENT`] pixels in x and y, so edge values over the
+    /// triangle's bounding box fit in `i32` (the rasterizer's small-triangle path).
+    pub small: bool,
 }
+
+/// Extent (pixels) below which a triangle is "small" (see [`SetupTri::small`]).
+pub const SMALL_EXTENT: i64 = 32;
 
 /// What only shading needs, stored apart from [`SetupTri`] so depth-only passes never load it.
 #[derive(Copy, Clone, Debug)]
@@ -169,7 +175,11 @@ impl SetupParams {
 }
 
 /// Sets up one (clipped) triangle.
-pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim: u32) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
+pub fn setup_triangle<V: Varyings>(
+    p: &SetupParams,
+    v: [ClipVertex<V>; 3],
+    prim: u32,
+) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
     // Viewport transform: NDC y up -> window y down; depth z/w.
     let hw = p.width as f64 * 0.5;
     let hh = p.height as f64 * 0.5;
@@ -293,7 +303,18 @@ pub fn setup_triangle<V: Varyings>(p: &SetupParams, v: [ClipVertex<V>; 3], prim:
         0.0
     };
     Ok((
-        SetupTri { edges, bbox: [bx0 as i32, by0 as i32, bx1 as i32, by1 as i32], z, z_offset, front, prim },
-        TriAttrs { persp, var: [v[order[0]].var, v[order[1]].var, v[order[2]].var] },
+        SetupTri {
+            edges,
+            bbox: [bx0 as i32, by0 as i32, bx1 as i32, by1 as i32],
+            z,
+            z_offset,
+            front,
+            prim,
+            small: xmax - xmin < SMALL_EXTENT * ONE && ymax - ymin < SMALL_EXTENT * ONE,
+        },
+        TriAttrs {
+            persp,
+            var: [v[order[0]].var, v[order[1]].var, v[order[2]].var],
+        },
     ))
 }
