@@ -91,6 +91,13 @@ struct RasterArgs {
 
 fn main() -> ExitCode {
     penumbra::alloc::keep_freed_memory();
+    // Output piped into `head` and closed early: exit quietly like other command-line tools,
+    // instead of panicking on the failed write.
+    #[cfg(target_os = "linux")]
+    // SAFETY: restoring the default disposition of a signal at start-up.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.cmd {
         None => {

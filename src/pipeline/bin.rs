@@ -64,14 +64,14 @@ impl TileGrid {
 
 /// The binned output of one chunk of triangles.
 pub struct Chunk<V> {
-    /// Set-up triangles, in submission order.
-    pub tris: Vec<SetupTri>,
-    /// Their shading attributes (same order; empty when the varyings are empty).
+    /// Shading attributes of the chunk's triangles, in submission order (indexed by
+    /// [`SetupTri::attr`]; empty when the varyings are empty).
     pub attrs: Vec<TriAttrs<V>>,
-    /// `ids[offsets[t]..offsets[t + 1]]` are the triangles (indices into `tris`) touching tile `t`.
+    /// `binned[offsets[t]..offsets[t + 1]]` are the triangles touching tile `t`.
     pub offsets: Vec<u32>,
-    /// Triangle indices grouped by tile.
-    pub ids: Vec<u32>,
+    /// Copies of the set-up triangles grouped by tile, each group in submission order: a tile
+    /// reads its triangles sequentially (streamed by the hardware prefetcher).
+    pub binned: Vec<SetupTri>,
     /// Counters of stages 2 to 4.
     pub stats: DrawStats,
 }
@@ -109,7 +109,8 @@ pub fn process_chunk<V: Varyings>(
     let mut tmp = Vec::with_capacity(12);
     type Out<'a, V> = (&'a mut Vec<SetupTri>, &'a mut Vec<TriAttrs<V>>);
     let push = |r: Result<(SetupTri, TriAttrs<V>), Rejected>, stats: &mut DrawStats, out: Out<'_, V>| match r {
-        Ok((t, a)) => {
+        Ok((mut t, a)) => {
+            t.attr = out.0.len() as u32;
             out.0.push(t);
             if !V::EMPTY {
                 out.1.push(a);
@@ -190,19 +191,20 @@ pub fn process_chunk<V: Varyings>(
     for t in 0..ntiles {
         offsets[t + 1] += offsets[t];
     }
-    let mut ids = vec![0u32; pairs.len()];
+    let mut binned = Vec::with_capacity(pairs.len());
+    // Fill in tile order: every slot is written exactly once by the counting sort.
+    binned.resize(pairs.len(), tris.first().copied().unwrap_or_else(SetupTri::empty));
     let mut cursor = offsets.clone();
     for (t, i) in pairs {
-        ids[cursor[t as usize] as usize] = i;
+        binned[cursor[t as usize] as usize] = tris[i as usize];
         cursor[t as usize] += 1;
     }
-    stats.bin_entries += ids.len() as u64;
+    stats.bin_entries += binned.len() as u64;
     stats.triangles_setup += tris.len() as u64;
     Chunk {
-        tris,
         attrs,
         offsets,
-        ids,
+        binned,
         stats,
     }
 }

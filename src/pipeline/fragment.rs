@@ -217,23 +217,6 @@ fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
     let _ = (s, rect);
 }
 
-/// Prefetches the cache lines of one value.
-#[inline(always)]
-fn prefetch<T>(v: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let p = v as *const T as *const i8;
-        let mut off = 0;
-        while off < std::mem::size_of::<T>() {
-            // SAFETY: prefetch never faults.
-            unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(off)) };
-            off += 64;
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = v;
-}
-
 /// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
 /// Returns the number of fragments that passed.
 #[inline(always)]
@@ -301,14 +284,9 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 
     // The tile's triangles, in submission order: chunk by chunk, each chunk's tile list.
     let tris = chunks.iter().flat_map(|c| {
-        let ids = &c.ids[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
-        ids.iter().enumerate().map(move |(k, &i)| {
-            // Triangle data is read in index order but scattered: ask for a later one early.
-            if let Some(&next) = ids.get(k + 4) {
-                prefetch(&c.tris[next as usize]);
-            }
-            (&c.tris[i as usize], c.attrs.get(i as usize))
-        })
+        c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize]
+            .iter()
+            .map(move |t| (t, c.attrs.get(t.attr as usize)))
     });
     for (tri, attrs) in tris {
         // Stage 5: coverage mask of this triangle in this tile.

@@ -113,6 +113,24 @@ pub struct SetupTri {
     /// Every edge spans less than [`SMALL_EXTENT`] pixels in x and y, so edge values over the
     /// triangle's bounding box fit in `i32` (the rasterizer's small-triangle path).
     pub small: bool,
+    /// Index of its [`TriAttrs`] in its chunk.
+    pub attr: u32,
+}
+
+impl SetupTri {
+    /// A triangle that covers nothing (filler for buffers).
+    pub fn empty() -> SetupTri {
+        SetupTri {
+            edges: [Edge { dx: 0, dy: 0, c: -1 }; 3],
+            bbox: [0, 0, -1, -1],
+            z: Plane::default(),
+            z_offset: 0.0,
+            front: true,
+            prim: 0,
+            small: true,
+            attr: 0,
+        }
+    }
 }
 
 /// Extent (pixels) below which a triangle is "small" (see [`SetupTri::small`]).
@@ -311,6 +329,7 @@ pub fn setup_triangle<V: Varyings>(
             front,
             prim,
             small: xmax - xmin < SMALL_EXTENT * ONE && ymax - ymin < SMALL_EXTENT * ONE,
+            attr: 0,
         },
         TriAttrs {
             persp,
