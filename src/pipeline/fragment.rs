@@ -38,6 +38,8 @@ impl ColorFormat for [u8; 4] {
     fn from_vec4(v: Vec4) -> Self {
         // Adding 2^23 leaves the rounded integer in the low mantissa bits: no saturating
         // float-to-int conversion (which costs more than the rest of the store).
+        // `max` first maps NaN to 0 (`clamp` would keep the NaN).
+        #[allow(clippy::manual_clamp)]
         let c = |x: f32| ((x.max(0.0).min(1.0) * 255.0 + 8_388_608.0).to_bits() & 0xff) as u8;
         [c(v.x), c(v.y), c(v.z), c(v.w)]
     }

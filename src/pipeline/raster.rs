@@ -116,8 +116,8 @@ pub fn raster_tile(tri: &SetupTri, rect: [i32; 4], mask: &mut TileMask) -> u64 {
             let b1 = e[1].at(x0 as i64, y as i64) as i32;
             let b2 = e[2].at(x0 as i64, y as i64) as i32;
             let mut bits = 0u32;
-            for i in 0..16 {
-                let v = (b0 + dx[0] * lane[i]) | (b1 + dx[1] * lane[i]) | (b2 + dx[2] * lane[i]);
+            for (i, &l) in lane.iter().enumerate() {
+                let v = (b0 + dx[0] * l) | (b1 + dx[1] * l) | (b2 + dx[2] * l);
                 bits |= ((v >= 0) as u32) << i;
             }
             bits &= width_mask;
