@@ -45,6 +45,13 @@ fn spheres_frame_golden_hashes() {
 /// Update only for an intended change of output, and say why in the commit.
 const GOLDEN: (u64, u64) = (0x33debed663345248, 0x8d70394d0a3f28c2);
 
+/// Runs `run` with 1, 2 and 4 threads and checks the results are equal.
+fn same_for_1_2_4_threads<T: PartialEq + std::fmt::Debug>(run: impl Fn(usize) -> T) {
+    let one = run(1);
+    assert_eq!(one, run(2), "1 vs 2 threads");
+    assert_eq!(one, run(4), "1 vs 4 threads");
+}
+
 #[test]
 fn random_triangles_identical_across_threads() {
     let (verts, idx) = random_triangles(20_000, 60.0, 640, 360, 7);
@@ -68,9 +75,7 @@ fn random_triangles_identical_across_threads() {
             .unwrap();
         (hash_rgba8(c.data()), hash_f32(d.data()), s)
     };
-    let one = run(1);
-    assert_eq!(one, run(2));
-    assert_eq!(one, run(4));
+    same_for_1_2_4_threads(run);
 }
 
 #[test]
@@ -122,7 +127,5 @@ fn lists_and_stencil_identical_across_threads() {
             .collect();
         (nodes, st.data().to_vec(), s)
     };
-    let one = run(1);
-    assert_eq!(one, run(2));
-    assert_eq!(one, run(4));
+    same_for_1_2_4_threads(run);
 }

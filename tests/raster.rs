@@ -108,6 +108,24 @@ fn center(px: i64, py: i64) -> (i64, i64) {
     (px * 256 + 128, py * 256 + 128)
 }
 
+/// Draws clip-space triangles into a depth target only.
+fn draw_depth(
+    p: &Pipeline,
+    depth: &mut Surface<f32>,
+    state: RenderState,
+    verts: &[Vec4],
+    idx: &[u32],
+) -> Result<DrawStats, PipelineError> {
+    p.draw(
+        &mut Targets::depth_only(depth),
+        &state,
+        verts,
+        idx,
+        &ClipPassthrough,
+        &DepthOnly,
+    )
+}
+
 fn pipeline(threads: usize) -> Pipeline {
     Pipeline::new(threads).unwrap()
 }
@@ -466,19 +484,17 @@ fn depth_clamp_keeps_geometry_beyond_the_far_plane() {
         func: CompareFunc::LessEqual,
         ..Default::default()
     };
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut depth),
-            &RenderState {
-                depth: le,
-                ..Default::default()
-            },
-            &verts,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(
+        &p,
+        &mut depth,
+        RenderState {
+            depth: le,
+            ..Default::default()
+        },
+        &verts,
+        &[0, 1, 2],
+    )
+    .unwrap();
     assert_eq!(s.fragments_rasterized, 0, "without clamp the far plane clips it away");
     depth.fill(0.75);
     let clamp = DepthState {
@@ -486,19 +502,17 @@ fn depth_clamp_keeps_geometry_beyond_the_far_plane() {
         func: CompareFunc::Always,
         ..Default::default()
     };
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut depth),
-            &RenderState {
-                depth: clamp,
-                ..Default::default()
-            },
-            &verts,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(
+        &p,
+        &mut depth,
+        RenderState {
+            depth: clamp,
+            ..Default::default()
+        },
+        &verts,
+        &[0, 1, 2],
+    )
+    .unwrap();
     assert_eq!(s.fragments_rasterized, 32 * 32);
     assert!(depth.data().iter().all(|&d| d == 1.0), "clamped to the far plane");
 }
@@ -587,16 +601,15 @@ fn polygon_offset_is_slope_scaled_plus_constant() {
     let p = pipeline(1);
     let draw = |offset: PolygonOffset| {
         let mut d = Surface::new(64, 64, 1.0).unwrap();
-        p.draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState {
+        draw_depth(
+            &p,
+            &mut d,
+            RenderState {
                 offset,
                 ..Default::default()
             },
             &verts,
             &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
         )
         .unwrap();
         d.at(10, 40)
@@ -765,32 +778,14 @@ fn bad_input_is_an_error_or_counted_never_a_panic() {
         Vec4::new(1.0, 0.0, 0.5, 1.0),
         Vec4::new(0.0, 1.0, 0.5, 1.0),
     ];
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &nan,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(&p, &mut d, RenderState::default(), &nan, &[0, 1, 2]).unwrap();
     assert_eq!(s.dropped_nonfinite, 1);
     let inf = [
         Vec4::new(f32::INFINITY, 0.0, 0.5, 1.0),
         Vec4::new(1.0, 0.0, 0.5, 1.0),
         Vec4::new(0.0, 1.0, 0.5, 1.0),
     ];
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &inf,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(&p, &mut d, RenderState::default(), &inf, &[0, 1, 2]).unwrap();
     assert_eq!(s.dropped_nonfinite, 1);
     // Huge coordinates: clipped to the guard band (in f64) and drawn correctly ...
     let huge = [
@@ -798,16 +793,7 @@ fn bad_input_is_an_error_or_counted_never_a_panic() {
         Vec4::new(1e8, -1e8, 0.5, 1.0),
         Vec4::new(0.0, 1e8, 0.5, 1.0),
     ];
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &huge,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(&p, &mut d, RenderState::default(), &huge, &[0, 1, 2]).unwrap();
     assert_eq!(s.fragments_rasterized, 64 * 64);
     // ... or, beyond what the clipper can place to a pixel, dropped and counted.
     let absurd = [
@@ -815,69 +801,29 @@ fn bad_input_is_an_error_or_counted_never_a_panic() {
         Vec4::new(1e30, -1e30, 0.5, 1.0),
         Vec4::new(0.0, 1e30, 0.5, 1.0),
     ];
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &absurd,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(&p, &mut d, RenderState::default(), &absurd, &[0, 1, 2]).unwrap();
     assert_eq!(s.dropped_nonfinite, 1);
     let huge_w = [
         Vec4::new(1e38, 1e38, 1e38, 1e38),
         Vec4::new(-3e38, 1e38, 0.5, 3e38),
         Vec4::new(0.0, -1e38, 0.5, 1e-38),
     ];
-    p.draw(
-        &mut Targets::depth_only(&mut d),
-        &RenderState::default(),
-        &huge_w,
-        &[0, 1, 2],
-        &ClipPassthrough,
-        &DepthOnly,
-    )
-    .unwrap();
+    draw_depth(&p, &mut d, RenderState::default(), &huge_w, &[0, 1, 2]).unwrap();
     // Degenerate (zero-area) triangles are counted.
     let line = [
         Vec4::new(0.0, 0.0, 0.5, 1.0),
         Vec4::new(0.5, 0.5, 0.5, 1.0),
         Vec4::new(1.0, 1.0, 0.5, 1.0),
     ];
-    let s = p
-        .draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &line,
-            &[0, 1, 2],
-            &ClipPassthrough,
-            &DepthOnly,
-        )
-        .unwrap();
+    let s = draw_depth(&p, &mut d, RenderState::default(), &line, &[0, 1, 2]).unwrap();
     assert_eq!(s.culled_degenerate, 1);
     // Index errors, mismatched sizes, absurd sizes, missing mip level, thread count.
     assert_eq!(
-        p.draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &line,
-            &[0, 1],
-            &ClipPassthrough,
-            &DepthOnly
-        ),
+        draw_depth(&p, &mut d, RenderState::default(), &line, &[0, 1]),
         Err(PipelineError::BadIndexCount(2))
     );
     assert!(matches!(
-        p.draw(
-            &mut Targets::depth_only(&mut d),
-            &RenderState::default(),
-            &line,
-            &[0, 1, 7],
-            &ClipPassthrough,
-            &DepthOnly
-        ),
+        draw_depth(&p, &mut d, RenderState::default(), &line, &[0, 1, 7]),
         Err(PipelineError::IndexOutOfRange {
             triangle: 0,
             index: 7,

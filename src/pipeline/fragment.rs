@@ -354,6 +354,18 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 let x = ox + lxi;
                 let lx = lxi as f32;
                 let z = fmt.quantize((zrow + zp.dx * lx).clamp(0.0, 1.0));
+                // Applies a stencil op under the write mask.
+                let write_stencil = |op: super::state::StencilOp, sval: u8| {
+                    let nv = op.apply(sval, st.reference);
+                    // SAFETY: (x, y) is inside this worker's tile.
+                    unsafe {
+                        targets
+                            .stencil
+                            .as_ref()
+                            .unwrap()
+                            .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
+                    };
+                };
                 let shade = |stats: &mut DrawStats| -> Option<Vec4> {
                     stats.fragments_shaded += 1;
                     let var = if V::EMPTY {
@@ -390,14 +402,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
                     if !pass {
                         stats.stencil_failed += 1;
-                        let nv = face.fail.apply(sval, st.reference);
-                        unsafe {
-                            targets
-                                .stencil
-                                .as_ref()
-                                .unwrap()
-                                .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
-                        };
+                        write_stencil(face.fail, sval);
                         continue;
                     }
                 }
@@ -406,14 +411,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
                     if !state.depth.func.test(z, d) {
                         if stencil_on {
-                            let nv = face.depth_fail.apply(sval, st.reference);
-                            unsafe {
-                                targets.stencil.as_ref().unwrap().set(
-                                    x,
-                                    y,
-                                    (sval & !st.write_mask) | (nv & st.write_mask),
-                                )
-                            };
+                            write_stencil(face.depth_fail, sval);
                         }
                         if P::MAY_DISCARD {
                             stats.depth_failed += 1;
@@ -424,14 +422,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     }
                 }
                 if stencil_on {
-                    let nv = face.pass.apply(sval, st.reference);
-                    unsafe {
-                        targets
-                            .stencil
-                            .as_ref()
-                            .unwrap()
-                            .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
-                    };
+                    write_stencil(face.pass, sval);
                 }
                 if depth_write {
                     unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };

@@ -175,24 +175,12 @@ impl CompareSampler {
         let d = s.data();
         let mut sum = 0.0f32;
         for j in 0..=n as i64 {
-            let wy = if j == 0 {
-                1.0 - fy
-            } else if j == n as i64 {
-                fy
-            } else {
-                1.0
-            };
+            let wy = grid_weight(j, n as i64, fy);
             let yy = (y - r + j).clamp(0, h - 1) as usize;
             let row = &d[yy * w as usize..(yy + 1) * w as usize];
             let mut rs = 0.0f32;
             for i in 0..=n as i64 {
-                let wx = if i == 0 {
-                    1.0 - fx
-                } else if i == n as i64 {
-                    fx
-                } else {
-                    1.0
-                };
+                let wx = grid_weight(i, n as i64, fx);
                 let xx = (x - r + i).clamp(0, w - 1) as usize;
                 if self.func.test(reference, row[xx]) {
                     rs += wx;
@@ -201,6 +189,19 @@ impl CompareSampler {
             sum += wy * rs;
         }
         sum / (n * n) as f32
+    }
+}
+
+/// Weight of texel `k` (0..=n) of an `n`-tap unit-spaced sum of bilinear kernels with
+/// fraction `f`: `1 - f` at the first, `f` at the last, 1 between.
+#[inline(always)]
+fn grid_weight(k: i64, n: i64, f: f32) -> f32 {
+    if k == 0 {
+        1.0 - f
+    } else if k == n {
+        f
+    } else {
+        1.0
     }
 }
 
