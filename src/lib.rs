@@ -29,3 +29,4 @@ pub mod bench;
 pub mod hash;
 pub mod image_io;
 pub mod pipeline;
+pub mod scene;

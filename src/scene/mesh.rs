@@ -1,0 +1,274 @@
+//! Procedural meshes (plane, box, sphere, cylinder, heightfield) and OBJ loading (tobj).
+//! All are centred on the origin (the box and sphere around it, the plane and heightfield in
+//! y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
+
+use super::Mesh;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
+use std::path::Path;
+
+/// A plane in y = 0 of `size` (x, z), facing +y, split into `n` x `n` quads.
+pub fn plane(size: Vec2, n: u32) -> Mesh {
+    let n = n.max(1);
+    let mut m = Mesh::default();
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = (i as f32 / n as f32 - 0.5) * size.x;
+            let z = (j as f32 / n as f32 - 0.5) * size.y;
+            m.positions.push(Vec3::new(x, 0.0, z));
+            m.normals.push(Vec3::Y);
+        }
+    }
+    grid_indices(&mut m, n, n);
+    m
+}
+
+/// Indices of an `nx` x `nz` grid of quads whose rows run along +x and step along +z, facing +y.
+fn grid_indices(m: &mut Mesh, nx: u32, nz: u32) {
+    let row = nx + 1;
+    for j in 0..nz {
+        for i in 0..nx {
+            let a = j * row + i;
+            let (b, c, d) = (a + 1, a + row, a + row + 1);
+            // Counter-clockwise seen from +y.
+            m.indices.extend_from_slice(&[a, c, b, b, c, d]);
+        }
+    }
+}
+
+/// An axis-aligned box of `size`, centred on the origin (24 vertices, flat normals).
+pub fn cuboid(size: Vec3) -> Mesh {
+    let h = size * 0.5;
+    let mut m = Mesh::default();
+    let faces = [
+        (Vec3::X, Vec3::Z, Vec3::Y),
+        (-Vec3::X, Vec3::Y, Vec3::Z),
+        (Vec3::Y, Vec3::X, Vec3::Z),
+        (-Vec3::Y, Vec3::Z, Vec3::X),
+        (Vec3::Z, Vec3::Y, Vec3::X),
+        (-Vec3::Z, Vec3::X, Vec3::Y),
+    ];
+    for (n, u, v) in faces {
+        // u x v = n, so (0, u, u+v, v) is counter-clockwise seen from outside.
+        let u = if u.cross(v).dot(n) > 0.0 { u } else { -u };
+        let b = m.positions.len() as u32;
+        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            m.positions.push((n + u * su + v * sv) * h);
+            m.normals.push(n);
+        }
+        m.indices.extend_from_slice(&[b, b + 1, b + 2, b, b + 2, b + 3]);
+    }
+    m
+}
+
+/// A UV sphere of `radius` with `stacks` rings of vertices (poles included) and `slices` segments.
+pub fn sphere(radius: f32, stacks: u32, slices: u32) -> Mesh {
+    let (stacks, slices) = (stacks.max(3), slices.max(3));
+    let mut m = Mesh::default();
+    for s in 0..stacks {
+        let theta = PI * s as f32 / (stacks - 1) as f32;
+        for k in 0..=slices {
+            let phi = TAU * k as f32 / slices as f32;
+            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            m.positions.push(n * radius);
+            m.normals.push(n);
+        }
+    }
+    let row = slices + 1;
+    for s in 0..stacks - 1 {
+        for k in 0..slices {
+            let a = s * row + k;
+            let b = a + row;
+            if s > 0 {
+                m.indices.extend_from_slice(&[a, b, a + 1]);
+            }
+            if s < stacks - 2 {
+                m.indices.extend_from_slice(&[a + 1, b, b + 1]);
+            }
+        }
+    }
+    m
+}
+
+/// A closed cylinder of `radius` from y = 0 to y = `height` with `segments` sides.
+pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
+    let n = segments.max(3);
+    let mut m = Mesh::default();
+    for k in 0..=n {
+        let a = TAU * k as f32 / n as f32;
+        let d = Vec3::new(a.cos(), 0.0, -a.sin());
+        m.positions.push(d * radius);
+        m.normals.push(d);
+        m.positions.push(d * radius + Vec3::Y * height);
+        m.normals.push(d);
+    }
+    for k in 0..n {
+        let (a, b) = (2 * k, 2 * k + 2);
+        m.indices.extend_from_slice(&[a, b, a + 1, a + 1, b, b + 1]);
+    }
+    for (y, normal) in [(0.0, -Vec3::Y), (height, Vec3::Y)] {
+        let c = m.positions.len() as u32;
+        m.positions.push(Vec3::Y * y);
+        m.normals.push(normal);
+        for k in 0..=n {
+            let a = TAU * k as f32 / n as f32;
+            m.positions.push(Vec3::new(a.cos() * radius, y, -a.sin() * radius));
+            m.normals.push(normal);
+        }
+        for k in 0..n {
+            let (p, q) = (c + 1 + k, c + 2 + k);
+            if normal.y > 0.0 {
+                m.indices.extend_from_slice(&[c, p, q]);
+            } else {
+                m.indices.extend_from_slice(&[c, q, p]);
+            }
+        }
+    }
+    m
+}
+
+/// A heightfield over `size` (x, z) in `n` x `n` quads: a sum of seeded sine waves of peak
+/// amplitude `amplitude` (deterministic for a seed), normals from central differences.
+pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {
+    let n = n.max(1);
+    let mut rng = crate::bench::SplitMix(seed);
+    let waves: Vec<(Vec2, f32, f32)> = (0..6)
+        .map(|i| {
+            let a = rng.next_f32() * TAU;
+            let f = (1.0 + i as f32) * (0.6 + rng.next_f32()) * TAU / size.max_element();
+            (
+                Vec2::new(a.cos(), a.sin()) * f,
+                rng.next_f32() * TAU,
+                1.0 / (1.0 + i as f32),
+            )
+        })
+        .collect();
+    let norm: f32 = waves.iter().map(|w| w.2).sum();
+    let h = |x: f32, z: f32| {
+        amplitude / norm
+            * waves
+                .iter()
+                .map(|(k, ph, w)| w * (k.x * x + k.y * z + ph).sin())
+                .sum::<f32>()
+    };
+    let mut m = plane(size, n);
+    let e = size.max_element() / n as f32 * 0.5;
+    for (p, nrm) in m.positions.iter_mut().zip(m.normals.iter_mut()) {
+        p.y = h(p.x, p.z);
+        *nrm = Vec3::new(
+            h(p.x - e, p.z) - h(p.x + e, p.z),
+            2.0 * e,
+            h(p.x, p.z - e) - h(p.x, p.z + e),
+        )
+        .normalize();
+    }
+    m
+}
+
+/// Loads an OBJ file (all its models, triangulated). Missing normals are generated from the
+/// faces (area-weighted). Errors name the path.
+pub fn load_obj(path: &Path) -> Result<Mesh, String> {
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| format!("{}: cannot load OBJ: {e}", path.display()))?;
+    let mut out = Mesh::default();
+    for model in models {
+        let mm = &model.mesh;
+        let positions: Vec<Vec3> = mm
+            .positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(format!(
+                "{}: model '{}' has a non-finite vertex position",
+                path.display(),
+                model.name
+            ));
+        }
+        if let Some(&bad) = mm.indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(format!(
+                "{}: model '{}' has face index {bad} beyond its {} vertices",
+                path.display(),
+                model.name,
+                positions.len()
+            ));
+        }
+        let normals = if mm.normals.len() == mm.positions.len() {
+            mm.normals
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
+                .collect()
+        } else {
+            face_normals(&positions, &mm.indices)
+        };
+        out.append(&Mesh {
+            positions,
+            normals,
+            indices: mm.indices.clone(),
+        });
+    }
+    if out.indices.is_empty() {
+        return Err(format!("{}: no triangles in the file", path.display()));
+    }
+    Ok(out)
+}
+
+/// Area-weighted vertex normals from faces.
+pub fn face_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let (a, b, c) = (
+            positions[t[0] as usize],
+            positions[t[1] as usize],
+            positions[t[2] as usize],
+        );
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += f;
+        }
+    }
+    n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Signed volume by the divergence theorem: positive and equal to the analytic volume when
+    /// every face is outward and counter-clockwise.
+    fn volume(m: &Mesh) -> f32 {
+        m.indices
+            .chunks_exact(3)
+            .map(|t| m.positions[t[0] as usize].dot(m.positions[t[1] as usize].cross(m.positions[t[2] as usize])) / 6.0)
+            .sum()
+    }
+
+    #[test]
+    fn closed_meshes_are_outward_and_have_their_volume() {
+        assert!((volume(&cuboid(Vec3::new(1.0, 2.0, 3.0))) - 6.0).abs() < 1e-4);
+        let s = volume(&sphere(1.0, 40, 80));
+        assert!((s - 4.0 / 3.0 * PI).abs() < 0.02, "{s}");
+        let c = volume(&cylinder(1.0, 2.0, 96));
+        assert!((c - 2.0 * PI).abs() < 0.01, "{c}");
+    }
+
+    #[test]
+    fn plane_faces_up() {
+        let p = plane(Vec2::new(2.0, 2.0), 2);
+        for t in p.indices.chunks_exact(3) {
+            let (a, b, c) = (
+                p.positions[t[0] as usize],
+                p.positions[t[1] as usize],
+                p.positions[t[2] as usize],
+            );
+            assert!((b - a).cross(c - a).y > 0.0);
+        }
+        let h = heightfield(Vec2::splat(10.0), 16, 1.0, 3);
+        assert!(h.positions.iter().all(|p| p.y.abs() <= 1.0 + 1e-5));
+        assert!(h.normals.iter().all(|n| n.y > 0.0));
+    }
+}

@@ -1,0 +1,263 @@
+//! Scenes: triangle meshes with materials, one camera, lights and an optional camera path.
+//! A scene is data: it knows nothing of the pipeline (DESIGN.md section 1).
+//!
+//! Scenes are written as TOML files ([`file`]) naming procedural or OBJ meshes ([`mesh`]).
+
+pub mod file;
+pub mod mesh;
+
+use glam::{Mat4, Vec3};
+
+/// A triangle mesh in world space.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions (world space).
+    pub positions: Vec<Vec3>,
+    /// Unit vertex normals, one per position.
+    pub normals: Vec<Vec3>,
+    /// Three indices per triangle, counter-clockwise seen from the front.
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangles(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// The mesh with `m` applied to positions and the inverse transpose to normals.
+    pub fn transformed(&self, m: Mat4) -> Mesh {
+        let n = m.inverse().transpose();
+        Mesh {
+            positions: self.positions.iter().map(|&p| m.transform_point3(p)).collect(),
+            normals: self
+                .normals
+                .iter()
+                .map(|&v| n.transform_vector3(v).normalize_or_zero())
+                .collect(),
+            indices: self.indices.clone(),
+        }
+    }
+
+    /// Appends another mesh.
+    pub fn append(&mut self, o: &Mesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&o.positions);
+        self.normals.extend_from_slice(&o.normals);
+        self.indices.extend(o.indices.iter().map(|i| i + base));
+    }
+
+    /// World-space bounds (min, max); `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(
+            self.positions
+                .iter()
+                .fold((first, first), |(a, b), &p| (a.min(p), b.max(p))),
+        )
+    }
+}
+
+/// Surface properties of an object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name used by objects.
+    pub name: String,
+    /// Diffuse albedo (linear RGB).
+    pub albedo: Vec3,
+    /// Opacity in [0, 1] (1 = opaque); below 1 the object transmits light.
+    pub opacity: f32,
+    /// Lit from both sides (thin sheets).
+    pub two_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            albedo: Vec3::splat(0.8),
+            opacity: 1.0,
+            two_sided: false,
+        }
+    }
+}
+
+/// One object: a world-space mesh and a material index.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    /// Name (from the scene file, or `object<i>`).
+    pub name: String,
+    /// World-space mesh.
+    pub mesh: Mesh,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+}
+
+/// The camera.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Up direction.
+    pub up: Vec3,
+    /// Vertical field of view, degrees.
+    pub fov_deg: f32,
+    /// Near plane distance.
+    pub near: f32,
+    /// Far plane distance.
+    pub far: f32,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// World to view (right-handed, looking down -z).
+    pub fn view(&self) -> Mat4 {
+        Mat4::look_at_rh(self.position, self.target, self.up)
+    }
+
+    /// View to clip (depth in [0, 1]).
+    pub fn projection(&self) -> Mat4 {
+        Mat4::perspective_rh(
+            self.fov_deg.to_radians(),
+            self.width as f32 / self.height as f32,
+            self.near,
+            self.far,
+        )
+    }
+
+    /// World to clip.
+    pub fn view_projection(&self) -> Mat4 {
+        self.projection() * self.view()
+    }
+}
+
+/// Shape of an area light.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum AreaShape {
+    /// A disk of the given radius facing the light's direction.
+    Disk {
+        /// Radius.
+        radius: f32,
+    },
+    /// A sphere of the given radius.
+    Sphere {
+        /// Radius.
+        radius: f32,
+    },
+    /// A rectangle `width` x `height` facing the light's direction.
+    Rectangle {
+        /// Extent along the light's first tangent.
+        width: f32,
+        /// Extent along the second tangent.
+        height: f32,
+    },
+}
+
+/// What kind of light.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// Parallel light travelling along `direction`.
+    Directional,
+    /// A point light shining into a cone of full angle `angle_deg` around `direction`.
+    Spot {
+        /// Full cone angle in degrees, in (0, 180).
+        angle_deg: f32,
+    },
+    /// A point light shining everywhere.
+    Point,
+    /// An area light; hard-shadow techniques use its centre as a point light.
+    Area(AreaShape),
+}
+
+/// A light. Every light has a centre (`position`, the point a hard-shadow technique uses) and a
+/// direction (where a directional light travels, where a spot or a disk/rectangle faces).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Light {
+    /// Kind and shape.
+    pub kind: LightKind,
+    /// Centre (for directional lights, a point far along `-direction`, used only for fitting).
+    pub position: Vec3,
+    /// Unit direction the light travels in.
+    pub direction: Vec3,
+    /// Intensity multiplier.
+    pub intensity: f32,
+}
+
+impl Light {
+    /// Unit vector from `p` towards the light's centre (the negated direction for directional
+    /// lights).
+    pub fn to_light(&self, p: Vec3) -> Vec3 {
+        match self.kind {
+            LightKind::Directional => -self.direction,
+            _ => (self.position - p).normalize_or_zero(),
+        }
+    }
+
+    /// Two unit tangents orthogonal to the direction (for disk/rectangle sampling and frames).
+    pub fn tangents(&self) -> (Vec3, Vec3) {
+        let d = self.direction;
+        let helper = if d.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+        let t = d.cross(helper).normalize();
+        (t, d.cross(t))
+    }
+}
+
+/// A camera keyframe.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Keyframe {
+    /// Eye position.
+    pub position: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+}
+
+/// A whole scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Name (file stem).
+    pub name: String,
+    /// What the scene shows (the file's opening comment).
+    pub description: String,
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// The camera.
+    pub camera: Camera,
+    /// Lights (techniques use the first unless told otherwise).
+    pub lights: Vec<Light>,
+    /// Camera path for stability tests (empty: a still camera).
+    pub camera_path: Vec<Keyframe>,
+}
+
+impl Scene {
+    /// World bounds of all objects.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.objects
+            .iter()
+            .filter_map(|o| o.mesh.bounds())
+            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    }
+
+    /// Total triangle count.
+    pub fn triangles(&self) -> usize {
+        self.objects.iter().map(|o| o.mesh.triangles()).sum()
+    }
+
+    /// The camera at frame `i` of the path (the scene camera when there is no path).
+    pub fn camera_at(&self, i: usize) -> Camera {
+        match self.camera_path.get(i) {
+            Some(k) => Camera {
+                position: k.position,
+                target: k.target,
+                ..self.camera
+            },
+            None => self.camera,
+        }
+    }
+}
