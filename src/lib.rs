@@ -26,7 +26,12 @@
 
 pub mod alloc;
 pub mod bench;
+pub mod frame;
 pub mod hash;
 pub mod image_io;
+pub mod metrics;
 pub mod pipeline;
+pub mod reference;
+pub mod report;
 pub mod scene;
+pub mod shadow;

@@ -9,6 +9,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+mod cli_cmds;
+
 #[derive(Parser)]
 #[command(
     name = "penumbra",
@@ -22,11 +24,74 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Render a scene with a technique: final image, visibility, error against the reference, timings.
+    Render(RenderArgs),
+    /// Write every intermediate stage of a technique (PNG, false colour) and the G-buffer and visibility (PFM).
+    Dump(RenderArgs),
+    /// Compute (or read from the cache) the ray-traced ground truth of a scene.
+    Reference(SceneArgs),
+    /// Every technique (and each option set it declares) on every scene: CSV, charts, report.
+    Sweep(SweepArgs),
+    /// Write a scene in world space as OBJ plus a JSON of camera and lights.
+    Export(SceneArgs),
+    /// List techniques with their options and defaults, and the built-in scenes.
+    List,
     /// Benchmarks: the shadow-mapped spheres frame, or random triangles.
     Bench {
         #[command(subcommand)]
         which: BenchCmd,
     },
+}
+
+#[derive(Args)]
+struct SceneArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Technique name (see `penumbra list`).
+    #[arg(long, default_value = "shadow-map")]
+    technique: String,
+    /// Technique option, key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// Scene files (default: every file in fixtures/scenes).
+    scenes: Vec<PathBuf>,
+    /// all, or a comma-separated list of technique names.
+    #[arg(long, default_value = "all")]
+    techniques: String,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after one warm-up.
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out/sweep")]
+    out: PathBuf,
 }
 
 #[derive(Subcommand)]
@@ -101,21 +166,29 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.cmd {
         None => {
-            println!("penumbra: no command given; running the benchmark frame (see `penumbra --help`).");
-            bench_frame(FrameArgs {
-                triangles: 100_000,
-                mode: FrameMode::Pcf2,
-                map: 2048,
-                width: 1920,
-                height: 1080,
-                out: Some(PathBuf::from("out")),
-                common: Common {
-                    threads: 0,
-                    reps: 5,
-                    json: false,
-                },
+            println!(
+                "penumbra: no command given; running the default sweep over fixtures/scenes (see `penumbra --help`)."
+            );
+            cli_cmds::sweep(cli_cmds::SweepOpts {
+                scenes: vec![],
+                techniques: "all".into(),
+                threads: 0,
+                reps: 3,
+                out: PathBuf::from("out/sweep"),
             })
         }
+        Some(Cmd::Render(a)) => cli_cmds::render(&a.scene, &a.technique, &a.sets, a.threads, a.reps, &a.out),
+        Some(Cmd::Dump(a)) => cli_cmds::dump(&a.scene, &a.technique, &a.sets, a.threads, &a.out),
+        Some(Cmd::Reference(a)) => cli_cmds::reference(&a.scene, a.threads, &a.out),
+        Some(Cmd::Sweep(a)) => cli_cmds::sweep(cli_cmds::SweepOpts {
+            scenes: a.scenes,
+            techniques: a.techniques,
+            threads: a.threads,
+            reps: a.reps,
+            out: a.out,
+        }),
+        Some(Cmd::Export(a)) => cli_cmds::export(&a.scene, &a.out),
+        Some(Cmd::List) => cli_cmds::list(),
         Some(Cmd::Bench {
             which: BenchCmd::Frame(a),
         }) => bench_frame(a),

@@ -1,0 +1,220 @@
+//! The camera pass: a G-buffer drawn through the pipeline (depth, world position, normal,
+//! object id, material), and the final shading `ambient + v * (Lambert + Blinn-Phong)`.
+//!
+//! Two draws per object share the same geometry and depth formula: the first writes
+//! position and object id with a `Less` depth test, the second writes normals where the
+//! depth is `Equal` (bit-identical depths, so exactly the visible surface).
+
+use crate::pipeline::*;
+use crate::reference::SamplePoint;
+use crate::scene::{Camera, Light, Scene};
+use glam::{Vec3, Vec4};
+
+/// Marks "no object" in [`GBuffer::object`].
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// Per-pixel surface data of the camera view.
+#[derive(Clone, Debug)]
+pub struct GBuffer {
+    /// Camera depth in [0, 1] (1: background).
+    pub depth: Surface<f32>,
+    /// World position.
+    pub position: Surface<Vec3>,
+    /// Unit normal, turned towards the camera for two-sided materials.
+    pub normal: Surface<Vec3>,
+    /// Object index, or [`NO_OBJECT`].
+    pub object: Surface<u32>,
+}
+
+/// Everything a technique gets: the scene, the light, the camera and its G-buffer.
+pub struct Frame<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// The light whose visibility is computed.
+    pub light: Light,
+    /// The camera of this frame.
+    pub camera: Camera,
+    /// The camera's G-buffer.
+    pub gbuffer: GBuffer,
+    /// Index of the frame on the camera path (0 for a still camera).
+    pub index: usize,
+}
+
+impl Frame<'_> {
+    /// Image width.
+    pub fn width(&self) -> u32 {
+        self.camera.width
+    }
+
+    /// Image height.
+    pub fn height(&self) -> u32 {
+        self.camera.height
+    }
+
+    /// The shading point at pixel (x, y), if geometry covers it.
+    pub fn point(&self, x: u32, y: u32) -> Option<SamplePoint> {
+        (self.gbuffer.object.at(x, y) != NO_OBJECT).then(|| SamplePoint {
+            position: self.gbuffer.position.at(x, y),
+            normal: self.gbuffer.normal.at(x, y),
+        })
+    }
+
+    /// All shading points, row-major.
+    pub fn points(&self) -> Vec<Option<SamplePoint>> {
+        (0..self.height())
+            .flat_map(|y| (0..self.width()).map(move |x| (x, y)))
+            .map(|(x, y)| self.point(x, y))
+            .collect()
+    }
+
+    /// Pixels the metrics count: covered by geometry and facing the light.
+    pub fn metric_mask(&self) -> Vec<bool> {
+        self.points()
+            .iter()
+            .map(|p| p.is_some_and(|s| s.normal.dot(self.light.to_light(s.position)) > 0.0))
+            .collect()
+    }
+}
+
+struct GVs {
+    vp: glam::Mat4,
+}
+impl VertexProgram for GVs {
+    type In = (Vec3, Vec3);
+    type Out = (Vec3, Vec3);
+    fn run(&self, v: &(Vec3, Vec3)) -> (Vec4, (Vec3, Vec3)) {
+        (self.vp * v.0.extend(1.0), (v.0, v.1))
+    }
+}
+
+/// Draws the G-buffer of `scene` seen by `camera`.
+pub fn gbuffer(p: &Pipeline, scene: &Scene, camera: &Camera) -> Result<GBuffer, PipelineError> {
+    let (w, h) = (camera.width, camera.height);
+    let mut depth = Surface::new(w, h, 1.0f32)?;
+    let mut pos_id = Surface::new(w, h, Vec4::new(0.0, 0.0, 0.0, -1.0))?;
+    let mut nrm = Surface::new(w, h, Vec4::ZERO)?;
+    let vs = GVs {
+        vp: camera.view_projection(),
+    };
+    let verts: Vec<Vec<(Vec3, Vec3)>> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            o.mesh
+                .positions
+                .iter()
+                .copied()
+                .zip(o.mesh.normals.iter().copied())
+                .collect()
+        })
+        .collect();
+    for (oi, o) in scene.objects.iter().enumerate() {
+        let id = oi as f32;
+        let fs = Shader(move |f: &Fragment<(Vec3, Vec3)>| f.var.0.extend(id));
+        p.draw(
+            &mut Targets::color(&mut pos_id).with_depth(&mut depth),
+            &RenderState::default(),
+            &verts[oi],
+            &o.mesh.indices,
+            &vs,
+            &fs,
+        )?;
+    }
+    let eq = RenderState {
+        depth: DepthState {
+            func: CompareFunc::Equal,
+            write: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    for (oi, o) in scene.objects.iter().enumerate() {
+        let two_sided = scene.materials[o.material].two_sided;
+        let eye = camera.position;
+        let fs = Shader(move |f: &Fragment<(Vec3, Vec3)>| {
+            let mut n = f.var.1.normalize_or_zero();
+            // Face the viewer: back faces of two-sided sheets, and any normal pointing away.
+            if two_sided || !f.front {
+                if n.dot(eye - f.var.0) < 0.0 {
+                    n = -n;
+                }
+            }
+            n.extend(oi as f32)
+        });
+        p.draw(
+            &mut Targets::color(&mut nrm).with_depth(&mut depth),
+            &eq,
+            &verts[oi],
+            &o.mesh.indices,
+            &vs,
+            &fs,
+        )?;
+    }
+    Ok(GBuffer {
+        position: pos_id.map(|v| v.truncate()),
+        object: pos_id.map(|v| if v.w < 0.0 { NO_OBJECT } else { v.w as u32 }),
+        normal: nrm.map(|v| v.truncate()),
+        depth,
+    })
+}
+
+/// Builds the frame of camera-path index `index` (0 and no path: the scene camera) for light
+/// `light`.
+pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> Result<Frame<'a>, String> {
+    let l = *scene.lights.get(light).ok_or_else(|| {
+        format!(
+            "scene '{}' has no light #{light} (it has {})",
+            scene.name,
+            scene.lights.len()
+        )
+    })?;
+    let camera = scene.camera_at(index);
+    let gbuffer = gbuffer(p, scene, &camera).map_err(|e| e.to_string())?;
+    Ok(Frame {
+        scene,
+        light: l,
+        camera,
+        gbuffer,
+        index,
+    })
+}
+
+/// Final image: `ambient + v * (Lambert + Blinn-Phong)` from the light's centre, in sRGB.
+/// Background pixels get a dark sky colour.
+pub fn shade(frame: &Frame, visibility: &[f32]) -> Surface<Rgba8> {
+    let (w, h) = (frame.width(), frame.height());
+    let mut out = Surface::new(w, h, [18, 20, 28, 255]).expect("frame size is valid");
+    for y in 0..h {
+        for x in 0..w {
+            let Some(s) = frame.point(x, y) else { continue };
+            let obj = frame.gbuffer.object.at(x, y) as usize;
+            let albedo = frame.scene.materials[frame.scene.objects[obj].material].albedo;
+            let l = frame.light.to_light(s.position);
+            let v = (frame.camera.position - s.position).normalize_or_zero();
+            let ndl = s.normal.dot(l).max(0.0);
+            let hv = (l + v).normalize_or_zero();
+            let spec = if ndl > 0.0 {
+                0.25 * s.normal.dot(hv).max(0.0).powf(48.0)
+            } else {
+                0.0
+            };
+            let vis = visibility[(y * w + x) as usize];
+            let vis = if vis.is_finite() { vis } else { 1.0 };
+            let c = albedo * 0.12 + (albedo * ndl + Vec3::splat(spec)) * vis * frame.light.intensity;
+            let srgb = |c: f32| {
+                let c = c.clamp(0.0, 1.0);
+                if c <= 0.003_130_8 {
+                    c * 12.92
+                } else {
+                    1.055 * c.powf(1.0 / 2.4) - 0.055
+                }
+            };
+            out.set(
+                x,
+                y,
+                <Rgba8 as ColorFormat>::from_vec4(Vec4::new(srgb(c.x), srgb(c.y), srgb(c.z), 1.0)),
+            );
+        }
+    }
+    out
+}

@@ -1,0 +1,121 @@
+//! Accuracy metrics of a visibility image against the reference (DESIGN.md section 4), over the
+//! pixels of a mask (covered by geometry and facing the light). Knows nothing of the pipeline or
+//! of techniques.
+
+/// Errors of one image.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Errors {
+    /// Root-mean-square error.
+    pub rmse: f64,
+    /// Mean absolute error.
+    pub mae: f64,
+    /// Percentage of pixels with |v - v_ref| > 0.5 (acne, leaks, aliasing).
+    pub wrong_pct: f64,
+    /// RMSE where 0 < v_ref < 1 (0 when there is no penumbra).
+    pub penumbra_rmse: f64,
+    /// Pixels measured.
+    pub pixels: u64,
+    /// Penumbra pixels measured.
+    pub penumbra_pixels: u64,
+}
+
+/// Compares `v` with `reference` over `mask`. Non-finite values of `v` count as maximal
+/// error (1), so a technique cannot hide failures behind NaN.
+pub fn compare(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
+    let (mut se, mut ae, mut wrong, mut n, mut pse, mut pn) = (0.0f64, 0.0f64, 0u64, 0u64, 0.0f64, 0u64);
+    for ((&a, &r), &m) in v.iter().zip(reference).zip(mask) {
+        if !m || !r.is_finite() {
+            continue;
+        }
+        let d = if a.is_finite() {
+            (a as f64 - r as f64).abs()
+        } else {
+            1.0
+        };
+        se += d * d;
+        ae += d;
+        n += 1;
+        if d > 0.5 {
+            wrong += 1;
+        }
+        if r > 0.0 && r < 1.0 {
+            pse += d * d;
+            pn += 1;
+        }
+    }
+    if n == 0 {
+        return Errors::default();
+    }
+    Errors {
+        rmse: (se / n as f64).sqrt(),
+        mae: ae / n as f64,
+        wrong_pct: 100.0 * wrong as f64 / n as f64,
+        penumbra_rmse: if pn > 0 { (pse / pn as f64).sqrt() } else { 0.0 },
+        pixels: n,
+        penumbra_pixels: pn,
+    }
+}
+
+/// Flicker along a camera path: the mean over consecutive frames and masked pixels of
+/// `max(0, |v_t - v_{t-1}| - |r_t - r_{t-1}|)`: change of the technique beyond the change of
+/// the truth at the same pixel.
+pub fn flicker(frames: &[(Vec<f32>, Vec<f32>, Vec<bool>)]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for w in frames.windows(2) {
+        let ((v0, r0, m0), (v1, r1, m1)) = (&w[0], &w[1]);
+        for i in 0..v1.len().min(v0.len()) {
+            if !(m0[i] && m1[i]) || !(r0[i].is_finite() && r1[i].is_finite()) {
+                continue;
+            }
+            let dv = if v0[i].is_finite() && v1[i].is_finite() {
+                (v1[i] - v0[i]).abs() as f64
+            } else {
+                1.0
+            };
+            let dr = (r1[i] - r0[i]).abs() as f64;
+            sum += (dv - dr).max(0.0);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
+/// Median of timings (seconds), the value reported after warm-up runs.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    crate::bench::median(&mut v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics_on_a_known_case() {
+        let r = [0.0, 1.0, 0.5, 1.0, f32::NAN];
+        let v = [0.0, 0.0, 0.75, f32::NAN, 1.0];
+        let m = [true, true, true, true, true];
+        let e = compare(&v, &r, &m);
+        assert_eq!(e.pixels, 4);
+        assert_eq!(e.penumbra_pixels, 1);
+        assert!((e.mae - (0.0 + 1.0 + 0.25 + 1.0) / 4.0).abs() < 1e-12);
+        assert!((e.wrong_pct - 50.0).abs() < 1e-12);
+        assert!((e.penumbra_rmse - 0.25).abs() < 1e-12);
+        assert!((e.rmse - ((1.0 + 0.0625 + 1.0) / 4.0f64).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn flicker_ignores_changes_of_the_truth() {
+        let m = vec![true; 2];
+        let f = [
+            (vec![0.0, 1.0], vec![0.0, 1.0], m.clone()),
+            (vec![1.0, 1.0], vec![1.0, 1.0], m.clone()),
+            (vec![0.0, 1.0], vec![1.0, 1.0], m),
+        ];
+        // Frame 1->2: both change pixel 0 (no flicker); frame 2->3: only v changes (1 of 2 pixels).
+        assert!((flicker(&f) - 0.25).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,179 @@
+//! Shadow techniques: one technique, one file, one options struct, one trait.
+//!
+//! Every technique takes the same [`Frame`] (scene, light, camera G-buffer) and returns the
+//! same thing, a visibility image (1 = lit, 0 = shadowed, NaN where no geometry), so techniques
+//! are comparable, chartable and testable against one reference. Each lists the intermediate
+//! buffers of its last run as [`Stage`]s for `penumbra dump`.
+
+pub mod reference;
+pub mod shadow_map;
+
+use crate::frame::Frame;
+use crate::pipeline::{Pipeline, Rgba8, Surface};
+
+/// An intermediate buffer of a technique, for `dump`.
+pub enum Stage {
+    /// Scalar data (depth, counts...) shown in false colour from `lo` to `hi`.
+    Scalar {
+        /// File-friendly name.
+        name: String,
+        /// The data.
+        data: Surface<f32>,
+        /// Value shown black.
+        lo: f32,
+        /// Value shown white.
+        hi: f32,
+    },
+    /// A colour image.
+    Color {
+        /// File-friendly name.
+        name: String,
+        /// The image.
+        data: Surface<Rgba8>,
+    },
+}
+
+impl Stage {
+    /// The stage's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Stage::Scalar { name, .. } | Stage::Color { name, .. } => name,
+        }
+    }
+}
+
+/// A shadow technique.
+pub trait ShadowTechnique: Send {
+    /// Registry name.
+    fn name(&self) -> &'static str;
+    /// Light visibility for every camera pixel of `frame`, row-major (NaN: no geometry).
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String>;
+    /// Intermediate buffers of the last call.
+    fn stages(&self) -> Vec<Stage>;
+}
+
+/// One option of a technique: name, default, documentation.
+#[derive(Copy, Clone, Debug)]
+pub struct OptionInfo {
+    /// Key for `--set key=value`.
+    pub key: &'static str,
+    /// Default value, as text.
+    pub default: &'static str,
+    /// What it does.
+    pub doc: &'static str,
+}
+
+/// A registered technique.
+pub struct TechniqueInfo {
+    /// Name for `--technique`.
+    pub name: &'static str,
+    /// One line: what it is, the source, the failure it is known for.
+    pub summary: &'static str,
+    /// Its options.
+    pub options: &'static [OptionInfo],
+    /// Option sets the sweep runs (each a list of `key=value`).
+    pub sweep: &'static [&'static [(&'static str, &'static str)]],
+    /// Constructor from `key=value` settings.
+    pub create: fn(&Settings) -> Result<Box<dyn ShadowTechnique>, String>,
+}
+
+/// `key=value` settings handed to a technique, checked against its options.
+pub struct Settings<'a> {
+    technique: &'static str,
+    options: &'static [OptionInfo],
+    pairs: &'a [(String, String)],
+}
+
+impl Settings<'_> {
+    /// The value of `key`: the setting, or the option's default. Unknown keys never reach
+    /// here: [`create`] rejects them.
+    pub fn get(&self, key: &str) -> &str {
+        self.pairs
+            .iter()
+            .rev()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+            .unwrap_or_else(|| {
+                self.options
+                    .iter()
+                    .find(|o| o.key == key)
+                    .map(|o| o.default)
+                    .expect("technique asks for an option it declares")
+            })
+    }
+
+    /// `key` parsed as a number in `[lo, hi]`.
+    pub fn num<T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy>(
+        &self,
+        key: &str,
+        lo: T,
+        hi: T,
+    ) -> Result<T, String> {
+        let s = self.get(key);
+        let v: T = s
+            .parse()
+            .map_err(|_| format!("technique '{}': option {key}={s} is not a number", self.technique))?;
+        if v < lo || v > hi {
+            return Err(format!(
+                "technique '{}': option {key}={s} is outside [{lo}, {hi}]",
+                self.technique
+            ));
+        }
+        Ok(v)
+    }
+
+    /// `key` as one of `choices`.
+    pub fn choice(&self, key: &str, choices: &[&'static str]) -> Result<&'static str, String> {
+        let s = self.get(key);
+        choices.iter().copied().find(|c| *c == s).ok_or_else(|| {
+            format!(
+                "technique '{}': option {key}={s} is not one of {}",
+                self.technique,
+                choices.join(", ")
+            )
+        })
+    }
+}
+
+/// All techniques, in chart order.
+pub fn registry() -> Vec<TechniqueInfo> {
+    vec![reference::info(), shadow_map::info()]
+}
+
+/// Creates technique `name` with `key=value` settings; errors name unknown techniques and
+/// options and list the valid ones.
+pub fn create(name: &str, pairs: &[(String, String)]) -> Result<Box<dyn ShadowTechnique>, String> {
+    let reg = registry();
+    let Some(info) = reg.iter().find(|t| t.name == name) else {
+        let names: Vec<&str> = reg.iter().map(|t| t.name).collect();
+        return Err(format!("unknown technique '{name}' (known: {})", names.join(", ")));
+    };
+    for (k, _) in pairs {
+        if !info.options.iter().any(|o| o.key == k) {
+            let keys: Vec<&str> = info.options.iter().map(|o| o.key).collect();
+            return Err(format!(
+                "technique '{name}' has no option '{k}' (options: {})",
+                if keys.is_empty() {
+                    "none".into()
+                } else {
+                    keys.join(", ")
+                }
+            ));
+        }
+    }
+    (info.create)(&Settings {
+        technique: info.name,
+        options: info.options,
+        pairs,
+    })
+}
+
+/// Parses `key=value` strings.
+pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>, String> {
+    sets.iter()
+        .map(|s| match s.split_once('=') {
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+            _ => Err(format!("--set '{s}' is not key=value")),
+        })
+        .collect()
+}
