@@ -134,10 +134,8 @@ pub fn gbuffer(p: &Pipeline, scene: &Scene, camera: &Camera) -> Result<GBuffer, 
         let fs = Shader(move |f: &Fragment<(Vec3, Vec3)>| {
             let mut n = f.var.1.normalize_or_zero();
             // Face the viewer: back faces of two-sided sheets, and any normal pointing away.
-            if two_sided || !f.front {
-                if n.dot(eye - f.var.0) < 0.0 {
-                    n = -n;
-                }
+            if (two_sided || !f.front) && n.dot(eye - f.var.0) < 0.0 {
+                n = -n;
             }
             n.extend(oi as f32)
         });

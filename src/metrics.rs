@@ -64,7 +64,7 @@ pub fn flicker(frames: &[(Vec<f32>, Vec<f32>, Vec<bool>)]) -> f64 {
     for w in frames.windows(2) {
         let ((v0, r0, m0), (v1, r1, m1)) = (&w[0], &w[1]);
         for i in 0..v1.len().min(v0.len()) {
-            if !(m0[i] && m1[i]) || !(r0[i].is_finite() && r1[i].is_finite()) {
+            if !(m0[i] && m1[i] && r0[i].is_finite() && r1[i].is_finite()) {
                 continue;
             }
             let dv = if v0[i].is_finite() && v1[i].is_finite() {

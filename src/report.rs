@@ -88,6 +88,9 @@ impl RunResult {
     }
 }
 
+/// A technique's visibility, its median time (ms) and the technique (for its stages).
+pub type Timed = (Vec<f32>, f64, Box<dyn shadow::ShadowTechnique>);
+
 /// Runs technique `name` with `sets` on `frame` `reps` times after one warm-up; returns the
 /// last visibility and the median time in milliseconds.
 pub fn time_technique(
@@ -96,7 +99,7 @@ pub fn time_technique(
     name: &str,
     sets: &[(String, String)],
     reps: usize,
-) -> Result<(Vec<f32>, f64, Box<dyn shadow::ShadowTechnique>), String> {
+) -> Result<Timed, String> {
     let mut t = shadow::create(name, sets)?;
     let mut v = t.visibility(p, frame)?;
     let mut times = Vec::new();
