@@ -355,9 +355,9 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
             LightKind::Point => "\"type\": \"point\"".to_string(),
             LightKind::Area(a) => format!("\"type\": \"area\", \"shape\": \"{a:?}\""),
         };
-        let _ = write!(
+        let _ = writeln!(
             json,
-            "    {{{kind}, \"position\": {}, \"direction\": {}, \"intensity\": {}}}{}\n",
+            "    {{{kind}, \"position\": {}, \"direction\": {}, \"intensity\": {}}}{}",
             v3(l.position),
             v3(l.direction),
             l.intensity,
