@@ -393,3 +393,42 @@ pub fn median(v: &mut [f64]) -> f64 {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
+
+/// The spheres scene as a [`crate::scene::Scene`] (same geometry as [`spheres_scene`]), for the
+/// reference's ray benchmark.
+pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
+    use crate::scene::*;
+    let m = spheres_scene(t);
+    let mesh = Mesh {
+        positions: m.vertices.iter().map(|v| v.pos).collect(),
+        normals: m.vertices.iter().map(|v| v.normal).collect(),
+        indices: m.indices.clone(),
+    };
+    Scene {
+        name: "spheres".into(),
+        description: "benchmark spheres".into(),
+        objects: vec![Object {
+            name: "all".into(),
+            mesh,
+            material: 0,
+        }],
+        materials: vec![Material::default()],
+        camera: Camera {
+            position: Vec3::new(0.0, 13.0, 21.0),
+            target: Vec3::new(0.0, 0.0, 1.0),
+            up: Vec3::Y,
+            fov_deg: 45.0,
+            near: 0.5,
+            far: 100.0,
+            width: 1920,
+            height: 1080,
+        },
+        lights: vec![Light {
+            kind: LightKind::Directional,
+            position: Vec3::new(55.0, 100.0, 35.0),
+            direction: -Vec3::new(0.55, 1.0, 0.35).normalize(),
+            intensity: 1.0,
+        }],
+        camera_path: vec![],
+    }
+}

@@ -100,6 +100,8 @@ enum BenchCmd {
     Frame(FrameArgs),
     /// Random triangles of about AREA pixels each at 1920x1080.
     Raster(RasterArgs),
+    /// Shadow rays per second of the reference ray tracer on the spheres scene.
+    Rays(RaysArgs),
 }
 
 #[derive(Args)]
@@ -135,6 +137,18 @@ struct FrameArgs {
     /// Write the image (and the shadow map) as PNG into this folder.
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct RaysArgs {
+    /// Target triangle count of the spheres scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// Rays per repetition.
+    #[arg(long, default_value_t = 4_000_000)]
+    rays: usize,
     #[command(flatten)]
     common: Common,
 }
@@ -195,6 +209,9 @@ fn main() -> ExitCode {
         Some(Cmd::Bench {
             which: BenchCmd::Raster(a),
         }) => bench_raster(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Rays(a),
+        }) => bench_rays(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -377,4 +394,70 @@ fn print_stage_times(st: &StageTimes) {
         st.raster_fragment * per,
         st.list_merge * per
     );
+}
+
+fn bench_rays(a: RaysArgs) -> Result<(), String> {
+    use penumbra::reference::{offset_origin, Reference};
+    check_triangles(a.triangles)?;
+    if !(1000..=1_000_000_000).contains(&a.rays) {
+        return Err(format!("--rays {} is out of range (1000..=1e9)", a.rays));
+    }
+    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let scene = spheres_as_scene(a.triangles);
+    let t0 = Instant::now();
+    let r = Reference::new(&scene);
+    let build = t0.elapsed().as_secs_f64();
+    // Shadow rays from points on the ground and the spheres' bounding region towards the light.
+    let light = scene.lights[0];
+    let mut rng = SplitMix(3);
+    let origins: Vec<glam::Vec3> = (0..65536)
+        .map(|_| {
+            glam::Vec3::new(
+                rng.next_f32() * 24.0 - 12.0,
+                rng.next_f32() * 2.2,
+                rng.next_f32() * 24.0 - 12.0,
+            )
+        })
+        .collect();
+    let run = || {
+        use rayon::prelude::*;
+        p.install(|| {
+            (0..a.rays)
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|i| {
+                    let o = offset_origin(origins[i % origins.len()], glam::Vec3::Y);
+                    (r.transmittance(o, -light.direction, f32::INFINITY) < 1.0) as u64
+                })
+                .sum::<u64>()
+        })
+    };
+    let occluded = run();
+    let mut times = Vec::new();
+    for _ in 0..a.common.reps.max(1) {
+        let t = Instant::now();
+        run();
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let s = median(&mut times);
+    let mrays = a.rays as f64 / s / 1e6;
+    println!(
+        "rays: {} triangles (BVH built in {:.1} ms), {} shadow rays in {:.1} ms: {mrays:.2} Mrays/s, {} threads ({:.1} % occluded)",
+        scene.triangles(),
+        build * 1e3,
+        a.rays,
+        s * 1e3,
+        p.threads(),
+        100.0 * occluded as f64 / a.rays as f64
+    );
+    if a.common.json {
+        println!(
+            "{{\"triangles\":{},\"rays\":{},\"threads\":{},\"mrays_per_s\":{mrays:.4},\"ms_build\":{:.3}}}",
+            scene.triangles(),
+            a.rays,
+            p.threads(),
+            build * 1e3
+        );
+    }
+    Ok(())
 }

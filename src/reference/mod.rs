@@ -75,6 +75,10 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     Vec3::new(off(p.x, n.x), off(p.y, n.y), off(p.z, n.z))
 }
 
+thread_local! {
+    static RAYS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
 /// SplitMix64 finaliser: a well-mixed hash of the inputs.
 fn hash3(a: u64, b: u64, c: u64) -> u64 {
     let mut z = a.wrapping_mul(0x9e37_79b9_7f4a_7c15)
@@ -132,15 +136,23 @@ impl Reference {
         }
     }
 
-    /// Shadow rays traced so far.
+    /// Shadow rays traced so far (rows of [`Reference::visibility`], plus the calling thread's
+    /// own single queries).
     pub fn rays_traced(&self) -> u64 {
+        self.flush_rays();
         self.rays.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn flush_rays(&self) {
+        let n = RAYS.with(|c| c.replace(0));
+        self.rays.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Transmittance along `o + t d`, `t` in `(0, tmax)`: 0 if an opaque surface is crossed,
     /// else the product of `1 - opacity` of the surfaces crossed.
     pub fn transmittance(&self, o: Vec3, d: Vec3, tmax: f32) -> f32 {
-        self.rays.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        // A thread-local count (a shared atomic per ray would bounce its cache line between cores).
+        RAYS.with(|c| c.set(c.get() + 1));
         let mut tr = 1.0f32;
         self.bvh.traverse(o, d, tmax, |tag, _| {
             tr *= self.transmit[tag as usize];
@@ -252,6 +264,7 @@ impl Reference {
                     *v = self.area(s, light, i as u64, opts);
                 }
             }
+            self.flush_rays();
         });
         out
     }
