@@ -1,0 +1,262 @@
+//! Techniques against the reference on the fixture scenes, their known failures, and the
+//! registry's and the CLI's handling of bad input.
+
+use penumbra::frame;
+use penumbra::metrics::compare;
+use penumbra::pipeline::Pipeline;
+use penumbra::report;
+use penumbra::scene::file::load;
+use penumbra::shadow;
+use std::path::Path;
+use std::process::Command;
+
+fn errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metrics::Errors {
+    let p = Pipeline::new(2).unwrap();
+    let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let text = std::fs::read_to_string(format!("fixtures/scenes/{scene}.toml")).unwrap();
+    let key = report::reference_key(&text, 0, 0, &Default::default());
+    let (r, _, _) = report::reference(&p, &f, key, None).unwrap();
+    let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    let mut t = shadow::create(technique, &sets).unwrap();
+    let v = t.visibility(&p, &f).unwrap();
+    assert!(!t.stages().is_empty(), "{technique} lists its stages");
+    compare(&v, &r, &f.metric_mask())
+}
+
+#[test]
+fn reference_technique_is_the_reference() {
+    let e = errors("contact", "reference", &[]);
+    assert_eq!((e.rmse, e.wrong_pct), (0.0, 0.0));
+    assert!(e.penumbra_pixels > 100, "the contact scene has a penumbra");
+}
+
+#[test]
+fn shadow_map_matches_hard_reference_on_hard_light_fixtures() {
+    // Bounds: the measured wrong % of the default 2048 map (see README) with margin.
+    for (scene, bound) in [
+        ("grazing", 0.1),
+        ("eye_in_volume", 0.1),
+        ("facing_light", 0.4),
+        ("long_view", 0.2),
+        ("point_casters", 0.1),
+        ("thin_sheet", 0.1),
+        ("terrain", 1.0),
+        ("spheres", 0.6),
+    ] {
+        let e = errors(scene, "shadow-map", &[]);
+        assert!(
+            e.wrong_pct < bound,
+            "{scene}: wrong {} % (bound {bound} %)",
+            e.wrong_pct
+        );
+        assert!(e.pixels > 10_000, "{scene}: measured {} pixels", e.pixels);
+    }
+}
+
+#[test]
+fn acne_without_bias_and_resolution_helps() {
+    let biased = errors("grazing", "shadow-map", &[]);
+    let acne = errors("grazing", "shadow-map", &[("units", "0"), ("slope", "0")]);
+    assert!(
+        acne.wrong_pct > 20.0,
+        "zero bias on a grazing plane must show acne: {} %",
+        acne.wrong_pct
+    );
+    assert!(
+        biased.wrong_pct * 50.0 < acne.wrong_pct,
+        "bias fixes it: {} vs {} %",
+        biased.wrong_pct,
+        acne.wrong_pct
+    );
+    let small = errors("long_view", "shadow-map", &[("size", "256")]);
+    let large = errors("long_view", "shadow-map", &[("size", "4096")]);
+    assert!(
+        large.rmse < small.rmse,
+        "a larger map aliases less: {} vs {}",
+        large.rmse,
+        small.rmse
+    );
+}
+
+#[test]
+fn hard_techniques_miss_the_penumbra_and_translucency() {
+    let e = errors("overlap", "shadow-map", &[]);
+    assert!(
+        e.penumbra_rmse > 0.2,
+        "a hard shadow map cannot produce soft shadows: {}",
+        e.penumbra_rmse
+    );
+    let e = errors("layers", "shadow-map", &[]);
+    assert!(
+        e.wrong_pct > 5.0,
+        "an opaque depth map blocks semi-transparent layers: {} %",
+        e.wrong_pct
+    );
+}
+
+#[test]
+fn registry_rejects_unknown_names_and_bad_values() {
+    let bad = |name: &str, sets: &[(&str, &str)]| {
+        let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        shadow::create(name, &sets).err().expect("must be an error")
+    };
+    assert!(bad("shadow-mop", &[]).contains("unknown technique 'shadow-mop' (known: reference, shadow-map"));
+    assert!(bad("shadow-map", &[("sise", "1")]).contains("has no option 'sise' (options: size, format"));
+    assert!(bad("shadow-map", &[("size", "big")]).contains("size=big is not a number"));
+    assert!(bad("shadow-map", &[("size", "0")]).contains("outside [16, 16384]"));
+    assert!(bad("shadow-map", &[("filter", "gauss")]).contains("not one of none, pcf2"));
+    assert!(shadow::parse_sets(&["size".into()]).is_err());
+    for t in shadow::registry() {
+        assert!(!t.sweep.is_empty(), "{} declares sweep sets", t.name);
+        for set in t.sweep {
+            let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+            assert!(
+                shadow::create(t.name, &sets).is_ok(),
+                "{} sweep set {set:?} is valid",
+                t.name
+            );
+        }
+    }
+}
+
+/// Runs the CLI; returns (success, stdout + stderr).
+fn cli(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!text.contains("panicked"), "the CLI panicked on {args:?}:\n{text}");
+    (out.status.success(), text)
+}
+
+fn temp_scene(name: &str, body: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("penumbra-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+const GOOD: &str = "# ok\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [32, 24]\n\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n\n[[object]]\nmesh = \"plane\"\nsize = 4\n";
+
+#[test]
+fn cli_reports_bad_input_with_what_and_where() {
+    let out = std::env::temp_dir().join(format!("penumbra-test-out-{}", std::process::id()));
+    let out = out.to_str().unwrap();
+    let good = temp_scene("good.toml", GOOD);
+    let (ok, text) = cli(&[
+        "render",
+        &good,
+        "--technique",
+        "shadow-map",
+        "--out",
+        out,
+        "--reps",
+        "1",
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains("rmse"), "{text}");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["render".into(), good.clone(), "--technique".into(), "nope".into()],
+            "unknown technique 'nope'",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "sise=3".into()],
+            "has no option 'sise'",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "size=-4".into()],
+            "size=-4",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "size".into()],
+            "is not key=value",
+        ),
+        (
+            vec!["render".into(), "does/not/exist.toml".into()],
+            "does/not/exist.toml: cannot read scene file",
+        ),
+        (
+            vec![
+                "render".into(),
+                temp_scene("syntax.toml", &GOOD.replace("[camera]", "[camera")),
+            ],
+            "syntax.toml:2:",
+        ),
+        (
+            vec![
+                "render".into(),
+                temp_scene("nan.toml", &GOOD.replace("[0, 3, 5]", "[0, nan, 5]")),
+            ],
+            "field `position`: not finite",
+        ),
+        (
+            vec![
+                "render".into(),
+                temp_scene("zero.toml", &GOOD.replace("[32, 24]", "[0, 24]")),
+            ],
+            "field `resolution`",
+        ),
+        (
+            vec![
+                "render".into(),
+                temp_scene("obj.toml", &GOOD.replace("\"plane\"", "\"missing.obj\"")),
+            ],
+            "missing.obj",
+        ),
+        (
+            vec![
+                "render".into(),
+                temp_scene("bad_obj.toml", &GOOD.replace("\"plane\"", "\"broken.obj\"")),
+            ],
+            "broken.obj",
+        ),
+        (
+            vec![
+                "sweep".into(),
+                good.clone(),
+                "--techniques".into(),
+                "shadow-map,nope".into(),
+            ],
+            "unknown technique 'nope'",
+        ),
+        (
+            vec!["bench".into(), "frame".into(), "--triangles".into(), "1".into()],
+            "--triangles 1 is out of range",
+        ),
+        (
+            vec!["bench".into(), "raster".into(), "--mode".into(), "paint".into()],
+            "unknown raster mode 'paint'",
+        ),
+    ];
+    let _ = std::fs::write(
+        std::path::Path::new(&good).with_file_name("broken.obj"),
+        "v 0 0 0\nv 1 0 0\nf 1 2 9\n",
+    );
+    for (args, expect) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (ok, text) = cli(&args);
+        assert!(!ok, "{args:?} must fail:\n{text}");
+        assert!(text.contains(expect), "{args:?}: expected '{expect}' in:\n{text}");
+    }
+}
+
+#[test]
+fn cli_export_and_list() {
+    let out = std::env::temp_dir().join(format!("penumbra-test-export-{}", std::process::id()));
+    let (ok, text) = cli(&["export", "fixtures/scenes/contact.toml", "--out", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let obj = std::fs::read_to_string(out.join("contact.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), 14);
+    let json = std::fs::read_to_string(out.join("contact.json")).unwrap();
+    assert!(json.contains("\"type\": \"area\""), "{json}");
+    let (ok, text) = cli(&["list"]);
+    assert!(ok && text.contains("shadow-map") && text.contains("contact"), "{text}");
+}
