@@ -2,14 +2,14 @@
 //! ray-triangle test (Woop, Benthin and Wald 2013, "Watertight Ray/Triangle Intersection"),
 //! any-hit queries for shadow rays. Built sequentially (deterministic), queried in parallel.
 
-use glam::{Vec3, Vec3A};
+use glam::Vec3;
 
 /// One node: bounds, and either two children (`count == 0`, children at `first` and
 /// `first + 1`) or a leaf of `count` triangles starting at `first`.
 #[derive(Copy, Clone, Debug)]
 struct Node {
-    lo: Vec3A,
-    hi: Vec3A,
+    lo: Vec3,
+    hi: Vec3,
     first: u32,
     count: u32,
 }
@@ -44,8 +44,8 @@ impl Bvh {
         };
         let n = bvh.tris.len();
         bvh.nodes.push(Node {
-            lo: Vec3A::ZERO,
-            hi: Vec3A::ZERO,
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
             first: 0,
             count: n as u32,
         });
@@ -81,8 +81,8 @@ impl Bvh {
                 clo = clo.min(c);
                 chi = chi.max(c);
             }
-            self.nodes[ni].lo = lo.into();
-            self.nodes[ni].hi = hi.into();
+            self.nodes[ni].lo = lo;
+            self.nodes[ni].hi = hi;
             if count <= LEAF_MAX {
                 continue;
             }
@@ -160,14 +160,14 @@ impl Bvh {
             }
             let l = self.nodes.len();
             self.nodes.push(Node {
-                lo: Vec3A::ZERO,
-                hi: Vec3A::ZERO,
+                lo: Vec3::ZERO,
+                hi: Vec3::ZERO,
                 first: first as u32,
                 count: mid as u32,
             });
             self.nodes.push(Node {
-                lo: Vec3A::ZERO,
-                hi: Vec3A::ZERO,
+                lo: Vec3::ZERO,
+                hi: Vec3::ZERO,
                 first: (first + mid) as u32,
                 count: (count - mid) as u32,
             });
@@ -185,7 +185,7 @@ impl Bvh {
             return false;
         }
         let ray = WatertightRay::new(o, d);
-        let (oa, inv) = (Vec3A::from(o), Vec3A::from(d.recip()));
+        let (oa, inv) = (o, d.recip());
         let mut stack = [0u32; 64];
         let mut sp = 1;
         while sp > 0 {
@@ -219,7 +219,7 @@ impl Bvh {
 
 /// Ray-box slab test (inclusive, NaN-safe: a NaN from 0 * inf compares false and is skipped).
 #[inline(always)]
-fn slab(lo: Vec3A, hi: Vec3A, o: Vec3A, inv: Vec3A, tmax: f32) -> bool {
+fn slab(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, tmax: f32) -> bool {
     let t0 = (lo - o) * inv;
     let t1 = (hi - o) * inv;
     let tn = t0.min(t1).max_element().max(0.0);
