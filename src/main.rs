@@ -100,7 +100,8 @@ enum BenchCmd {
     Frame(FrameArgs),
     /// Random triangles of about AREA pixels each at 1920x1080.
     Raster(RasterArgs),
-    /// Shadow rays per second of the reference ray tracer on the spheres scene.
+    /// Shadow rays per second of the reference ray tracer on the spheres scene (one ray per
+    /// pixel of the 1920x1080 camera view towards the light).
     Rays(RaysArgs),
 }
 
@@ -407,28 +408,29 @@ fn bench_rays(a: RaysArgs) -> Result<(), String> {
     let t0 = Instant::now();
     let r = Reference::new(&scene);
     let build = t0.elapsed().as_secs_f64();
-    // Shadow rays from points on the ground and the spheres' bounding region towards the light.
+    // The reference's real workload: one shadow ray from every pixel of the camera view (the
+    // G-buffer at 1920x1080) towards the light, in pixel order, repeated to `--rays` rays.
     let light = scene.lights[0];
-    let mut rng = SplitMix(3);
-    let origins: Vec<glam::Vec3> = (0..65536)
-        .map(|_| {
-            glam::Vec3::new(
-                rng.next_f32() * 24.0 - 12.0,
-                rng.next_f32() * 2.2,
-                rng.next_f32() * 24.0 - 12.0,
-            )
-        })
+    let gb = penumbra::frame::gbuffer(&p, &scene, &scene.camera).map_err(|e| e.to_string())?;
+    let origins: Vec<glam::Vec3> = gb
+        .position
+        .data()
+        .iter()
+        .zip(gb.normal.data())
+        .zip(gb.object.data())
+        .filter(|(_, &o)| o != penumbra::frame::NO_OBJECT)
+        .map(|((&p, &n), _)| offset_origin(p, n))
         .collect();
+    if origins.is_empty() {
+        return Err("the camera sees no geometry".into());
+    }
     let run = || {
         use rayon::prelude::*;
         p.install(|| {
             (0..a.rays)
                 .into_par_iter()
                 .with_min_len(4096)
-                .map(|i| {
-                    let o = offset_origin(origins[i % origins.len()], glam::Vec3::Y);
-                    (r.transmittance(o, -light.direction, f32::INFINITY) < 1.0) as u64
-                })
+                .map(|i| (r.transmittance(origins[i % origins.len()], -light.direction, f32::INFINITY) < 1.0) as u64)
                 .sum::<u64>()
         })
     };
