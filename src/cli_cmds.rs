@@ -68,6 +68,9 @@ pub fn render(
             r.reference_rays as f64 / r.reference_secs / 1e6
         );
     }
+    for (pass, ms) in &r.pass_times {
+        println!("  {pass:<12} {ms:.3} ms (last run)");
+    }
     let st = p.take_times();
     println!(
         "pipeline stages (all draws): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms",

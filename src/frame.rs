@@ -38,6 +38,8 @@ pub struct Frame<'a> {
     pub gbuffer: GBuffer,
     /// Index of the frame on the camera path (0 for a still camera).
     pub index: usize,
+    /// The shading point of every pixel, row-major (built once with the G-buffer).
+    points: Vec<Option<SamplePoint>>,
 }
 
 impl Frame<'_> {
@@ -60,11 +62,8 @@ impl Frame<'_> {
     }
 
     /// All shading points, row-major.
-    pub fn points(&self) -> Vec<Option<SamplePoint>> {
-        (0..self.height())
-            .flat_map(|y| (0..self.width()).map(move |x| (x, y)))
-            .map(|(x, y)| self.point(x, y))
-            .collect()
+    pub fn points(&self) -> &[Option<SamplePoint>] {
+        &self.points
     }
 
     /// Pixels the metrics count: covered by geometry and facing the light.
@@ -168,12 +167,20 @@ pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> 
     })?;
     let camera = scene.camera_at(index);
     let gbuffer = gbuffer(p, scene, &camera).map_err(|e| e.to_string())?;
+    let points = gbuffer
+        .object
+        .data()
+        .iter()
+        .zip(gbuffer.position.data().iter().zip(gbuffer.normal.data()))
+        .map(|(&o, (&position, &normal))| (o != NO_OBJECT).then_some(SamplePoint { position, normal }))
+        .collect();
     Ok(Frame {
         scene,
         light: l,
         camera,
         gbuffer,
         index,
+        points,
     })
 }
 

@@ -46,7 +46,7 @@ pub fn reference(p: &Pipeline, frame: &Frame, key: u64, cache: Option<&Path>) ->
     let t = Instant::now();
     let r = Reference::new(frame.scene);
     let pts = frame.points();
-    let v = p.install(|| r.visibility(&pts, frame.width() as usize, &frame.light, &ReferenceOptions::default()));
+    let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &ReferenceOptions::default()));
     let secs = t.elapsed().as_secs_f64();
     if let Some(f) = &file {
         if let Some(d) = f.parent() {
@@ -165,6 +165,8 @@ pub struct RenderOutput {
     pub reference_rays: u64,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// The technique's own pass times of its last run on the first frame (ms).
+    pub pass_times: Vec<(&'static str, f64)>,
 }
 
 /// Renders `scene` with a technique: final image, visibility, error image, metrics; camera
@@ -183,6 +185,7 @@ pub fn render(
     let frames = scene.camera_path.len().max(1);
     let mut seq = Vec::new();
     let mut first = None;
+    let mut pass_times = Vec::new();
     let (mut ref_secs, mut ref_rays) = (0.0, 0);
     for i in 0..frames {
         let f = frame::frame(p, scene, 0, i)?;
@@ -194,7 +197,10 @@ pub fn render(
         )?;
         ref_secs += secs;
         ref_rays += rays;
-        let (v, ms, _) = time_technique(p, &f, name, sets, if i == 0 { reps } else { 0 })?;
+        let (v, ms, t) = time_technique(p, &f, name, sets, if i == 0 { reps } else { 0 })?;
+        if i == 0 {
+            pass_times = t.timings();
+        }
         let mask = f.metric_mask();
         if i == 0 {
             first = Some((
@@ -243,6 +249,7 @@ pub fn render(
         reference_secs: ref_secs,
         reference_rays: ref_rays,
         files,
+        pass_times,
     })
 }
 

@@ -178,7 +178,11 @@ pub fn raster_tile(tri: &SetupTri, rect: [i32; 4], mask: &mut TileMask) -> u64 {
         let lanes = RowLanes::new(dx);
         let width = (x1 - x0 + 1) as u32;
         for y in y0..=y1 {
-            let b = [e[0].at(x0 as i64, y as i64) as i32, e[1].at(x0 as i64, y as i64) as i32, e[2].at(x0 as i64, y as i64) as i32];
+            let b = [
+                e[0].at(x0 as i64, y as i64) as i32,
+                e[1].at(x0 as i64, y as i64) as i32,
+                e[2].at(x0 as i64, y as i64) as i32,
+            ];
             let bits = lanes.row(b, width);
             n += bits.count_ones() as u64;
             mask.rows[(y - oy) as usize] = (bits as u64) << (x0 - ox);

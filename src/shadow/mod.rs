@@ -50,6 +50,11 @@ pub trait ShadowTechnique: Send {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String>;
     /// Intermediate buffers of the last call.
     fn stages(&self) -> Vec<Stage>;
+    /// Wall time of each pass of the last call, in milliseconds (for users comparing where a
+    /// technique spends its time). Default: none.
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// One option of a technique: name, default, documentation.

@@ -52,7 +52,7 @@ impl ShadowTechnique for RefTechnique {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
         let r = Reference::new(frame.scene);
         let pts = frame.points();
-        let v = p.install(|| r.visibility(&pts, frame.width() as usize, &frame.light, &self.opts));
+        let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &self.opts));
         self.last = Surface::from_vec(frame.width(), frame.height(), v.clone()).ok();
         Ok(v)
     }

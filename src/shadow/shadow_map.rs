@@ -131,6 +131,8 @@ pub fn info() -> TechniqueInfo {
                 maps: Vec::new(),
                 ids: Vec::new(),
                 culled: 0,
+                overview: None,
+                times: Vec::new(),
             }))
         },
     }
@@ -279,6 +281,8 @@ struct ShadowMap {
     maps: Vec<(Surface<f32>, LightView)>,
     ids: Vec<Surface<f32>>,
     culled: usize,
+    overview: Option<Surface<Rgba8>>,
+    times: Vec<(&'static str, f64)>,
 }
 
 impl ShadowMap {
@@ -291,7 +295,7 @@ impl ShadowMap {
             return (light_views(frame, self.size), all);
         }
         // Visible receivers: the G-buffer's points.
-        let pts: Vec<Vec3> = frame.points().into_iter().flatten().map(|s| s.position).collect();
+        let pts: Vec<Vec3> = frame.points().iter().flatten().map(|s| s.position).collect();
         if pts.is_empty() {
             return (light_views(frame, self.size), all);
         }
@@ -327,6 +331,47 @@ impl ShadowMap {
             vec![directional_view(frame, &pts, &casters, self.size, self.snap)],
             keep,
         )
+    }
+
+    /// The whole scene seen from the light (256 x 256, grey depth) with the fitted frustum's
+    /// footprint drawn over it in red and culled casters' depth left out: RTR fig. 7.11.
+    fn fitted_overview(&self, p: &Pipeline, frame: &Frame, fitted: &LightView) -> Result<Surface<Rgba8>, String> {
+        const N: u32 = 256;
+        let all = light_views(frame, N)[0];
+        let mut d = Surface::new(N, N, 1.0f32).map_err(|e| e.to_string())?;
+        for o in &frame.scene.objects {
+            p.draw(
+                &mut Targets::depth_only(&mut d),
+                &RenderState::default(),
+                &o.mesh.positions,
+                &o.mesh.indices,
+                &TransformPositions(all.matrix),
+                &DepthOnly,
+            )
+            .map_err(|e| e.to_string())?;
+        }
+        let mut img = d.map(|z| {
+            let g = ((1.0 - z) * 220.0 + 20.0) as u8;
+            [g, g, g, 255]
+        });
+        // The fitted frustum's x/y outline, taken to world at mid depth and into the overview.
+        let inv = fitted.matrix.inverse();
+        let c = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| {
+            let w = inv.project_point3(Vec3::new(x, y, 0.5));
+            let q = all.matrix.project_point3(w);
+            Vec2::new((q.x * 0.5 + 0.5) * N as f32, (0.5 - q.y * 0.5) * N as f32)
+        });
+        for i in 0..4 {
+            let (a, b) = (c[i], c[(i + 1) % 4]);
+            let steps = (b - a).length().ceil().max(1.0) as u32 * 2;
+            for k in 0..=steps {
+                let q = a + (b - a) * (k as f32 / steps as f32);
+                if q.x >= 0.0 && q.y >= 0.0 && q.x < N as f32 && q.y < N as f32 {
+                    img.set(q.x as u32, q.y as u32, [230, 40, 40, 255]);
+                }
+            }
+        }
+        Ok(img)
     }
 
     /// Renders one depth layer of `objects` for `view`: `cull` selects faces; `peel` (if any)
@@ -400,7 +445,12 @@ impl ShadowTechnique for ShadowMap {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
         // Pass 1: the light's map(s).
+        let t0 = std::time::Instant::now();
         let (views, keep) = self.views(frame);
+        self.overview = None;
+        if self.fit_receivers && frame.light.kind == LightKind::Directional {
+            self.overview = Some(self.fitted_overview(p, frame, &views[0])?);
+        }
         self.maps.clear();
         self.ids.clear();
         for view in views {
@@ -436,6 +486,7 @@ impl ShadowTechnique for ShadowMap {
             self.maps.push((map, view));
         }
 
+        let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
         let cube = self.maps.len() == 6;
         let sampler = CompareSampler::default();
@@ -486,7 +537,7 @@ impl ShadowTechnique for ShadowMap {
                     }
                     let mut z = z;
                     if this.receiver {
-                        z -= receiver_plane_bias(&pts, objs, w, h, x, y, &view.matrix, map.width());
+                        z -= receiver_plane_bias(pts, objs, w, h, x, y, &view.matrix, map.width());
                     }
                     let z = this.format.quantize(z.clamp(0.0, 1.0));
                     *o = if this.pcf {
@@ -497,7 +548,15 @@ impl ShadowTechnique for ShadowMap {
                 }
             })
         });
+        self.times = vec![
+            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
+        ];
         Ok(out)
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
     }
 
     fn stages(&self) -> Vec<Stage> {
@@ -512,6 +571,12 @@ impl ShadowTechnique for ShadowMap {
                 hi: 1.0,
             })
             .collect();
+        if let Some(o) = &self.overview {
+            v.push(Stage::Color {
+                name: "fitted_frustum".into(),
+                data: o.clone(),
+            });
+        }
         for (i, ids) in self.ids.iter().enumerate() {
             let hi = ids.data().iter().copied().fold(1.0f32, f32::max);
             v.push(Stage::Scalar {
@@ -590,5 +655,41 @@ fn receiver_plane_bias(
         b.min(0.05)
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::Pipeline;
+
+    #[test]
+    fn fitting_culls_casters_that_cannot_shadow_visible_receivers() {
+        // A box far to the side of the view casts nowhere the camera looks: culled.
+        let text = "[camera]\nposition = [0, 3, 6]\ntarget = [0, 0, 0]\nresolution = [64, 48]\n\n[[light]]\ntype = \"directional\"\ndirection = [0.2, -1, 0.1]\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [60, 0.5, 0]\n";
+        let scene = crate::scene::file::parse(text, std::path::Path::new("t.toml")).unwrap();
+        let p = Pipeline::new(2).unwrap();
+        let f = crate::frame::frame(&p, &scene, 0, 0).unwrap();
+        let mut sm = ShadowMap {
+            size: 256,
+            format: DepthFormat::F32,
+            offset: PolygonOffset {
+                factor: 1.1,
+                units: 4.0,
+            },
+            normal: 0.0,
+            receiver: false,
+            layer: Layer::First,
+            fit_receivers: true,
+            snap: false,
+            pcf: false,
+            maps: Vec::new(),
+            ids: Vec::new(),
+            culled: 0,
+            overview: None,
+            times: Vec::new(),
+        };
+        sm.visibility(&p, &f).unwrap();
+        assert_eq!(sm.culled, 1);
     }
 }
