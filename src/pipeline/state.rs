@@ -105,7 +105,13 @@ impl DepthFormat {
             DepthFormat::F32 => {
                 let m = max_z.abs().max(f32::MIN_POSITIVE);
                 let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
-                2f32.powi(e - 23)
+                // 2^(e - 23), built from its exponent bits (no powi call per triangle).
+                let be = e - 23 + 127;
+                if be > 0 {
+                    f32::from_bits((be as u32) << 23)
+                } else {
+                    2f32.powi(e - 23)
+                }
             }
             DepthFormat::Unorm24 => 1.0 / 16_777_216.0,
             DepthFormat::Unorm16 => 1.0 / 65536.0,
