@@ -295,3 +295,18 @@ pub struct RenderState {
     /// Colour write mask. Default: all channels.
     pub color_mask: ColorMask,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolvable_is_two_to_the_exponent_minus_23() {
+        for z in [1.0f32, 0.999, 0.5, 0.25, 0.3, 1e-3, 1e-30, 0.0] {
+            let m = z.abs().max(f32::MIN_POSITIVE);
+            let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
+            assert_eq!(DepthFormat::F32.resolvable(z), 2f32.powi(e - 23), "z = {z}");
+        }
+        assert_eq!(DepthFormat::Unorm16.resolvable(0.5), 1.0 / 65536.0);
+    }
+}
