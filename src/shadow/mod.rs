@@ -7,6 +7,7 @@
 
 pub mod reference;
 pub mod shadow_map;
+pub mod volume;
 
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8, Surface};
@@ -142,7 +143,7 @@ impl Settings<'_> {
 
 /// All techniques, in chart order.
 pub fn registry() -> Vec<TechniqueInfo> {
-    vec![reference::info(), shadow_map::info()]
+    vec![reference::info(), shadow_map::info(), volume::info()]
 }
 
 /// Creates technique `name` with `key=value` settings; errors name unknown techniques and
