@@ -419,3 +419,27 @@ fn shadow_volumes_are_exact_and_z_pass_fails_with_the_eye_inside() {
     let zpass = hard_errors("eye_in_volume", "shadow-volume", &[("mode", "zpass")]);
     assert!(zpass.wrong_pct > 50.0, "z-pass: {} %", zpass.wrong_pct);
 }
+
+#[test]
+fn auto_mode_picks_z_fail_only_when_the_near_plane_may_be_shadowed() {
+    let p = Pipeline::new(2).unwrap();
+    for (scene, zpass) in [("eye_in_volume", false), ("long_view", true)] {
+        let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
+        let f = frame::frame(&p, &s, 0, 0).unwrap();
+        assert_eq!(shadow::volume::zpass_is_safe(&f), zpass, "{scene}");
+        let mut t = shadow::create("shadow-volume", &[]).unwrap();
+        t.visibility(&p, &f).unwrap();
+        let name = t.stages()[0].name().to_string();
+        assert_eq!(
+            name,
+            if zpass {
+                "stencil_counts_zpass"
+            } else {
+                "stencil_counts_zfail"
+            }
+        );
+    }
+    // Auto is as exact as z-fail where z-pass would fail.
+    let e = hard_errors("eye_in_volume", "shadow-volume", &[]);
+    assert!(e.wrong_pct <= 0.05, "{} %", e.wrong_pct);
+}

@@ -10,6 +10,9 @@
 //! reported in `stages` and drawn as per-triangle volumes (every light-facing triangle's own
 //! three edges), which is exact for any mesh, only slower.
 //!
+//! Mode `auto` uses z-pass when no caster can shadow the camera's near-plane rectangle
+//! (a conservative bounding-box test) and z-fail otherwise (Everitt and Kilgard 2002).
+//!
 //! Known failure: z-pass with the eye inside a volume (mode `zpass`), and with z-fail the
 //! far plane cutting volumes when clamping is off (mode `zfail-noclamp`).
 
@@ -21,8 +24,8 @@ use std::collections::{BTreeMap, HashMap};
 
 const OPTIONS: &[OptionInfo] = &[OptionInfo {
     key: "mode",
-    default: "zfail",
-    doc: "zfail (capped, depth clamp), zpass (Heidmann), or zfail-noclamp (far plane cuts volumes)",
+    default: "auto",
+    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zpass (Heidmann), or zfail-noclamp",
 }];
 
 /// Registry entry.
@@ -31,10 +34,10 @@ pub fn info() -> TechniqueInfo {
         name: "shadow-volume",
         summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
         options: OPTIONS,
-        sweep: &[&[], &[("mode", "zpass")]],
+        sweep: &[&[], &[("mode", "zfail")], &[("mode", "zpass")]],
         create: |s| {
-            let mode = s.choice("mode", &["zfail", "zpass", "zfail-noclamp"])?;
-            Ok(Box::new(ShadowVolume { mode, stencil: None, silhouettes: 0, nonmanifold: 0 }))
+            let mode = s.choice("mode", &["auto", "zfail", "zpass", "zfail-noclamp"])?;
+            Ok(Box::new(ShadowVolume { mode, stencil: None, silhouettes: 0, nonmanifold: 0, chose_zpass: false }))
         },
     }
 }
@@ -44,6 +47,39 @@ struct ShadowVolume {
     stencil: Option<Surface<u8>>,
     silhouettes: usize,
     nonmanifold: usize,
+    chose_zpass: bool,
+}
+
+/// Whether z-pass is safe: no caster can put any point of the camera's near-plane rectangle
+/// in shadow. Conservative: true only when no caster's bounding box meets the bounding box of
+/// the near rectangle swept towards the light (to the light's position, or across the scene
+/// for directional lights). Z-fail (with clamp) is always correct; z-pass is cheaper to reason
+/// about and needs no caps.
+pub fn zpass_is_safe(frame: &Frame) -> bool {
+    let cam = &frame.camera;
+    let inv = cam.view_projection().inverse();
+    let near: Vec<Vec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .iter()
+        .map(|&(x, y)| inv.project_point3(Vec3::new(x, y, 0.0)))
+        .collect();
+    let (slo, shi) = frame.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let reach = (shi - slo).length() * 2.0 + (cam.position - slo).length();
+    let mut pts = near.clone();
+    match frame.light.kind {
+        LightKind::Directional => pts.extend(near.iter().map(|p| *p - frame.light.direction * reach)),
+        _ => pts.push(frame.light.position),
+    }
+    let (lo, hi) = pts
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    !frame
+        .scene
+        .objects
+        .iter()
+        .filter_map(|o| o.mesh.bounds())
+        .any(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
 }
 
 /// Clip-space transform of homogeneous world positions (w = 0: points at infinity).
@@ -193,7 +229,11 @@ impl ShadowTechnique for ShadowVolume {
         };
         let mut depth = frame.gbuffer.depth.clone();
         let mut stencil = Surface::new(frame.width(), frame.height(), 0u8).map_err(|e| e.to_string())?;
-        let zfail = self.mode != "zpass";
+        self.chose_zpass = match self.mode {
+            "auto" => zpass_is_safe(frame),
+            m => m == "zpass",
+        };
+        let zfail = !self.chose_zpass;
         let (front, back) = if zfail {
             (
                 StencilFace {
@@ -271,7 +311,13 @@ impl ShadowTechnique for ShadowVolume {
         self.stencil
             .iter()
             .map(|s| Stage::Scalar {
-                name: "stencil_counts".into(),
+                // The name records which counting the pass used (auto mode chooses).
+                name: if self.chose_zpass {
+                    "stencil_counts_zpass"
+                } else {
+                    "stencil_counts_zfail"
+                }
+                .into(),
                 data: s.map(|v| v as i8 as f32),
                 lo: -2.0,
                 hi: 2.0,
