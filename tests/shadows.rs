@@ -443,3 +443,12 @@ fn auto_mode_picks_z_fail_only_when_the_near_plane_may_be_shadowed() {
     let e = hard_errors("eye_in_volume", "shadow-volume", &[]);
     assert!(e.wrong_pct <= 0.05, "{} %", e.wrong_pct);
 }
+
+#[test]
+fn z_fail_needs_depth_clamp_when_the_far_plane_cuts_volumes() {
+    // Measured: 93.4 % wrong without clamp, 0.000 % with it (and with auto, which picks z-pass).
+    let cut = hard_errors("far_plane", "shadow-volume", &[("mode", "zfail-noclamp")]);
+    let clamped = hard_errors("far_plane", "shadow-volume", &[("mode", "zfail")]);
+    assert!(cut.wrong_pct > 10.0, "far plane cutting volumes: {} %", cut.wrong_pct);
+    assert!(clamped.wrong_pct <= 0.05, "with depth clamp: {} %", clamped.wrong_pct);
+}
