@@ -19,17 +19,7 @@ pub fn hash_f32(data: &[f32]) -> u64 {
         .fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_bits().to_le_bytes()))
 }
 
-/// Hashes a slice of plain bytes.
-pub fn hash_bytes(data: &[u8]) -> u64 {
-    fnv1a(FNV_OFFSET, data)
-}
-
 /// Hashes RGBA8 texels.
 pub fn hash_rgba8(data: &[[u8; 4]]) -> u64 {
     data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, v))
-}
-
-/// Hashes `u32` values.
-pub fn hash_u32(data: &[u32]) -> u64 {
-    data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, &v.to_le_bytes()))
 }

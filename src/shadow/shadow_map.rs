@@ -455,7 +455,7 @@ impl ShadowTechnique for ShadowMap {
         self.ids.clear();
         for view in views {
             let map = match self.layer {
-                Layer::First | Layer::Id => self.depth_layer(p, frame, &view, &keep, CullMode::None, None)?,
+                Layer::First => self.depth_layer(p, frame, &view, &keep, CullMode::None, None)?,
                 Layer::Second => self.depth_layer(p, frame, &view, &keep, CullMode::Front, None)?,
                 Layer::Midpoint => {
                     let d1 = self.depth_layer(p, frame, &view, &keep, CullMode::None, None)?;
@@ -463,26 +463,29 @@ impl ShadowTechnique for ShadowMap {
                     let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
                     Surface::from_vec(self.size, self.size, mid).map_err(|e| e.to_string())?
                 }
-            };
-            if self.layer == Layer::Id {
-                // Object ids (+1; 0 = empty) drawn with the depth test of the first layer.
-                let mut ids = Surface::new(self.size, self.size, 0.0f32).map_err(|e| e.to_string())?;
-                let mut depth = Surface::new(self.size, self.size, 1.0f32).map_err(|e| e.to_string())?;
-                for (oi, o) in frame.scene.objects.iter().enumerate().filter(|(i, _)| keep[*i]) {
-                    let id = oi as f32 + 1.0;
-                    let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
-                    p.draw(
-                        &mut Targets::color(&mut ids).with_depth(&mut depth),
-                        &RenderState::default(),
-                        &o.mesh.positions,
-                        &o.mesh.indices,
-                        &TransformPositions(view.matrix),
-                        &fs,
-                    )
-                    .map_err(|e| e.to_string())?;
+                Layer::Id => {
+                    // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
+                    // `dump` shows.
+                    let mut ids = Surface::new(self.size, self.size, 0.0f32).map_err(|e| e.to_string())?;
+                    let mut depth = Surface::new(self.size, self.size, 1.0f32).map_err(|e| e.to_string())?;
+                    for (oi, o) in frame.scene.objects.iter().enumerate().filter(|(i, _)| keep[*i]) {
+                        let id = oi as f32 + 1.0;
+                        let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
+                        let vs = TransformPositions(view.matrix);
+                        p.draw(
+                            &mut Targets::color(&mut ids).with_depth(&mut depth),
+                            &RenderState::default(),
+                            &o.mesh.positions,
+                            &o.mesh.indices,
+                            &vs,
+                            &fs,
+                        )
+                        .map_err(|e| e.to_string())?;
+                    }
+                    self.ids.push(ids);
+                    depth
                 }
-                self.ids.push(ids);
-            }
+            };
             self.maps.push((map, view));
         }
 

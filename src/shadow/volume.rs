@@ -172,27 +172,22 @@ pub fn volume_geometry(mesh: &Mesh, light_pos: Vec4) -> (Vec<Vec4>, Vec<u32>, us
         }
     } else {
         for list in edges.values() {
-            match list.as_slice() {
-                [(t, a, b)] if facing[*t] => {
-                    quad(
-                        mesh.positions[*a as usize],
-                        mesh.positions[*b as usize],
-                        &mut verts,
-                        &mut idx,
-                    );
-                    silhouettes += 1;
-                }
+            // The silhouette edge in the winding of its light-facing triangle, if any.
+            let edge = match list.as_slice() {
+                [(t, a, b)] if facing[*t] => Some((a, b)),
                 [(t0, a0, b0), (t1, a1, b1)] if facing[*t0] != facing[*t1] => {
-                    let (a, b) = if facing[*t0] { (a0, b0) } else { (a1, b1) };
-                    quad(
-                        mesh.positions[*a as usize],
-                        mesh.positions[*b as usize],
-                        &mut verts,
-                        &mut idx,
-                    );
-                    silhouettes += 1;
+                    Some(if facing[*t0] { (a0, b0) } else { (a1, b1) })
                 }
-                _ => {}
+                _ => None,
+            };
+            if let Some((a, b)) = edge {
+                quad(
+                    mesh.positions[*a as usize],
+                    mesh.positions[*b as usize],
+                    &mut verts,
+                    &mut idx,
+                );
+                silhouettes += 1;
             }
         }
     }
