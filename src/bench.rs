@@ -70,11 +70,9 @@ pub fn spheres_scene(t: usize) -> BenchMesh {
             let c = Vec3::new((i as f32 - 3.5) * 2.5, 0.6 + r, (j as f32 - 3.5) * 2.5);
             let albedo = Vec3::new(0.35 + 0.08 * i as f32, 0.45, 0.35 + 0.08 * j as f32);
             let base = m.vertices.len() as u32;
-            for s in 0..stacks {
-                let theta = std::f32::consts::PI * s as f32 / (stacks - 1) as f32;
-                for k in 0..=slices {
-                    let phi = 2.0 * std::f32::consts::PI * k as f32 / slices as f32;
-                    let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            for s in 0..stacks as u32 {
+                for k in 0..=slices as u32 {
+                    let n = crate::scene::mesh::sphere_point(s, stacks as u32, k, slices as u32);
                     m.vertices.push(BenchVertex {
                         pos: c + n * r,
                         normal: n,
@@ -395,23 +393,34 @@ pub fn median(v: &mut [f64]) -> f64 {
 }
 
 /// The spheres scene as a [`crate::scene::Scene`] (same geometry as [`spheres_scene`]), for the
-/// reference's ray benchmark.
+/// reference's ray benchmark and the shadow-volume benchmark: one object for the ground and
+/// one per sphere (each closed).
 pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
     use crate::scene::*;
     let m = spheres_scene(t);
-    let mesh = Mesh {
-        positions: m.vertices.iter().map(|v| v.pos).collect(),
-        normals: m.vertices.iter().map(|v| v.normal).collect(),
-        indices: m.indices.clone(),
+    let (stacks, slices) = sphere_tessellation(t);
+    let object = |name: String, verts: std::ops::Range<usize>, tris: std::ops::Range<usize>| Object {
+        name,
+        mesh: Mesh {
+            positions: m.vertices[verts.clone()].iter().map(|v| v.pos).collect(),
+            normals: m.vertices[verts.clone()].iter().map(|v| v.normal).collect(),
+            indices: m.indices[tris].iter().map(|&i| i - verts.start as u32).collect(),
+        },
+        material: 0,
     };
+    let (nv, ni) = (stacks * (slices + 1), 6 * slices * (stacks - 1));
+    let mut objects = vec![object("ground".into(), 0..4, 0..6)];
+    for k in 0..64 {
+        objects.push(object(
+            format!("sphere_{k}"),
+            4 + k * nv..4 + (k + 1) * nv,
+            6 + k * ni..6 + (k + 1) * ni,
+        ));
+    }
     Scene {
         name: "spheres".into(),
         description: "benchmark spheres".into(),
-        objects: vec![Object {
-            name: "all".into(),
-            mesh,
-            material: 0,
-        }],
+        objects,
         materials: vec![Material::default()],
         camera: Camera {
             position: Vec3::new(0.0, 13.0, 21.0),

@@ -71,6 +71,12 @@ pub fn render(
     for (pass, ms) in &r.pass_times {
         println!("  {pass:<12} {ms:.3} ms (last run)");
     }
+    for (name, v) in &r.counters {
+        println!("  {name:<18} {v}");
+    }
+    for note in &r.notes {
+        println!("note: {note}");
+    }
     let st = p.take_times();
     println!(
         "pipeline stages (all draws): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms",
@@ -125,7 +131,10 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let (w, h) = (f.width(), f.height());
     let mut written = Vec::new();
-    for st in t.stages() {
+    for note in t.notes() {
+        eprintln!("note: {note}");
+    }
+    for st in t.stages(&p, &f)? {
         let path = dir.join(format!("{}.png", st.name()));
         match &st {
             Stage::Scalar { data, lo, hi, .. } => {
@@ -176,7 +185,7 @@ pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), String>
     let (s, text) = load(scene)?;
     let p = pipeline(threads)?;
     let f = frame::frame(&p, &s, 0, 0)?;
-    let key = report::reference_key(&text, 0, 0, &ReferenceOptions::default());
+    let key = report::reference_key(&text, &f, 0, &ReferenceOptions::default());
     let (v, secs, rays) = report::reference(&p, &f, key, Some(&cache_dir(out)))?;
     if rays > 0 {
         println!(

@@ -14,12 +14,40 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Key of a cached reference: the scene file's bytes, the frame, the light and the options.
-pub fn reference_key(scene_text: &str, light: usize, index: usize, opts: &ReferenceOptions) -> u64 {
+/// Bump when the reference's algorithm changes, so caches made before do not match.
+const REFERENCE_REVISION: u32 = 1;
+
+/// Key of a cached reference: the scene file's bytes, the geometry and the shading points
+/// actually built from it (so a change to a mesh generator or to the G-buffer cannot reuse a
+/// stale file), the frame, the light and the options.
+pub fn reference_key(scene_text: &str, frame: &Frame, light: usize, opts: &ReferenceOptions) -> u64 {
     let mut h = fnv1a(FNV_OFFSET, scene_text.as_bytes());
+    let words = |h: u64, it: &mut dyn Iterator<Item = u32>| it.fold(h, |h, w| fnv1a(h, &w.to_le_bytes()));
+    for o in &frame.scene.objects {
+        h = words(
+            h,
+            &mut o.mesh.positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)),
+        );
+        h = words(h, &mut o.mesh.indices.iter().copied());
+    }
+    h = words(
+        h,
+        &mut frame
+            .gbuffer
+            .position
+            .data()
+            .iter()
+            .zip(frame.gbuffer.normal.data())
+            .flat_map(|(p, n)| [p.to_array(), n.to_array()].concat().into_iter().map(f32::to_bits)),
+    );
     h = fnv1a(
         h,
-        format!("{light}/{index}/{opts:?}/{}", env!("CARGO_PKG_VERSION")).as_bytes(),
+        format!(
+            "{light}/{}/{opts:?}/{}/{REFERENCE_REVISION}",
+            frame.index,
+            env!("CARGO_PKG_VERSION")
+        )
+        .as_bytes(),
     );
     h
 }
@@ -167,6 +195,12 @@ pub struct RenderOutput {
     pub files: Vec<PathBuf>,
     /// The technique's own pass times of its last run on the first frame (ms).
     pub pass_times: Vec<(&'static str, f64)>,
+    /// The technique's counters on the first frame.
+    pub counters: Vec<(&'static str, f64)>,
+    /// The technique's notes on the first frame (irregular input and how it was handled).
+    pub notes: Vec<String>,
+    /// Time and counters of every frame of the camera path (one entry without a path).
+    pub path: Vec<PathFrame>,
 }
 
 /// Renders `scene` with a technique: final image, visibility, error image, metrics; camera
@@ -186,13 +220,15 @@ pub fn render(
     let mut seq = Vec::new();
     let mut first = None;
     let mut pass_times = Vec::new();
+    let mut notes = Vec::new();
+    let mut path = Vec::new();
     let (mut ref_secs, mut ref_rays) = (0.0, 0);
     for i in 0..frames {
         let f = frame::frame(p, scene, 0, i)?;
         let (r, secs, rays) = reference(
             p,
             &f,
-            reference_key(scene_text, 0, i, &ReferenceOptions::default()),
+            reference_key(scene_text, &f, 0, &ReferenceOptions::default()),
             cache,
         )?;
         ref_secs += secs;
@@ -200,7 +236,12 @@ pub fn render(
         let (v, ms, t) = time_technique(p, &f, name, sets, if i == 0 { reps } else { 0 })?;
         if i == 0 {
             pass_times = t.timings();
+            notes = t.notes();
         }
+        path.push(PathFrame {
+            ms,
+            counters: t.counters(),
+        });
         let mask = f.metric_mask();
         if i == 0 {
             first = Some((
@@ -243,6 +284,22 @@ pub fn render(
             write_png(&path, &img)?;
             files.push(path);
         }
+        if path.len() > 1 {
+            for (suffix, body) in [
+                ("_path.csv", path_csv(&path)),
+                (
+                    "_path.svg",
+                    path_chart_svg(
+                        &format!("{}: {} along the camera path", scene.name, result.label()),
+                        &path,
+                    ),
+                ),
+            ] {
+                let file = dir.join(format!("{stem}{suffix}"));
+                std::fs::write(&file, body).map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+                files.push(file);
+            }
+        }
     }
     Ok(RenderOutput {
         result,
@@ -250,6 +307,9 @@ pub fn render(
         reference_rays: ref_rays,
         files,
         pass_times,
+        counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
+        notes,
+        path,
     })
 }
 
@@ -401,6 +461,109 @@ pub fn chart_svg(title: &str, results: &[RunResult]) -> String {
     }
     s.push_str("</svg>\n");
     s
+}
+
+/// One frame of a camera path: the technique's time and its work counters.
+#[derive(Clone, Debug)]
+pub struct PathFrame {
+    /// Milliseconds of the technique's visibility call.
+    pub ms: f64,
+    /// The technique's counters (name, value).
+    pub counters: Vec<(&'static str, f64)>,
+}
+
+/// CSV of a camera path: frame, ms, then one column per counter.
+pub fn path_csv(frames: &[PathFrame]) -> String {
+    let mut s = String::from("frame,ms");
+    for (name, _) in frames.first().map(|f| f.counters.as_slice()).unwrap_or_default() {
+        let _ = write!(s, ",{}", name.replace(' ', "_"));
+    }
+    s.push('\n');
+    for (i, f) in frames.iter().enumerate() {
+        let _ = write!(s, "{i},{:.4}", f.ms);
+        for (_, v) in &f.counters {
+            let _ = write!(s, ",{v}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Time and counters along a camera path as SVG: one panel per series (time first, then each
+/// counter that is not zero on every frame), frame index on x. RTR 7.3 calls the cost of
+/// shadow volumes unpredictable: this is where users see it.
+pub fn path_chart_svg(title: &str, frames: &[PathFrame]) -> String {
+    let mut series: Vec<(String, Vec<f64>)> = vec![("time (ms)".into(), frames.iter().map(|f| f.ms).collect())];
+    if let Some(f0) = frames.first() {
+        for (k, (name, _)) in f0.counters.iter().enumerate() {
+            let v: Vec<f64> = frames.iter().map(|f| f.counters.get(k).map_or(0.0, |c| c.1)).collect();
+            if v.iter().any(|&x| x != 0.0) {
+                series.push((name.to_string(), v));
+            }
+        }
+    }
+    let (w, ph, ml, mr, mt) = (760.0, 150.0, 90.0, 30.0, 40.0);
+    let h = mt + ph * series.len() as f64 + 40.0;
+    let n = frames.len().max(2) - 1;
+    let px = |i: usize| ml + i as f64 / n as f64 * (w - ml - mr);
+    let mut s = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>",
+        w / 2.0,
+        xml(title)
+    );
+    for (k, (name, v)) in series.iter().enumerate() {
+        let top = mt + ph * k as f64;
+        let bottom = top + ph - 30.0;
+        let hi = v.iter().copied().fold(0.0, f64::max).max(1e-9) * 1.1;
+        let py = |y: f64| bottom - y / hi * (bottom - top);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{ml}\" y1=\"{bottom}\" x2=\"{}\" y2=\"{bottom}\" stroke=\"black\"/><line x1=\"{ml}\" y1=\"{top}\" x2=\"{ml}\" y2=\"{bottom}\" stroke=\"black\"/>",
+            w - mr
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text><text x=\"{}\" y=\"{}\" text-anchor=\"end\">0</text><text x=\"{}\" y=\"{}\" font-weight=\"bold\">{}</text>",
+            ml - 6.0,
+            top + 10.0,
+            fmt_si(hi),
+            ml - 6.0,
+            bottom,
+            ml + 6.0,
+            top + 10.0,
+            xml(name)
+        );
+        let line: Vec<String> = v
+            .iter()
+            .enumerate()
+            .map(|(i, &y)| format!("{:.1},{:.1}", px(i), py(y)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"#369\" stroke-width=\"1.5\"/>",
+            line.join(" ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">frame of the camera path (0 to {n})</text>",
+        w / 2.0,
+        h - 14.0
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// A number with an SI suffix (1.2k, 3.4M) for axis labels.
+fn fmt_si(x: f64) -> String {
+    match x.abs() {
+        a if a >= 1e9 => format!("{:.1}G", x / 1e9),
+        a if a >= 1e6 => format!("{:.1}M", x / 1e6),
+        a if a >= 1e3 => format!("{:.1}k", x / 1e3),
+        _ => format!("{x:.2}"),
+    }
 }
 
 fn xml(s: &str) -> String {

@@ -61,15 +61,35 @@ pub fn cuboid(size: Vec3) -> Mesh {
     m
 }
 
+/// `(cos, sin)` of the `k`-th of `n` equal steps around a circle, with the last step bitwise
+/// equal to the first, so seams weld and meshes close (shadow volumes need that).
+fn circle(k: u32, n: u32) -> (f32, f32) {
+    let a = TAU * (k % n) as f32 / n as f32;
+    (a.cos(), a.sin())
+}
+
+/// The unit-sphere point of ring `s` of `stacks` (0: north pole) and segment `k` of `slices`
+/// of a UV sphere. The seam (`k = slices`) and the poles give bitwise equal positions for all
+/// their copies, so the mesh welds closed (sin(pi) is not 0 in floating point).
+pub fn sphere_point(s: u32, stacks: u32, k: u32, slices: u32) -> Vec3 {
+    let theta = PI * s as f32 / (stacks - 1) as f32;
+    let (st, ct) = match s {
+        0 => (0.0, 1.0),
+        _ if s == stacks - 1 => (0.0, -1.0),
+        _ => (theta.sin(), theta.cos()),
+    };
+    let (c, sn) = circle(k, slices);
+    Vec3::new(st * c, ct, -st * sn)
+}
+
 /// A UV sphere of `radius` with `stacks` rings of vertices (poles included) and `slices` segments.
+/// The seam and the poles repeat vertices at bitwise equal positions (the mesh is closed).
 pub fn sphere(radius: f32, stacks: u32, slices: u32) -> Mesh {
     let (stacks, slices) = (stacks.max(3), slices.max(3));
     let mut m = Mesh::default();
     for s in 0..stacks {
-        let theta = PI * s as f32 / (stacks - 1) as f32;
         for k in 0..=slices {
-            let phi = TAU * k as f32 / slices as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            let n = sphere_point(s, stacks, k, slices);
             m.positions.push(n * radius);
             m.normals.push(n);
         }
@@ -95,8 +115,8 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
     let n = segments.max(3);
     let mut m = Mesh::default();
     for k in 0..=n {
-        let a = TAU * k as f32 / n as f32;
-        let d = Vec3::new(a.cos(), 0.0, -a.sin());
+        let (c, sn) = circle(k, n);
+        let d = Vec3::new(c, 0.0, -sn);
         m.positions.push(d * radius);
         m.normals.push(d);
         m.positions.push(d * radius + Vec3::Y * height);
@@ -111,8 +131,8 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
         m.positions.push(Vec3::Y * y);
         m.normals.push(normal);
         for k in 0..=n {
-            let a = TAU * k as f32 / n as f32;
-            m.positions.push(Vec3::new(a.cos() * radius, y, -a.sin() * radius));
+            let (c, sn) = circle(k, n);
+            m.positions.push(Vec3::new(c * radius, y, -sn * radius));
             m.normals.push(normal);
         }
         for k in 0..n {

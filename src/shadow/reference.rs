@@ -57,7 +57,7 @@ impl ShadowTechnique for RefTechnique {
         Ok(v)
     }
 
-    fn stages(&self) -> Vec<Stage> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
         self.last
             .iter()
             .map(|s| Stage::Scalar {
@@ -66,6 +66,7 @@ impl ShadowTechnique for RefTechnique {
                 lo: 0.0,
                 hi: 1.0,
             })
+            .map(Ok)
             .collect()
     }
 }

@@ -131,7 +131,7 @@ pub fn info() -> TechniqueInfo {
                 maps: Vec::new(),
                 ids: Vec::new(),
                 culled: 0,
-                overview: None,
+                fitted: None,
                 times: Vec::new(),
             }))
         },
@@ -281,7 +281,8 @@ struct ShadowMap {
     maps: Vec<(Surface<f32>, LightView)>,
     ids: Vec<Surface<f32>>,
     culled: usize,
-    overview: Option<Surface<Rgba8>>,
+    /// The fitted view of the last run (directional lights fitted to receivers), for `stages`.
+    fitted: Option<LightView>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -362,14 +363,7 @@ impl ShadowMap {
             Vec2::new((q.x * 0.5 + 0.5) * N as f32, (0.5 - q.y * 0.5) * N as f32)
         });
         for i in 0..4 {
-            let (a, b) = (c[i], c[(i + 1) % 4]);
-            let steps = (b - a).length().ceil().max(1.0) as u32 * 2;
-            for k in 0..=steps {
-                let q = a + (b - a) * (k as f32 / steps as f32);
-                if q.x >= 0.0 && q.y >= 0.0 && q.x < N as f32 && q.y < N as f32 {
-                    img.set(q.x as u32, q.y as u32, [230, 40, 40, 255]);
-                }
-            }
+            draw_segment(&mut img, c[i], c[(i + 1) % 4], [230, 40, 40, 255]);
         }
         Ok(img)
     }
@@ -447,10 +441,7 @@ impl ShadowTechnique for ShadowMap {
         // Pass 1: the light's map(s).
         let t0 = std::time::Instant::now();
         let (views, keep) = self.views(frame);
-        self.overview = None;
-        if self.fit_receivers && frame.light.kind == LightKind::Directional {
-            self.overview = Some(self.fitted_overview(p, frame, &views[0])?);
-        }
+        self.fitted = (self.fit_receivers && frame.light.kind == LightKind::Directional).then_some(views[0]);
         self.maps.clear();
         self.ids.clear();
         for view in views {
@@ -562,7 +553,7 @@ impl ShadowTechnique for ShadowMap {
         self.times.clone()
     }
 
-    fn stages(&self) -> Vec<Stage> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
         let mut v: Vec<Stage> = self
             .maps
             .iter()
@@ -574,10 +565,10 @@ impl ShadowTechnique for ShadowMap {
                 hi: 1.0,
             })
             .collect();
-        if let Some(o) = &self.overview {
+        if let Some(fitted) = &self.fitted {
             v.push(Stage::Color {
                 name: "fitted_frustum".into(),
-                data: o.clone(),
+                data: self.fitted_overview(p, frame, fitted)?,
             });
         }
         for (i, ids) in self.ids.iter().enumerate() {
@@ -589,7 +580,7 @@ impl ShadowTechnique for ShadowMap {
                 hi,
             });
         }
-        v
+        Ok(v)
     }
 }
 
@@ -689,7 +680,7 @@ mod tests {
             maps: Vec::new(),
             ids: Vec::new(),
             culled: 0,
-            overview: None,
+            fitted: None,
             times: Vec::new(),
         };
         sm.visibility(&p, &f).unwrap();

@@ -1,32 +1,39 @@
 //! Stencil shadow volumes (Crow 1977; Heidmann z-pass; Carmack's reverse z-fail; RTR 7.3,
 //! CS300, Cournia 3.2): silhouette edges from edge adjacency are extruded away from the light
 //! to infinity (homogeneous w = 0), capped in front by the light-facing triangles and at
-//! infinity by the same triangles projected away; the camera depth is the G-buffer's; the
-//! pipeline's two-sided stencil counts volume entries and exits, with depth clamp so the far
-//! plane never cuts a volume. Count 0: lit.
+//! infinity by the same triangles projected away (geometry: [`super::silhouette`]); the camera
+//! depth is the G-buffer's; the pipeline's two-sided stencil counts volume entries and exits
+//! in one pass with wrapping increments. Count 0: lit.
 //!
-//! Open edges (one triangle) count as silhouette edges when their triangle faces the light
-//! (CS300). Meshes with an edge shared by more than two triangles are non-manifold: they are
-//! reported in `stages` and drawn as per-triangle volumes (every light-facing triangle's own
-//! three edges), which is exact for any mesh, only slower.
+//! - z-pass (Heidmann): the stencil starts at the number of volumes containing the eye (a
+//!   segment test from the eye to the light against the caps), then front faces increment and
+//!   back faces decrement where the depth test passes. It is wrong where the near plane cuts a
+//!   volume: pixels whose ray enters or leaves a volume between the eye and the near plane.
+//! - z-fail (Carmack's reverse): counts where the depth test fails, back faces increment and
+//!   front faces decrement; the caps close the volumes; the pipeline's depth clamp keeps the
+//!   far plane from cutting them (Everitt and Kilgard 2002 use an infinite far plane instead).
+//! - auto: z-pass when no caster can shadow the camera's near-plane rectangle (a conservative
+//!   bounding-box test), z-fail otherwise.
 //!
-//! Mode `auto` uses z-pass when no caster can shadow the camera's near-plane rectangle
-//! (a conservative bounding-box test) and z-fail otherwise (Everitt and Kilgard 2002).
-//!
-//! Known failure: z-pass with the eye inside a volume (mode `zpass`), and with z-fail the
-//! far plane cutting volumes when clamping is off (mode `zfail-noclamp`).
+//! Known failures, each an option: `zpass` where the near plane cuts a volume, `zpass-naive`
+//! (no eye count) whenever the eye is inside a volume, `zfail-noclamp` where the far plane cuts
+//! a volume. The method's cost, the stencil fill, depends on the view (RTR 7.3): `counters`
+//! reports it per frame, and camera paths chart it.
 
+use super::silhouette::{self, Adjacency, MeshReport, Volume};
 use super::*;
 use crate::pipeline::*;
-use crate::scene::{LightKind, Mesh};
+use crate::scene::LightKind;
 use glam::{Mat4, Vec3, Vec4};
-use std::collections::{BTreeMap, HashMap};
+use std::time::Instant;
 
 const OPTIONS: &[OptionInfo] = &[OptionInfo {
     key: "mode",
     default: "auto",
-    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zpass (Heidmann), or zfail-noclamp",
+    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
 }];
+
+const MODES: &[&str] = &["auto", "zfail", "zpass", "zpass-naive", "zfail-noclamp"];
 
 /// Registry entry.
 pub fn info() -> TechniqueInfo {
@@ -36,18 +43,32 @@ pub fn info() -> TechniqueInfo {
         options: OPTIONS,
         sweep: &[&[], &[("mode", "zfail")], &[("mode", "zpass")]],
         create: |s| {
-            let mode = s.choice("mode", &["auto", "zfail", "zpass", "zfail-noclamp"])?;
-            Ok(Box::new(ShadowVolume { mode, stencil: None, silhouettes: 0, nonmanifold: 0, chose_zpass: false }))
+            let mode = s.choice("mode", MODES)?;
+            Ok(Box::new(ShadowVolume {
+                mode,
+                ..Default::default()
+            }))
         },
     }
 }
 
+#[derive(Default)]
 struct ShadowVolume {
     mode: &'static str,
+    /// The last run's stencil.
     stencil: Option<Surface<u8>>,
-    silhouettes: usize,
-    nonmanifold: usize,
+    /// The last run's volumes, one per object.
+    volumes: Vec<Volume>,
+    /// Mesh defects of the last run, summed, and per object (name, description) for the
+    /// irregular ones.
+    report: MeshReport,
+    irregular: Vec<(String, String)>,
     chose_zpass: bool,
+    /// The eye's volume count (z-pass).
+    eye: u32,
+    /// Stencil fragments (volume fill) of the last run.
+    fill: u64,
+    times: Vec<(&'static str, f64)>,
 }
 
 /// Whether z-pass is safe: no caster can put any point of the camera's near-plane rectangle
@@ -92,124 +113,13 @@ impl VertexProgram for Homogeneous {
     }
 }
 
-/// One use of an edge: (triangle, first vertex, second vertex) in the triangle's winding.
-type EdgeUse = (usize, u32, u32);
-
-/// Volume geometry of one mesh for one light: homogeneous vertices and triangle indices,
-/// outward-facing. Returns also the number of silhouette edges and whether the mesh was
-/// non-manifold (then per-triangle volumes were built).
-pub fn volume_geometry(mesh: &Mesh, light_pos: Vec4) -> (Vec<Vec4>, Vec<u32>, usize, bool) {
-    // Weld positions so faces that share corners (flat-shaded boxes) share edges.
-    let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
-    let ids: Vec<u32> = mesh
-        .positions
-        .iter()
-        .map(|p| {
-            let n = weld.len() as u32;
-            *weld.entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]).or_insert(n)
-        })
-        .collect();
-    let tris: Vec<[u32; 3]> = mesh
-        .indices
-        .chunks_exact(3)
-        .map(|t| [t[0], t[1], t[2]])
-        .filter(|t| {
-            ids[t[0] as usize] != ids[t[1] as usize]
-                && ids[t[1] as usize] != ids[t[2] as usize]
-                && ids[t[0] as usize] != ids[t[2] as usize]
-        })
-        .collect();
-    // Light-facing: the light is on the front (counter-clockwise) side of the triangle.
-    let facing: Vec<bool> = tris
-        .iter()
-        .map(|t| {
-            let (a, b, c) = (
-                mesh.positions[t[0] as usize],
-                mesh.positions[t[1] as usize],
-                mesh.positions[t[2] as usize],
-            );
-            let n = (b - a).cross(c - a);
-            let to_light = light_pos.truncate() - a * light_pos.w;
-            n.dot(to_light) > 0.0
-        })
-        .collect();
-    // Edge adjacency over welded ids: (min, max) -> triangles using it (ordered: the volume's
-    // geometry, and so its dump, is the same on every run).
-    let mut edges: BTreeMap<(u32, u32), Vec<EdgeUse>> = BTreeMap::new();
-    for (ti, t) in tris.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let (ia, ib) = (ids[a as usize], ids[b as usize]);
-            edges.entry((ia.min(ib), ia.max(ib))).or_default().push((ti, a, b));
-        }
+/// The homogeneous light position: `(p, 1)` for lights at a point, `(-direction, 0)` for
+/// directional ones.
+fn light_position(frame: &Frame) -> Vec4 {
+    match frame.light.kind {
+        LightKind::Directional => (-frame.light.direction).extend(0.0),
+        _ => frame.light.position.extend(1.0),
     }
-    let nonmanifold = edges.values().any(|v| v.len() > 2);
-    let mut verts: Vec<Vec4> = Vec::new();
-    let mut idx: Vec<u32> = Vec::new();
-    let far = |p: Vec3| -> Vec4 {
-        // Away from the light, at infinity (w = 0).
-        if light_pos.w == 0.0 {
-            (-light_pos.truncate()).extend(0.0)
-        } else {
-            (p - light_pos.truncate()).extend(0.0)
-        }
-    };
-    let quad = |a: Vec3, b: Vec3, verts: &mut Vec<Vec4>, idx: &mut Vec<u32>| {
-        // Edge a -> b of a light-facing, counter-clockwise triangle: the side quad
-        // (b, a, a_inf, b_inf) faces outward.
-        let base = verts.len() as u32;
-        verts.extend_from_slice(&[b.extend(1.0), a.extend(1.0), far(a), far(b)]);
-        idx.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
-    };
-    let mut silhouettes = 0;
-    if nonmanifold {
-        for (t, _) in tris.iter().zip(&facing).filter(|(_, f)| **f) {
-            for k in 0..3 {
-                let (a, b) = (mesh.positions[t[k] as usize], mesh.positions[t[(k + 1) % 3] as usize]);
-                quad(a, b, &mut verts, &mut idx);
-                silhouettes += 1;
-            }
-        }
-    } else {
-        for list in edges.values() {
-            // The silhouette edge in the winding of its light-facing triangle, if any.
-            let edge = match list.as_slice() {
-                [(t, a, b)] if facing[*t] => Some((a, b)),
-                [(t0, a0, b0), (t1, a1, b1)] if facing[*t0] != facing[*t1] => {
-                    Some(if facing[*t0] { (a0, b0) } else { (a1, b1) })
-                }
-                _ => None,
-            };
-            if let Some((a, b)) = edge {
-                quad(
-                    mesh.positions[*a as usize],
-                    mesh.positions[*b as usize],
-                    &mut verts,
-                    &mut idx,
-                );
-                silhouettes += 1;
-            }
-        }
-    }
-    // Caps: light-facing triangles (front), and the same projected to infinity, reversed (back).
-    for (t, _) in tris.iter().zip(&facing).filter(|(_, f)| **f) {
-        let p = [
-            mesh.positions[t[0] as usize],
-            mesh.positions[t[1] as usize],
-            mesh.positions[t[2] as usize],
-        ];
-        let base = verts.len() as u32;
-        verts.extend_from_slice(&[
-            p[0].extend(1.0),
-            p[1].extend(1.0),
-            p[2].extend(1.0),
-            far(p[0]),
-            far(p[1]),
-            far(p[2]),
-        ]);
-        idx.extend_from_slice(&[base, base + 1, base + 2, base + 3, base + 5, base + 4]);
-    }
-    (verts, idx, silhouettes, nonmanifold)
 }
 
 impl ShadowTechnique for ShadowVolume {
@@ -218,29 +128,37 @@ impl ShadowTechnique for ShadowVolume {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
-        let light_pos = match frame.light.kind {
-            LightKind::Directional => (-frame.light.direction).extend(0.0),
-            _ => frame.light.position.extend(1.0),
-        };
-        let mut depth = frame.gbuffer.depth.clone();
-        let mut stencil = Surface::new(frame.width(), frame.height(), 0u8).map_err(|e| e.to_string())?;
+        let t0 = Instant::now();
+        let light = light_position(frame);
+        self.report = MeshReport::default();
+        self.irregular.clear();
+        self.volumes = frame
+            .scene
+            .objects
+            .iter()
+            .map(|o| {
+                let adj = Adjacency::new(&o.mesh);
+                self.report.add(&adj.report);
+                if !adj.report.is_closed_manifold() || adj.report.degenerate_triangles > 0 {
+                    self.irregular.push((o.name.clone(), adj.report.describe()));
+                }
+                silhouette::volume(&o.mesh, &adj, light)
+            })
+            .collect();
+        let t1 = Instant::now();
         self.chose_zpass = match self.mode {
             "auto" => zpass_is_safe(frame),
-            m => m == "zpass",
+            m => m.starts_with("zpass"),
         };
-        let zfail = !self.chose_zpass;
-        let (front, back) = if zfail {
-            (
-                StencilFace {
-                    depth_fail: StencilOp::DecrWrap,
-                    ..Default::default()
-                },
-                StencilFace {
-                    depth_fail: StencilOp::IncrWrap,
-                    ..Default::default()
-                },
-            )
+        self.eye = if self.mode == "zpass-naive" || !self.chose_zpass {
+            0
         } else {
+            silhouette::eye_count(&self.volumes, frame.camera.position, light)
+        };
+        let t2 = Instant::now();
+        let mut depth = frame.gbuffer.depth.clone();
+        let mut stencil = Surface::new(frame.width(), frame.height(), self.eye as u8).map_err(|e| e.to_string())?;
+        let (front, back) = if self.chose_zpass {
             (
                 StencilFace {
                     pass: StencilOp::IncrWrap,
@@ -248,6 +166,17 @@ impl ShadowTechnique for ShadowVolume {
                 },
                 StencilFace {
                     pass: StencilOp::DecrWrap,
+                    ..Default::default()
+                },
+            )
+        } else {
+            (
+                StencilFace {
+                    depth_fail: StencilOp::DecrWrap,
+                    ..Default::default()
+                },
+                StencilFace {
+                    depth_fail: StencilOp::IncrWrap,
                     ..Default::default()
                 },
             )
@@ -268,23 +197,21 @@ impl ShadowTechnique for ShadowVolume {
             ..Default::default()
         };
         let vs = Homogeneous(frame.camera.view_projection());
-        self.silhouettes = 0;
-        self.nonmanifold = 0;
-        for o in &frame.scene.objects {
-            let (verts, idx, sil, nm) = volume_geometry(&o.mesh, light_pos);
-            self.silhouettes += sil;
-            self.nonmanifold += nm as usize;
-            p.draw(
-                &mut Targets::none().with_depth(&mut depth).with_stencil(&mut stencil),
-                &state,
-                &verts,
-                &idx,
-                &vs,
-                &DepthOnly,
-            )
-            .map_err(|e| e.to_string())?;
+        self.fill = 0;
+        for v in &self.volumes {
+            let st = p
+                .draw(
+                    &mut Targets::none().with_depth(&mut depth).with_stencil(&mut stencil),
+                    &state,
+                    &v.vertices,
+                    &v.indices,
+                    &vs,
+                    &DepthOnly,
+                )
+                .map_err(|e| e.to_string())?;
+            self.fill += st.fragments_rasterized;
         }
-        let v = frame
+        let out = frame
             .points()
             .iter()
             .zip(stencil.data())
@@ -299,24 +226,102 @@ impl ShadowTechnique for ShadowVolume {
             })
             .collect();
         self.stencil = Some(stencil);
-        Ok(v)
+        self.times = vec![
+            ("silhouettes", (t1 - t0).as_secs_f64() * 1e3),
+            ("eye count", (t2 - t1).as_secs_f64() * 1e3),
+            ("stencil pass", t2.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(out)
     }
 
-    fn stages(&self) -> Vec<Stage> {
-        self.stencil
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn notes(&self) -> Vec<String> {
+        self.irregular
             .iter()
-            .map(|s| Stage::Scalar {
-                // The name records which counting the pass used (auto mode chooses).
+            .map(|(name, what)| format!("object '{name}': {what}; its volume uses every triangle, turned to the light"))
+            .collect()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let sum = |f: fn(&Volume) -> usize| self.volumes.iter().map(f).sum::<usize>() as f64;
+        vec![
+            ("stencil fragments", self.fill as f64),
+            ("silhouette edges", sum(|v| v.silhouette.len())),
+            ("volume triangles", sum(|v| v.indices.len() / 3)),
+            ("eye count", self.eye as f64),
+            ("irregular meshes", self.irregular.len() as f64),
+        ]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let Some(stencil) = &self.stencil else {
+            return Ok(Vec::new());
+        };
+        // Silhouette edges over a grey picture of the view; edges of meshes that use every
+        // triangle (irregular meshes) in orange.
+        let mut sil = backdrop(frame);
+        for v in &self.volumes {
+            let color = if v.all_triangles {
+                [255, 150, 20, 255]
+            } else {
+                [255, 40, 40, 255]
+            };
+            for &(a, b) in &v.silhouette {
+                draw_world_segment(&mut sil, frame, a, b, color);
+            }
+        }
+        // The volumes from the camera: fragments per pixel, every volume triangle counted
+        // (the stencil pass's fill, which the depth test does not reduce).
+        let mut fill = Surface::new(frame.width(), frame.height(), 0.0f32).map_err(|e| e.to_string())?;
+        let state = RenderState {
+            depth: DepthState {
+                func: CompareFunc::Always,
+                write: false,
+                clamp: true,
+                ..Default::default()
+            },
+            blend: BlendMode::Add,
+            ..Default::default()
+        };
+        let vs = Homogeneous(frame.camera.view_projection());
+        for v in &self.volumes {
+            p.draw(
+                &mut Targets::color(&mut fill),
+                &state,
+                &v.vertices,
+                &v.indices,
+                &vs,
+                &Shader(|_: &Fragment<()>| Vec4::ONE),
+            )
+            .map_err(|e| e.to_string())?;
+        }
+        let hi = fill.data().iter().copied().fold(1.0f32, f32::max);
+        Ok(vec![
+            // The name records which counting the pass used (auto mode chooses).
+            Stage::Scalar {
                 name: if self.chose_zpass {
                     "stencil_counts_zpass"
                 } else {
                     "stencil_counts_zfail"
                 }
                 .into(),
-                data: s.map(|v| v as i8 as f32),
+                data: stencil.map(|v| v as i8 as f32),
                 lo: -2.0,
                 hi: 2.0,
-            })
-            .collect()
+            },
+            Stage::Color {
+                name: "silhouettes".into(),
+                data: sil,
+            },
+            Stage::Scalar {
+                name: "volume_fill".into(),
+                data: fill,
+                lo: 0.0,
+                hi,
+            },
+        ])
     }
 }
