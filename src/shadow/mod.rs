@@ -6,6 +6,7 @@
 //! buffers of its last run as [`Stage`]s for `penumbra dump`.
 
 pub mod reference;
+pub mod planar;
 pub mod shadow_map;
 pub mod silhouette;
 pub mod volume;
@@ -156,7 +157,7 @@ impl Settings<'_> {
 
 /// All techniques, in chart order.
 pub fn registry() -> Vec<TechniqueInfo> {
-    vec![reference::info(), shadow_map::info(), volume::info()]
+    vec![reference::info(), shadow_map::info(), volume::info(), planar::info()]
 }
 
 /// Creates technique `name` with `key=value` settings; errors name unknown techniques and

@@ -1,0 +1,415 @@
+//! Planar projected shadows (Blinn 1988, "Me and my (fake) shadow"; RTR 7.2, equations 7.1
+//! and 7.2 generalised to homogeneous lights; CS300): every caster is flattened onto a
+//! receiving plane by the projection matrix
+//!
+//! `M = (π·L) I − L πᵀ`, with the plane `π = (n, d)` (`n·x + d = 0`) and the homogeneous light
+//! `L` (`(l, 1)` for a point, `(−direction, 0)` for a directional light),
+//!
+//! which sends a point `p` to where the light's ray through `p` meets the plane, and drawn
+//! into the camera view as a darkening. Only planes receive, so other surfaces stay lit.
+//!
+//! Pass by pass, for each receiving plane:
+//! 1. the receiver is drawn with the G-buffer's depth (`Equal`), writing stencil 1 where it is
+//!    the visible surface;
+//! 2. casters, clipped in world space to the slab between the plane and the light (what lies
+//!    beyond the light would project through it as an "anti-shadow", what lies behind the
+//!    plane cannot shadow it), are drawn flattened with the stencil test `Equal 1` and op
+//!    `Zero`: each pixel darkens once, however many flattened triangles cover it (no double
+//!    blending), and only on the receiver (no shadow hanging over the plane's edge).
+//!
+//! Options show each failure the stencil and the clipping remove: `stencil=off` (depth test
+//! with polygon offset instead: double blending where flattened triangles overlap, shadows
+//! beyond the plane's edge) and `clip=off` (naive division by w: anti-shadows from casters
+//! beyond the light).
+
+use super::*;
+use crate::pipeline::*;
+use crate::scene::{LightKind, Mesh};
+use glam::{DVec3, Mat4, Vec3, Vec4};
+
+const OPTIONS: &[OptionInfo] = &[
+    OptionInfo {
+        key: "receiver",
+        default: "auto",
+        doc: "the receiving object's name, or auto: every planar object receives",
+    },
+    OptionInfo {
+        key: "darkness",
+        default: "1",
+        doc: "how much a shadow darkens, in [0, 1]: visibility in shadow is 1 - darkness (below 1, double blending shows)",
+    },
+    OptionInfo {
+        key: "stencil",
+        default: "on",
+        doc: "on: darken each receiver pixel once and only on the receiver; off: depth test only (double blending, overhang)",
+    },
+    OptionInfo {
+        key: "clip",
+        default: "on",
+        doc: "on: clip casters to the slab between plane and light; off: project every vertex and divide by w (anti-shadows)",
+    },
+];
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "planar",
+        summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
+        options: OPTIONS,
+        sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
+        create: |s| {
+            Ok(Box::new(Planar {
+                receiver: s.get("receiver").to_string(),
+                darkness: s.num("darkness", 0.0, 1.0)?,
+                stencil: s.choice("stencil", &["on", "off"])? == "on",
+                clip: s.choice("clip", &["on", "off"])? == "on",
+                ..Default::default()
+            }))
+        },
+    }
+}
+
+#[derive(Default)]
+struct Planar {
+    receiver: String,
+    darkness: f32,
+    stencil: bool,
+    clip: bool,
+    /// Last run: the receivers' stencil masks (object index, mask) and the result.
+    masks: Vec<(usize, Surface<u8>)>,
+    shadow: Option<Surface<f32>>,
+    times: Vec<(&'static str, f64)>,
+    fragments: u64,
+}
+
+/// The plane `(n, d)` of a mesh whose vertices all lie on one plane (within 1e-5 of its
+/// extent), `n` unit and along the first non-degenerate triangle's winding.
+pub fn plane_of(mesh: &Mesh) -> Option<(Vec3, f32)> {
+    let pos = |i: u32| mesh.positions[i as usize].as_dvec3();
+    let (lo, hi) = mesh.bounds()?;
+    let extent = (hi - lo).length() as f64;
+    let n = mesh
+        .indices
+        .chunks_exact(3)
+        .map(|t| (pos(t[1]) - pos(t[0])).cross(pos(t[2]) - pos(t[0])))
+        .find(|n| n.length() > 1e-12 * extent * extent)?
+        .normalize();
+    let d = -n.dot(pos(mesh.indices[0]));
+    let flat = mesh
+        .positions
+        .iter()
+        .all(|p| (n.dot(p.as_dvec3()) + d).abs() <= 1e-5 * extent.max(1e-30));
+    flat.then(|| (n.as_vec3(), d as f32))
+}
+
+/// RTR eq. 7.1/7.2, homogeneous: `M = (π·L) I − L πᵀ` projects onto plane `π` from light `L`.
+pub fn projection_matrix(plane: Vec4, light: Vec4) -> Mat4 {
+    let k = plane.dot(light);
+    let cols = [Vec4::X, Vec4::Y, Vec4::Z, Vec4::W].map(|e| e * k - light * plane.dot(e));
+    Mat4::from_cols(cols[0], cols[1], cols[2], cols[3])
+}
+
+/// Clips polygon `poly` to `f(p) >= 0` for an affine `f` (Sutherland-Hodgman, in f64).
+fn clip_polygon(poly: &[DVec3], f: impl Fn(DVec3) -> f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(poly.len() + 2);
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (fa, fb) = (f(a), f(b));
+        if fa >= 0.0 {
+            out.push(a);
+        }
+        if (fa >= 0.0) != (fb >= 0.0) {
+            out.push(a + (b - a) * (fa / (fa - fb)));
+        }
+    }
+    out
+}
+
+/// Homogeneous world positions, to clip space.
+struct Homogeneous(Mat4);
+impl VertexProgram for Homogeneous {
+    type In = Vec4;
+    type Out = ();
+    fn run(&self, v: &Vec4) -> (Vec4, ()) {
+        (self.0 * *v, ())
+    }
+}
+
+impl Planar {
+    /// The flattened casters for receiver `r` with plane `plane` (light side positive):
+    /// homogeneous positions (`M p`) and indices.
+    fn flattened(&self, frame: &Frame, r: usize, plane: Vec4, light: Vec4) -> (Vec<Vec4>, Vec<u32>) {
+        let m = projection_matrix(plane, light);
+        let (pd, ld) = (plane.as_dvec4(), light.as_dvec4());
+        let dist = |p: DVec3| pd.truncate().dot(p) + pd.w;
+        // Light's height over the plane (directional: unbounded).
+        let dl = if light.w == 0.0 { f64::INFINITY } else { dist(ld.truncate()) };
+        let (mut verts, mut idx) = (Vec::new(), Vec::new());
+        for (oi, o) in frame.scene.objects.iter().enumerate() {
+            if oi == r {
+                continue;
+            }
+            let pos = |i: u32| o.mesh.positions[i as usize].as_dvec3();
+            for t in o.mesh.indices.chunks_exact(3) {
+                let tri = [pos(t[0]), pos(t[1]), pos(t[2])];
+                let poly = if self.clip {
+                    // Keep 0 <= dist <= dl (1 - 1e-6): on the plane's light side, short of
+                    // the light's own plane, where the projection would reach infinity.
+                    let p = clip_polygon(&tri, dist);
+                    if dl.is_finite() {
+                        clip_polygon(&p, |q| dl * (1.0 - 1e-6) - dist(q))
+                    } else {
+                        p
+                    }
+                } else {
+                    tri.to_vec()
+                };
+                if poly.len() < 3 || poly.iter().all(|q| dist(*q) <= 1e-9 * dl.min(1e9)) {
+                    continue;
+                }
+                let base = verts.len() as u32;
+                for q in &poly {
+                    let h = m * q.as_vec3().extend(1.0);
+                    // clip=off: the naive divide, which turns points beyond the light into
+                    // points on the plane on the wrong side (anti-shadows).
+                    verts.push(if self.clip { h } else { h / h.w });
+                }
+                for k in 1..poly.len() as u32 - 1 {
+                    idx.extend_from_slice(&[base, base + k, base + k + 1]);
+                }
+            }
+        }
+        (verts, idx)
+    }
+}
+
+impl ShadowTechnique for Planar {
+    fn name(&self) -> &'static str {
+        "planar"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
+        let t0 = std::time::Instant::now();
+        let scene = frame.scene;
+        let receivers: Vec<usize> = if self.receiver == "auto" {
+            (0..scene.objects.len()).collect()
+        } else {
+            let i = scene
+                .objects
+                .iter()
+                .position(|o| o.name == self.receiver)
+                .ok_or_else(|| {
+                    format!(
+                        "technique 'planar': option receiver={}: the scene has no such object (objects: {})",
+                        self.receiver,
+                        scene.objects.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
+                    )
+                })?;
+            if plane_of(&scene.objects[i].mesh).is_none() {
+                return Err(format!(
+                    "technique 'planar': option receiver={}: that object is not planar",
+                    self.receiver
+                ));
+            }
+            vec![i]
+        };
+        let light = match frame.light.kind {
+            LightKind::Directional => (-frame.light.direction).extend(0.0),
+            _ => frame.light.position.extend(1.0),
+        };
+        let vp = frame.camera.view_projection();
+        let (w, h) = (frame.width(), frame.height());
+        let mut shadow = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+        self.masks.clear();
+        self.fragments = 0;
+        let mut setup = 0.0;
+        for r in receivers {
+            let Some((n, d)) = plane_of(&scene.objects[r].mesh) else {
+                continue;
+            };
+            // Orient the plane so the light is on its positive side; a light in the plane
+            // casts nothing onto it.
+            let mut plane = n.extend(d);
+            let side = plane.dot(light);
+            if side == 0.0 {
+                continue;
+            }
+            if side < 0.0 {
+                plane = -plane;
+            }
+            let ts = std::time::Instant::now();
+            let (verts, idx) = self.flattened(frame, r, plane, light);
+            setup += ts.elapsed().as_secs_f64() * 1e3;
+            // Pass 1: stencil 1 where the receiver is the visible surface.
+            let mut depth = frame.gbuffer.depth.clone();
+            let mut mask = Surface::new(w, h, 0u8).map_err(|e| e.to_string())?;
+            let mark = StencilFace {
+                pass: StencilOp::Replace,
+                ..Default::default()
+            };
+            p.draw(
+                &mut Targets::none().with_depth(&mut depth).with_stencil(&mut mask),
+                &RenderState {
+                    depth: DepthState {
+                        func: CompareFunc::Equal,
+                        write: false,
+                        ..Default::default()
+                    },
+                    stencil: StencilState {
+                        enabled: true,
+                        front: mark,
+                        back: mark,
+                        reference: 1,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+                &scene.objects[r].mesh.positions,
+                &scene.objects[r].mesh.indices,
+                &TransformPositions(vp),
+                &DepthOnly,
+            )
+            .map_err(|e| e.to_string())?;
+            // Pass 2: the flattened casters darken, once per pixel, on the receiver only.
+            let once = StencilFace {
+                func: CompareFunc::Equal,
+                pass: StencilOp::Zero,
+                ..Default::default()
+            };
+            let state = if self.stencil {
+                RenderState {
+                    depth: DepthState {
+                        func: CompareFunc::Always,
+                        write: false,
+                        ..Default::default()
+                    },
+                    stencil: StencilState {
+                        enabled: true,
+                        front: once,
+                        back: once,
+                        reference: 1,
+                        ..Default::default()
+                    },
+                    blend: BlendMode::Multiply,
+                    ..Default::default()
+                }
+            } else {
+                // Without the stencil: a depth test pulled towards the camera so the
+                // flattened shadow wins against its own plane (and everything behind it).
+                RenderState {
+                    depth: DepthState {
+                        func: CompareFunc::LessEqual,
+                        write: false,
+                        ..Default::default()
+                    },
+                    offset: PolygonOffset {
+                        factor: -1.0,
+                        units: -64.0,
+                    },
+                    blend: BlendMode::Multiply,
+                    ..Default::default()
+                }
+            };
+            let keep = 1.0 - self.darkness;
+            let mut targets = if self.stencil {
+                Targets::color(&mut shadow).with_stencil(&mut mask)
+            } else {
+                Targets::color(&mut shadow).with_depth(&mut depth)
+            };
+            let st = p
+                .draw(
+                    &mut targets,
+                    &state,
+                    &verts,
+                    &idx,
+                    &Homogeneous(vp),
+                    &Shader(move |_: &Fragment<()>| Vec4::splat(keep)),
+                )
+                .map_err(|e| e.to_string())?;
+            self.fragments += st.fragments_rasterized;
+            self.masks.push((r, mask));
+        }
+        let out = frame
+            .points()
+            .iter()
+            .zip(shadow.data())
+            .map(|(pt, &s)| if pt.is_some() { s } else { f32::NAN })
+            .collect();
+        self.shadow = Some(shadow);
+        self.times = vec![
+            ("flatten casters", setup),
+            ("stencil passes", t0.elapsed().as_secs_f64() * 1e3 - setup),
+        ];
+        Ok(out)
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("receivers", self.masks.len() as f64),
+            ("shadow fragments", self.fragments as f64),
+        ]
+    }
+
+    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v: Vec<Stage> = self
+            .masks
+            .iter()
+            .map(|(r, m)| Stage::Scalar {
+                name: format!("receiver_stencil_{}", crate::report::file_safe(&frame.scene.objects[*r].name)),
+                data: m.map(|x| x as f32),
+                lo: 0.0,
+                hi: 1.0,
+            })
+            .collect();
+        if let Some(s) = &self.shadow {
+            v.push(Stage::Scalar {
+                name: "flattened_shadows".into(),
+                data: s.clone(),
+                lo: 0.0,
+                hi: 1.0,
+            });
+        }
+        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_projection_lands_on_the_plane_along_the_light_ray() {
+        let plane = Vec4::new(0.0, 1.0, 0.0, 0.0); // y = 0
+        let light = Vec4::new(1.0, 4.0, 0.0, 1.0);
+        let m = projection_matrix(plane, light);
+        let p = Vec3::new(1.0, 2.0, 0.5);
+        let q = m.project_point3(p);
+        assert!(q.y.abs() < 1e-6, "{q}");
+        // On the line from the light through p, twice as far (p is halfway down).
+        assert!((q - Vec3::new(1.0, 0.0, 1.0)).length() < 1e-5, "{q}");
+        // Directional: along the direction.
+        let m = projection_matrix(plane, Vec4::new(0.0, 1.0, 1.0, 0.0));
+        let q = m.project_point3(p);
+        assert!((q - Vec3::new(1.0, 0.0, -1.5)).length() < 1e-5, "{q}");
+    }
+
+    #[test]
+    fn only_flat_meshes_have_a_plane() {
+        let m = crate::scene::mesh::plane(glam::Vec2::splat(2.0), 3);
+        let (n, d) = plane_of(&m).unwrap();
+        assert!((n.y.abs() - 1.0).abs() < 1e-6 && d.abs() < 1e-6);
+        assert!(plane_of(&crate::scene::mesh::cuboid(Vec3::ONE)).is_none());
+    }
+
+    #[test]
+    fn clipping_keeps_the_inside() {
+        let tri = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 2.0, 0.0)];
+        let p = clip_polygon(&tri, |q| 1.0 - q.x);
+        assert_eq!(p.len(), 4);
+        assert!(p.iter().all(|q| q.x <= 1.0 + 1e-12));
+    }
+}
