@@ -5,8 +5,9 @@
 //! are comparable, chartable and testable against one reference. Each lists the intermediate
 //! buffers of its last run as [`Stage`]s for `penumbra dump`.
 
-pub mod reference;
+pub mod cookie;
 pub mod planar;
+pub mod reference;
 pub mod shadow_map;
 pub mod silhouette;
 pub mod volume;
@@ -157,7 +158,13 @@ impl Settings<'_> {
 
 /// All techniques, in chart order.
 pub fn registry() -> Vec<TechniqueInfo> {
-    vec![reference::info(), shadow_map::info(), volume::info(), planar::info()]
+    vec![
+        reference::info(),
+        shadow_map::info(),
+        volume::info(),
+        planar::info(),
+        cookie::info(),
+    ]
 }
 
 /// Creates technique `name` with `key=value` settings; errors name unknown techniques and

@@ -143,7 +143,11 @@ impl Planar {
         let (pd, ld) = (plane.as_dvec4(), light.as_dvec4());
         let dist = |p: DVec3| pd.truncate().dot(p) + pd.w;
         // Light's height over the plane (directional: unbounded).
-        let dl = if light.w == 0.0 { f64::INFINITY } else { dist(ld.truncate()) };
+        let dl = if light.w == 0.0 {
+            f64::INFINITY
+        } else {
+            dist(ld.truncate())
+        };
         let (mut verts, mut idx) = (Vec::new(), Vec::new());
         for (oi, o) in frame.scene.objects.iter().enumerate() {
             if oi == r {
@@ -202,7 +206,12 @@ impl ShadowTechnique for Planar {
                     format!(
                         "technique 'planar': option receiver={}: the scene has no such object (objects: {})",
                         self.receiver,
-                        scene.objects.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
+                        scene
+                            .objects
+                            .iter()
+                            .map(|o| o.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     )
                 })?;
             if plane_of(&scene.objects[i].mesh).is_none() {
@@ -359,7 +368,10 @@ impl ShadowTechnique for Planar {
             .masks
             .iter()
             .map(|(r, m)| Stage::Scalar {
-                name: format!("receiver_stencil_{}", crate::report::file_safe(&frame.scene.objects[*r].name)),
+                name: format!(
+                    "receiver_stencil_{}",
+                    crate::report::file_safe(&frame.scene.objects[*r].name)
+                ),
                 data: m.map(|x| x as f32),
                 lo: 0.0,
                 hi: 1.0,

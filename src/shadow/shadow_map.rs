@@ -586,7 +586,7 @@ impl ShadowTechnique for ShadowMap {
 
 /// Light-space texture coordinate and depth of a world point, if in front of the light.
 #[inline]
-fn project(m: &Mat4, p: Vec3) -> Option<(Vec2, f32)> {
+pub(crate) fn project(m: &Mat4, p: Vec3) -> Option<(Vec2, f32)> {
     let c = *m * p.extend(1.0);
     if c.w <= 0.0 {
         return None;
