@@ -308,9 +308,15 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
         )?;
         scene_list.push((s.name.clone(), s.description.clone()));
     }
-    let md = report::report_markdown(&results, &scene_list, &|r| {
-        Some(format!("images/{}_{}.png", r.scene, report::file_safe(&r.label())))
-    });
+    let md = report::report_markdown(
+        &results,
+        &scene_list,
+        &|r| Some(format!("images/{}_{}.png", r.scene, report::file_safe(&r.label()))),
+        &|r| {
+            r.counted_path
+                .then(|| format!("images/{}_{}_path.svg", r.scene, report::file_safe(&r.label())))
+        },
+    );
     write("report.md", &md)?;
     write("report.html", &report::report_html(&md))?;
     println!(

@@ -5,6 +5,7 @@ use penumbra::bench::*;
 use penumbra::hash::{hash_f32, hash_rgba8};
 use penumbra::image_io::{grey, write_png};
 use penumbra::pipeline::*;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -103,6 +104,24 @@ enum BenchCmd {
     /// Shadow rays per second of the reference ray tracer on the spheres scene (one ray per
     /// pixel of the 1920x1080 camera view towards the light).
     Rays(RaysArgs),
+    /// A shadow technique on the spheres scene (ground + 64 spheres, 1920x1080 camera):
+    /// median time per pass, counters, triangles/s.
+    Technique(TechniqueArgs),
+}
+
+#[derive(Args)]
+struct TechniqueArgs {
+    /// Technique name (see `penumbra list`).
+    #[arg(long, default_value = "shadow-volume")]
+    technique: String,
+    /// Technique options as key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// Target triangle count of the spheres scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    #[command(flatten)]
+    common: Common,
 }
 
 #[derive(Args)]
@@ -213,6 +232,9 @@ fn main() -> ExitCode {
         Some(Cmd::Bench {
             which: BenchCmd::Rays(a),
         }) => bench_rays(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Technique(a),
+        }) => bench_technique(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -460,6 +482,64 @@ fn bench_rays(a: RaysArgs) -> Result<(), String> {
             p.threads(),
             build * 1e3
         );
+    }
+    Ok(())
+}
+
+fn bench_technique(a: TechniqueArgs) -> Result<(), String> {
+    check_triangles(a.triangles)?;
+    let sets = penumbra::shadow::parse_sets(&a.sets)?;
+    let mut t = penumbra::shadow::create(&a.technique, &sets)?;
+    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let scene = spheres_as_scene(a.triangles);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0)?;
+    let tris = scene.triangles();
+    println!(
+        "technique {} [{}] on spheres: {tris} triangles, {}x{}, {} threads",
+        a.technique,
+        a.sets.join(" "),
+        f.width(),
+        f.height(),
+        p.threads()
+    );
+    t.visibility(&p, &f)?;
+    let mut total = Vec::new();
+    let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    let mut v = Vec::new();
+    for _ in 0..a.common.reps.max(1) {
+        let t0 = Instant::now();
+        v = t.visibility(&p, &f)?;
+        total.push(t0.elapsed().as_secs_f64() * 1e3);
+        for (name, ms) in t.timings() {
+            match passes.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, list)) => list.push(ms),
+                None => passes.push((name, vec![ms])),
+            }
+        }
+    }
+    let ms = penumbra::metrics::median(total);
+    let hash = hash_f32(&v);
+    println!("total     {ms:.3} ms (median of {})", a.common.reps.max(1));
+    let mut json = format!(
+        "{{\"technique\":\"{}\",\"threads\":{},\"triangles\":{tris},\"ms\":{ms:.4},\"mtri_per_s\":{:.3}",
+        a.technique,
+        p.threads(),
+        tris as f64 / ms / 1e3
+    );
+    for (name, list) in passes {
+        let m = penumbra::metrics::median(list);
+        println!("  {name:<18} {m:.3} ms");
+        let _ = write!(json, ",\"ms_{}\":{m:.4}", name.replace(' ', "_"));
+    }
+    for (name, c) in t.counters() {
+        println!("  {name:<18} {c}");
+        let _ = write!(json, ",\"{}\":{c}", name.replace(' ', "_"));
+    }
+    println!("throughput {:.2} Mtri/s", tris as f64 / ms / 1e3);
+    println!("hash      {hash:016x}");
+    let _ = write!(json, ",\"hash\":\"{hash:016x}\"}}");
+    if a.common.json {
+        println!("{json}");
     }
     Ok(())
 }

@@ -103,6 +103,9 @@ pub struct RunResult {
     pub threads: usize,
     /// Flicker along the camera path (0 without a path).
     pub flicker: f64,
+    /// Whether the technique reported work counters on the path's frames (their chart is
+    /// worth showing).
+    pub counted_path: bool,
 }
 
 impl RunResult {
@@ -269,6 +272,7 @@ pub fn render(
         ms,
         threads: p.threads(),
         flicker: metrics::flicker(&seq),
+        counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
     };
     let mut files = Vec::new();
     if let Some(dir) = out {
@@ -578,6 +582,7 @@ pub fn report_markdown(
     results: &[RunResult],
     scenes: &[(String, String)],
     thumbs: &dyn Fn(&RunResult) -> Option<String>,
+    paths: &dyn Fn(&RunResult) -> Option<String>,
 ) -> String {
     let mut s = String::from("# penumbra sweep\n\nEvery technique on every scene against the ray-traced reference. Time is the median of the technique's visibility pass; errors are over pixels covered by geometry and facing the light.\n\n![all scenes](chart_all.svg)\n\n");
     for (name, desc) in scenes {
@@ -598,6 +603,26 @@ pub fn report_markdown(
             );
         }
         s.push('\n');
+        // Time and work counters along the camera path, for techniques with counters to show.
+        let charts: Vec<(String, String)> = results
+            .iter()
+            .filter(|r| &r.scene == name)
+            .filter_map(|r| paths(r).map(|p| (r.label(), p)))
+            .collect();
+        if !charts.is_empty() {
+            let _ = writeln!(
+                s,
+                "### {name}: along the camera path
+"
+            );
+            for (label, p) in charts {
+                let _ = writeln!(
+                    s,
+                    "![{label}]({p})
+"
+                );
+            }
+        }
     }
     s
 }

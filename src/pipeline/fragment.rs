@@ -244,6 +244,40 @@ fn depth_span(
     passed as u64
 }
 
+/// Stencil-counting span (shadow volumes): the stencil test always passes, the depth test
+/// picks which wrapping delta to add, nothing else is written. Returns fragments that passed
+/// the depth test.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn stencil_span(
+    srow: *mut u8,
+    drow: *const f32,
+    lo: u32,
+    hi: u32,
+    zrow: f32,
+    dzdx: f32,
+    deltas: (u8, u8),
+    test: impl Fn(f32, f32) -> bool,
+) -> u64 {
+    let n = (hi - lo + 1) as usize;
+    // SAFETY: both rows point at this worker's tile row and lo <= hi < TILE.
+    let (s, d) = unsafe {
+        (
+            std::slice::from_raw_parts_mut(srow.add(lo as usize), n),
+            std::slice::from_raw_parts(drow.add(lo as usize), n),
+        )
+    };
+    let (pass, fail) = deltas;
+    let mut passed = 0u32;
+    for (i, (sv, dv)) in s.iter_mut().zip(d).enumerate() {
+        let z = (zrow + dzdx * (lo + i as u32) as f32).clamp(0.0, 1.0);
+        let t = test(z, *dv);
+        passed += t as u32;
+        *sv = sv.wrapping_add(if t { pass } else { fail });
+    }
+    passed as u64
+}
+
 /// Runs stages 5 and 6 for one tile over `tris` (in submission order).
 ///
 /// Fragment depth is `((c + dz/dy * ly) + offset) + dz/dx * lx` at tile-local pixel (lx, ly),
@@ -267,6 +301,19 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let st = state.stencil;
     let fmt = state.depth.format;
     let fast_depth = !needs_shading && !stencil_on && targets.depth.is_some() && fmt == DepthFormat::F32;
+    // Stencil counting (shadow volumes): per face, the (pass, depth-fail) wrapping deltas when
+    // the fast path applies.
+    let count_deltas = |f: super::state::StencilFace| -> Option<(u8, u8)> {
+        let ok = !needs_shading
+            && stencil_on
+            && !depth_write
+            && fmt == DepthFormat::F32
+            && st.write_mask == 0xff
+            && f.func == CompareFunc::Always;
+        ok.then(|| Some((f.pass.wrapping_delta()?, f.depth_fail.wrapping_delta()?)))
+            .flatten()
+    };
+    let fast_stencil = [count_deltas(st.back), count_deltas(st.front)];
     let (ox, oy) = (rect[0], rect[1]);
     let tw = (rect[2] - rect[0] + 1) as usize;
     if targets.lists && lists.head.is_empty() {
@@ -320,6 +367,45 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
                     CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b),
                     f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
+                };
+            }
+            stats.fragments_passed += passed;
+            stats.early_z_killed += emitted - passed;
+            continue;
+        }
+
+        // Fast path: stencil counting spans.
+        if let Some(deltas) = fast_stencil[tri.front as usize] {
+            let stencil = targets.stencil.as_ref().unwrap();
+            let mut passed = 0;
+            for ly in cover.y0..=cover.y1 {
+                let bits = cover.rows[ly as usize];
+                if bits == 0 {
+                    continue;
+                }
+                let (lo, hi) = (bits.trailing_zeros(), 63 - bits.leading_zeros());
+                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+                // SAFETY: the row starts are inside this worker's tile.
+                let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
+                passed += match targets.depth.as_ref().filter(|_| depth_test) {
+                    Some(depth) => {
+                        let drow = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
+                        match state.depth.func {
+                            CompareFunc::Less => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a < b),
+                            CompareFunc::LessEqual => {
+                                stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a <= b)
+                            }
+                            f => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| f.test(a, b)),
+                        }
+                    }
+                    None => {
+                        // No depth test: every fragment passes.
+                        for x in lo..=hi {
+                            let p = unsafe { srow.add(x as usize) };
+                            unsafe { *p = (*p).wrapping_add(deltas.0) };
+                        }
+                        (hi - lo + 1) as u64
+                    }
                 };
             }
             stats.fragments_passed += passed;

@@ -167,6 +167,18 @@ pub enum StencilOp {
 }
 
 impl StencilOp {
+    /// The op as a wrapping addition, when it is one (`Keep` 0, `IncrWrap` 1, `DecrWrap` 255):
+    /// the shadow-volume ops, which the fragment stage then runs branch-free.
+    #[inline]
+    pub fn wrapping_delta(self) -> Option<u8> {
+        match self {
+            StencilOp::Keep => Some(0),
+            StencilOp::IncrWrap => Some(1),
+            StencilOp::DecrWrap => Some(255),
+            _ => None,
+        }
+    }
+
     /// Applies the op to `s` with reference `r`.
     #[inline(always)]
     pub fn apply(self, s: u8, r: u8) -> u8 {
