@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the pipeline: the spheres frame per mode and triangle count, and
-//! random triangles per size, depth-only and colour + depth. Throughput is reported in
-//! triangles (elements) per second; pixels/s are printed by `penumbra bench raster`.
+//! random triangles per size, depth-only and colour + depth; shadow techniques on the spheres
+//! scene. Throughput is reported in triangles (elements) per second; pixels/s are printed by
+//! `penumbra bench raster`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use penumbra::bench::*;
@@ -72,5 +73,32 @@ fn random(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random);
+/// Shadow techniques on the spheres scene (100k triangles, 1920x1080): shadow volumes whole
+/// and their silhouette extraction alone, and the shadow map.
+fn techniques(c: &mut Criterion) {
+    use penumbra::shadow::{self, silhouette};
+    let p = Pipeline::new(threads()).unwrap();
+    let mut g = c.benchmark_group(format!("spheres_techniques_{}t", p.threads()));
+    g.sample_size(10);
+    let scene = spheres_as_scene(100_000);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    g.throughput(Throughput::Elements(scene.triangles() as u64));
+    let light = (-f.light.direction).extend(0.0);
+    g.bench_function("silhouettes", |b| {
+        b.iter(|| {
+            scene
+                .objects
+                .iter()
+                .map(|o| silhouette::volume(&o.mesh, &silhouette::Adjacency::new(&o.mesh), light).indices.len())
+                .sum::<usize>()
+        })
+    });
+    for (name, sets) in [("shadow-volume", vec![]), ("shadow-map", vec![])] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(name, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques);
 criterion_main!(benches);

@@ -318,6 +318,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
         },
     );
     write("report.md", &md)?;
+    write("summary.md", &report::summary_markdown(&results))?;
     write("report.html", &report::report_html(&md))?;
     println!(
         "sweep: {} runs on {} scenes in {:.1} s, {} threads",

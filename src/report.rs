@@ -106,6 +106,10 @@ pub struct RunResult {
     /// Whether the technique reported work counters on the path's frames (their chart is
     /// worth showing).
     pub counted_path: bool,
+    /// The technique's own pass times (ms) of its last run on the first frame.
+    pub passes: Vec<(&'static str, f64)>,
+    /// The technique's work counters on the first frame.
+    pub counters: Vec<(&'static str, f64)>,
 }
 
 impl RunResult {
@@ -273,6 +277,8 @@ pub fn render(
         threads: p.threads(),
         flicker: metrics::flicker(&seq),
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
+        passes: pass_times.clone(),
+        counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
     };
     let mut files = Vec::new();
     if let Some(dir) = out {
@@ -335,13 +341,13 @@ pub fn file_safe(s: &str) -> String {
 /// The sweep's CSV (one row per technique setting and scene).
 pub fn csv(results: &[RunResult]) -> String {
     let mut s = String::from(
-        "scene,technique,settings,ms,threads,rmse,mae,wrong_pct,penumbra_rmse,flicker,pixels,penumbra_pixels\n",
+        "scene,technique,settings,ms,threads,rmse,mae,wrong_pct,penumbra_rmse,flicker,pixels,penumbra_pixels,passes_ms,counters\n",
     );
     for r in results {
         let e = &r.errors;
         let _ = writeln!(
             s,
-            "{},{},\"{}\",{:.4},{},{:.6},{:.6},{:.4},{:.6},{:.6},{},{}",
+            "{},{},\"{}\",{:.4},{},{:.6},{:.6},{:.4},{:.6},{:.6},{},{},\"{}\",\"{}\"",
             r.scene,
             r.technique,
             r.settings,
@@ -353,7 +359,17 @@ pub fn csv(results: &[RunResult]) -> String {
             e.penumbra_rmse,
             r.flicker,
             e.pixels,
-            e.penumbra_pixels
+            e.penumbra_pixels,
+            r.passes
+                .iter()
+                .map(|(k, v)| format!("{k}={v:.3}"))
+                .collect::<Vec<_>>()
+                .join(";"),
+            r.counters
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(";")
         );
     }
     s
@@ -575,6 +591,48 @@ fn xml(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+/// One row per technique and settings across all scenes: median time, mean RMSE, mean and
+/// worst wrong % (with the scene), mean penumbra RMSE. The README's technique table.
+pub fn summary_markdown(results: &[RunResult]) -> String {
+    let mut labels: Vec<String> = Vec::new();
+    for r in results {
+        if !labels.contains(&r.label()) {
+            labels.push(r.label());
+        }
+    }
+    let mut s = String::from(
+        "| technique [settings] | median ms | mean RMSE | mean wrong % | worst wrong % (scene) | mean penumbra RMSE |\n| --- | --- | --- | --- | --- | --- |\n",
+    );
+    for label in labels {
+        let rs: Vec<&RunResult> = results.iter().filter(|r| r.label() == label).collect();
+        let n = rs.len() as f64;
+        let mean = |f: &dyn Fn(&RunResult) -> f64| rs.iter().map(|r| f(r)).sum::<f64>() / n;
+        let worst = rs
+            .iter()
+            .max_by(|a, b| a.errors.wrong_pct.total_cmp(&b.errors.wrong_pct))
+            .expect("at least one run");
+        let _ = writeln!(
+            s,
+            "| {label} | {:.1} | {:.4} | {:.2} | {:.2} ({}) | {:.3} |",
+            metrics::median(rs.iter().map(|r| r.ms).collect()),
+            mean(&|r| r.errors.rmse),
+            mean(&|r| r.errors.wrong_pct),
+            worst.errors.wrong_pct,
+            worst.scene,
+            {
+                // Over the scenes that have a penumbra (area lights) only.
+                let soft: Vec<f64> = rs
+                    .iter()
+                    .filter(|r| r.errors.penumbra_pixels > 0)
+                    .map(|r| r.errors.penumbra_rmse)
+                    .collect();
+                soft.iter().sum::<f64>() / soft.len().max(1) as f64
+            },
+        );
+    }
+    s
 }
 
 /// The report page in Markdown: per scene a chart and a table with thumbnails.

@@ -25,6 +25,7 @@ use super::*;
 use crate::pipeline::*;
 use crate::scene::LightKind;
 use glam::{Mat4, Vec3, Vec4};
+use rayon::prelude::*;
 use std::time::Instant;
 
 const OPTIONS: &[OptionInfo] = &[OptionInfo {
@@ -132,19 +133,26 @@ impl ShadowTechnique for ShadowVolume {
         let light = light_position(frame);
         self.report = MeshReport::default();
         self.irregular.clear();
-        self.volumes = frame
-            .scene
-            .objects
-            .iter()
-            .map(|o| {
-                let adj = Adjacency::new(&o.mesh);
-                self.report.add(&adj.report);
-                if !adj.report.is_closed_manifold() || adj.report.degenerate_triangles > 0 {
-                    self.irregular.push((o.name.clone(), adj.report.describe()));
-                }
-                silhouette::volume(&o.mesh, &adj, light)
-            })
-            .collect();
+        // Objects in parallel, collected in scene order (the same volumes for any thread count).
+        let built: Vec<(MeshReport, Volume)> = p.install(|| {
+            frame
+                .scene
+                .objects
+                .par_iter()
+                .map(|o| {
+                    let adj = Adjacency::new(&o.mesh);
+                    (adj.report, silhouette::volume(&o.mesh, &adj, light))
+                })
+                .collect()
+        });
+        self.volumes.clear();
+        for (o, (report, volume)) in frame.scene.objects.iter().zip(built) {
+            self.report.add(&report);
+            if !report.is_closed_manifold() || report.degenerate_triangles > 0 {
+                self.irregular.push((o.name.clone(), report.describe()));
+            }
+            self.volumes.push(volume);
+        }
         let t1 = Instant::now();
         self.chose_zpass = match self.mode {
             "auto" => zpass_is_safe(frame),
