@@ -89,7 +89,11 @@ fn techniques(c: &mut Criterion) {
             scene
                 .objects
                 .iter()
-                .map(|o| silhouette::volume(&o.mesh, &silhouette::Adjacency::new(&o.mesh), light).indices.len())
+                .map(|o| {
+                    silhouette::volume(&o.mesh, &silhouette::Adjacency::new(&o.mesh), light)
+                        .indices
+                        .len()
+                })
                 .sum::<usize>()
         })
     });
