@@ -219,6 +219,43 @@ fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
     let _ = (s, rect);
 }
 
+/// [`depth_span`] for `Less` / `LessEqual`, four pixels at a time (SSE4.1). Chunks are aligned
+/// to four pixels of the tile row and the caller guarantees the last chunk ends inside the
+/// tile (`(hi | 3) < tile width`), so every lane read lies in this worker's tile; lanes outside
+/// `lo..=hi` are written back unchanged. The arithmetic is the scalar path's, in the same
+/// order (mul then add, no FMA; clamp with the operand order that keeps -0.0 and NaN as the
+/// scalar `clamp` does), so results are bit-identical.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn depth_span_x4(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: bool, less_equal: bool) -> u64 {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE4.1 is in the build's target (x86-64-v2); pointers stay within the tile row.
+    unsafe {
+        let (zr, dz) = (_mm_set1_ps(zrow), _mm_set1_ps(dzdx));
+        let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
+        let ramp = _mm_setr_epi32(0, 1, 2, 3);
+        let (lo_v, hi_v) = (_mm_set1_epi32(lo as i32 - 1), _mm_set1_epi32(hi as i32 + 1));
+        let mut passed = 0u32;
+        let mut c = lo & !3;
+        while c <= hi {
+            let xi = _mm_add_epi32(_mm_set1_epi32(c as i32), ramp);
+            let valid = _mm_castsi128_ps(_mm_and_si128(_mm_cmpgt_epi32(xi, lo_v), _mm_cmplt_epi32(xi, hi_v)));
+            let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xi)));
+            let z = _mm_min_ps(one, _mm_max_ps(zero, z));
+            let p = row.add(c as usize);
+            let d = _mm_loadu_ps(p);
+            let t = if less_equal { _mm_cmple_ps(z, d) } else { _mm_cmplt_ps(z, d) };
+            let t = _mm_and_ps(t, valid);
+            passed += (_mm_movemask_ps(t) as u32).count_ones();
+            if write {
+                _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
+            }
+            c += 4;
+        }
+        passed as u64
+    }
+}
+
 /// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
 /// Returns the number of fragments that passed.
 #[inline(always)]
@@ -361,6 +398,12 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 // SAFETY: the row start is inside this worker's tile.
                 let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
                 let w = depth_write;
+                #[cfg(target_arch = "x86_64")]
+                if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
+                    let le = state.depth.func == CompareFunc::LessEqual;
+                    passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le);
+                    continue;
+                }
                 passed += match state.depth.func {
                     CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
                     CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b),
