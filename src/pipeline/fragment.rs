@@ -244,7 +244,11 @@ fn depth_span_x4(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: b
             let z = _mm_min_ps(one, _mm_max_ps(zero, z));
             let p = row.add(c as usize);
             let d = _mm_loadu_ps(p);
-            let t = if less_equal { _mm_cmple_ps(z, d) } else { _mm_cmplt_ps(z, d) };
+            let t = if less_equal {
+                _mm_cmple_ps(z, d)
+            } else {
+                _mm_cmplt_ps(z, d)
+            };
             let t = _mm_and_ps(t, valid);
             passed += (_mm_movemask_ps(t) as u32).count_ones();
             if write {

@@ -11,7 +11,8 @@
 //!   volume: pixels whose ray enters or leaves a volume between the eye and the near plane.
 //! - z-fail (Carmack's reverse): counts where the depth test fails, back faces increment and
 //!   front faces decrement; the caps close the volumes; the pipeline's depth clamp keeps the
-//!   far plane from cutting them (Everitt and Kilgard 2002 use an infinite far plane instead).
+//!   far plane from cutting them (`zfail`), or, as Everitt and Kilgard 2002, a projection with
+//!   the far plane at infinity (`zfail-infinite`, with its own depth pre-pass).
 //! - auto: z-pass when no caster can shadow the camera's near-plane rectangle (a conservative
 //!   bounding-box test), z-fail otherwise.
 //!
@@ -31,10 +32,17 @@ use std::time::Instant;
 const OPTIONS: &[OptionInfo] = &[OptionInfo {
     key: "mode",
     default: "auto",
-    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
+    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zfail-infinite (capped, infinite far plane projection and its own depth pre-pass), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
 }];
 
-const MODES: &[&str] = &["auto", "zfail", "zpass", "zpass-naive", "zfail-noclamp"];
+const MODES: &[&str] = &[
+    "auto",
+    "zfail",
+    "zfail-infinite",
+    "zpass",
+    "zpass-naive",
+    "zfail-noclamp",
+];
 
 /// Registry entry.
 pub fn info() -> TechniqueInfo {
@@ -42,7 +50,7 @@ pub fn info() -> TechniqueInfo {
         name: "shadow-volume",
         summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
         options: OPTIONS,
-        sweep: &[&[], &[("mode", "zfail")], &[("mode", "zpass")]],
+        sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],
         create: |s| {
             let mode = s.choice("mode", MODES)?;
             Ok(Box::new(ShadowVolume {
@@ -164,7 +172,33 @@ impl ShadowTechnique for ShadowVolume {
             silhouette::eye_count(&self.volumes, frame.camera.position, light)
         };
         let t2 = Instant::now();
-        let mut depth = frame.gbuffer.depth.clone();
+        // Camera transform and depth: the G-buffer's, or for `zfail-infinite` a projection with
+        // the far plane at infinity (Everitt and Kilgard 2002) and a depth pre-pass with it.
+        let infinite = self.mode == "zfail-infinite";
+        let cam = &frame.camera;
+        let vp = if infinite {
+            Mat4::perspective_infinite_rh(cam.fov_deg.to_radians(), cam.width as f32 / cam.height as f32, cam.near)
+                * cam.view()
+        } else {
+            cam.view_projection()
+        };
+        let mut depth = if infinite {
+            let mut d = Surface::new(frame.width(), frame.height(), 1.0f32).map_err(|e| e.to_string())?;
+            for o in &frame.scene.objects {
+                p.draw(
+                    &mut Targets::depth_only(&mut d),
+                    &RenderState::default(),
+                    &o.mesh.positions,
+                    &o.mesh.indices,
+                    &TransformPositions(vp),
+                    &DepthOnly,
+                )
+                .map_err(|e| e.to_string())?;
+            }
+            d
+        } else {
+            frame.gbuffer.depth.clone()
+        };
         let mut stencil = Surface::new(frame.width(), frame.height(), self.eye as u8).map_err(|e| e.to_string())?;
         let (front, back) = if self.chose_zpass {
             (
@@ -193,7 +227,7 @@ impl ShadowTechnique for ShadowVolume {
             depth: DepthState {
                 func: CompareFunc::Less,
                 write: false,
-                clamp: self.mode != "zfail-noclamp",
+                clamp: !matches!(self.mode, "zfail-noclamp" | "zfail-infinite"),
                 ..Default::default()
             },
             stencil: StencilState {
@@ -204,7 +238,7 @@ impl ShadowTechnique for ShadowVolume {
             },
             ..Default::default()
         };
-        let vs = Homogeneous(frame.camera.view_projection());
+        let vs = Homogeneous(vp);
         self.fill = 0;
         for v in &self.volumes {
             let st = p
