@@ -10,6 +10,8 @@
 
 use super::bin::Chunk;
 use super::lists::{ListNode, NONE};
+#[cfg(target_arch = "x86_64")]
+use super::raster::small_depth_fused;
 use super::raster::{raster_tile, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
@@ -378,7 +380,27 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             .iter()
             .map(move |t| (t, c.attrs.get(t.attr as usize)))
     });
+    let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
+        // Stages 5 and 6 fused for small triangles of depth-only passes.
+        #[cfg(target_arch = "x86_64")]
+        if fused_small {
+            let depth = targets.depth.as_ref().unwrap();
+            // SAFETY: the tile origin is inside the target.
+            let origin = unsafe { depth.ptr.add(oy as usize * depth.stride + ox as usize) };
+            let zp = tri.z.at_origin(ox as i64, oy as i64);
+            let zoff = tri.z_offset;
+            let le = state.depth.func == CompareFunc::LessEqual;
+            let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
+            if let Some((emitted, passed)) =
+                small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, depth_write, le)
+            {
+                stats.fragments_rasterized += emitted;
+                stats.fragments_passed += passed;
+                stats.early_z_killed += emitted - passed;
+                continue;
+            }
+        }
         // Stage 5: coverage mask of this triangle in this tile.
         let emitted = raster_tile(tri, rect, &mut cover);
         stats.fragments_rasterized += emitted;
