@@ -6,7 +6,7 @@
 //! the chunks in order, which is the whole draw in submission order.
 
 use super::clip::{ClipVertex, Clipper};
-use super::setup::{setup_triangle, Rejected, SetupParams, SetupTri, TriAttrs};
+use super::setup::{setup_triangle, setup_window, Rejected, SetupParams, SetupTri, TriAttrs, WinVertex};
 use super::vertex::Varyings;
 use super::DrawStats;
 
@@ -62,6 +62,17 @@ impl TileGrid {
     }
 }
 
+/// What the vertex stage precomputes per vertex for setup.
+#[derive(Copy, Clone, Debug)]
+pub struct PreVertex {
+    /// Position finite and within [`super::clip::MAX_CLIP_COORD`].
+    pub finite: bool,
+    /// Clip outcode (0: inside every plane).
+    pub code: u32,
+    /// Window position when inside every plane (and valid).
+    pub win: Option<WinVertex>,
+}
+
 /// The binned output of one chunk of triangles.
 pub struct Chunk<V> {
     /// Shading attributes of the chunk's triangles, in submission order (indexed by
@@ -94,7 +105,7 @@ pub fn rect_rejected(tri: &SetupTri, rect: [i32; 4]) -> bool {
 #[inline(never)]
 pub fn process_chunk<V: Varyings>(
     verts: &[ClipVertex<V>],
-    finite: &[bool],
+    pre: &[PreVertex],
     indices: &[u32],
     first: usize,
     count: usize,
@@ -128,29 +139,32 @@ pub fn process_chunk<V: Varyings>(
             indices[3 * t + 1] as usize,
             indices[3 * t + 2] as usize,
         ];
-        if !(finite[ia[0]] && finite[ia[1]] && finite[ia[2]]) {
+        let p = [pre[ia[0]], pre[ia[1]], pre[ia[2]]];
+        if !(p[0].finite && p[1].finite && p[2].finite) {
             stats.dropped_nonfinite += 1;
             continue;
         }
-        let tri = [verts[ia[0]], verts[ia[1]], verts[ia[2]]];
-        let c = [
-            clipper.outcode(tri[0].pos),
-            clipper.outcode(tri[1].pos),
-            clipper.outcode(tri[2].pos),
-        ];
-        if c[0] & c[1] & c[2] != 0 {
+        if p[0].code & p[1].code & p[2].code != 0 {
             stats.culled_outside += 1;
             continue;
         }
-        let mask = c[0] | c[1] | c[2];
+        let mask = p[0].code | p[1].code | p[2].code;
         if mask == 0 {
-            push(
-                setup_triangle(params, tri, t as u32),
-                &mut stats,
-                (&mut tris, &mut attrs),
-            );
+            let r = match (p[0].win, p[1].win, p[2].win) {
+                (Some(a), Some(b), Some(c)) => {
+                    let vars = if V::EMPTY {
+                        [V::default(); 3]
+                    } else {
+                        [verts[ia[0]].var, verts[ia[1]].var, verts[ia[2]].var]
+                    };
+                    setup_window(params, [a, b, c], vars, t as u32)
+                }
+                _ => setup_triangle(params, [verts[ia[0]], verts[ia[1]], verts[ia[2]]], t as u32),
+            };
+            push(r, &mut stats, (&mut tris, &mut attrs));
             continue;
         }
+        let tri = [verts[ia[0]], verts[ia[1]], verts[ia[2]]];
         stats.clipped += 1;
         clipper.clip_polygon(tri, mask, &mut poly, &mut tmp);
         if poly.is_empty() {

@@ -445,9 +445,22 @@ impl Pipeline {
                     ClipVertex { pos, var }
                 })
                 .collect();
-            let finite: Vec<bool> = verts
-                .iter()
-                .map(|v| v.pos.is_finite() && v.pos.abs().max_element() <= clip::MAX_CLIP_COORD)
+            // Per vertex, once: finite, clip outcode and, inside the clip volume, the viewport
+            // transform (shared by the triangles around the vertex).
+            let pre: Vec<bin::PreVertex> = verts
+                .par_iter()
+                .with_min_len(1024)
+                .map(|v| {
+                    let finite = v.pos.is_finite() && v.pos.abs().max_element() <= clip::MAX_CLIP_COORD;
+                    let code = if finite { clipper.outcode(v.pos) } else { 0 };
+                    bin::PreVertex {
+                        finite,
+                        code,
+                        win: (finite && code == 0)
+                            .then(|| setup::window_vertex(&params, v.pos).ok())
+                            .flatten(),
+                    }
+                })
                 .collect();
             times.vertex += t0.elapsed().as_secs_f64();
             let mut stats = DrawStats::default();
@@ -462,7 +475,7 @@ impl Pipeline {
                     .map(|c| {
                         let first = c * CHUNK;
                         let count = CHUNK.min(ntri - first);
-                        process_chunk(&verts, &finite, indices, first, count, &params, &clipper, &grid)
+                        process_chunk(&verts, &pre, indices, first, count, &params, &clipper, &grid)
                     })
                     .collect();
                 for c in &chunks {

@@ -192,34 +192,71 @@ impl SetupParams {
     }
 }
 
+/// A vertex after the viewport transform: snapped window position (8 sub-pixel bits), depth
+/// z/w and 1/w. Computed once per vertex for triangles that need no clipping (shared by the
+/// triangles around it), or per clipped vertex.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct WinVertex {
+    /// Snapped x, fixed point.
+    pub x: i64,
+    /// Snapped y (window y down), fixed point.
+    pub y: i64,
+    /// Depth z/w.
+    pub z: f64,
+    /// 1/w.
+    pub iw: f64,
+}
+
+/// The viewport transform of one clip-space position: NDC y up -> window y down; depth z/w;
+/// snapped to 8 sub-pixel bits. Non-finite or out-of-range results are rejected.
+#[inline]
+pub fn window_vertex(p: &SetupParams, pos: glam::Vec4) -> Result<WinVertex, Rejected> {
+    let hw = p.width as f64 * 0.5;
+    let hh = p.height as f64 * 0.5;
+    let w = pos.w as f64;
+    let iw = 1.0 / w;
+    let x = (pos.x as f64 * iw + 1.0) * hw;
+    let y = (1.0 - pos.y as f64 * iw) * hh;
+    let z = pos.z as f64 * iw;
+    if !(x.is_finite() && y.is_finite() && z.is_finite() && iw.is_finite())
+        || x.abs() > MAX_WINDOW_COORD
+        || y.abs() > MAX_WINDOW_COORD
+    {
+        return Err(Rejected::NonFinite);
+    }
+    let fx = |t: f64| (t * ONE as f64).round() as i64;
+    Ok(WinVertex {
+        x: fx(x),
+        y: fx(y),
+        z,
+        iw,
+    })
+}
+
 /// Sets up one (clipped) triangle.
 pub fn setup_triangle<V: Varyings>(
     p: &SetupParams,
     v: [ClipVertex<V>; 3],
     prim: u32,
 ) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
-    // Viewport transform: NDC y up -> window y down; depth z/w.
-    let hw = p.width as f64 * 0.5;
-    let hh = p.height as f64 * 0.5;
-    let mut win = [(0f64, 0f64, 0f64, 0f64); 3];
-    for (i, cv) in v.iter().enumerate() {
-        let w = cv.pos.w as f64;
-        let iw = 1.0 / w;
-        let x = (cv.pos.x as f64 * iw + 1.0) * hw;
-        let y = (1.0 - cv.pos.y as f64 * iw) * hh;
-        let z = cv.pos.z as f64 * iw;
-        if !(x.is_finite() && y.is_finite() && z.is_finite() && iw.is_finite())
-            || x.abs() > MAX_WINDOW_COORD
-            || y.abs() > MAX_WINDOW_COORD
-        {
-            return Err(Rejected::NonFinite);
-        }
-        win[i] = (x, y, z, iw);
-    }
-    // Snap to 8 sub-pixel bits.
-    let fx = |t: f64| Fx8((t * ONE as f64).round() as i64);
-    let mut xs = [fx(win[0].0), fx(win[1].0), fx(win[2].0)];
-    let mut ys = [fx(win[0].1), fx(win[1].1), fx(win[2].1)];
+    let win = [
+        window_vertex(p, v[0].pos)?,
+        window_vertex(p, v[1].pos)?,
+        window_vertex(p, v[2].pos)?,
+    ];
+    setup_window(p, win, [v[0].var, v[1].var, v[2].var], prim)
+}
+
+/// Sets up one triangle from its vertices' window positions and varyings.
+#[inline]
+pub fn setup_window<V: Varyings>(
+    p: &SetupParams,
+    win: [WinVertex; 3],
+    vars: [V; 3],
+    prim: u32,
+) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
+    let mut xs = [Fx8(win[0].x), Fx8(win[1].x), Fx8(win[2].x)];
+    let mut ys = [Fx8(win[0].y), Fx8(win[1].y), Fx8(win[2].y)];
     let area = (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
     if area == 0 {
         return Err(Rejected::Degenerate);
@@ -302,19 +339,19 @@ pub fn setup_triangle<V: Varyings>(
     ];
     let inv_area2 = (ONE * ONE) as f64 / area as f64;
     let wv = [win[order[0]], win[order[1]], win[order[2]]];
-    let z = Plane::through(&pts, [wv[0].2, wv[1].2, wv[2].2], inv_area2);
+    let z = Plane::through(&pts, [wv[0].z, wv[1].z, wv[2].z], inv_area2);
     let persp = if V::EMPTY {
         [Plane::default(); 3]
     } else {
         [
-            Plane::through(&pts, [wv[0].3, wv[1].3, wv[2].3], inv_area2),
-            Plane::through(&pts, [0.0, wv[1].3, 0.0], inv_area2),
-            Plane::through(&pts, [0.0, 0.0, wv[2].3], inv_area2),
+            Plane::through(&pts, [wv[0].iw, wv[1].iw, wv[2].iw], inv_area2),
+            Plane::through(&pts, [0.0, wv[1].iw, 0.0], inv_area2),
+            Plane::through(&pts, [0.0, 0.0, wv[2].iw], inv_area2),
         ]
     };
     // glPolygonOffset: factor * max slope + units * r.
     let z_offset = if p.offset.factor != 0.0 || p.offset.units != 0.0 {
-        let zmax = wv.iter().map(|w| w.2.abs()).fold(0.0, f64::max) as f32;
+        let zmax = wv.iter().map(|w| w.z.abs()).fold(0.0, f64::max) as f32;
         let slope = z.dx.abs().max(z.dy.abs()) as f32;
         p.offset.factor * slope + p.offset.units * p.format.resolvable(zmax)
     } else {
@@ -333,7 +370,7 @@ pub fn setup_triangle<V: Varyings>(
         },
         TriAttrs {
             persp,
-            var: [v[order[0]].var, v[order[1]].var, v[order[2]].var],
+            var: [vars[order[0]], vars[order[1]], vars[order[2]]],
         },
     ))
 }
