@@ -205,14 +205,17 @@ pub fn process_chunk<V: Varyings>(
     for t in 0..ntiles {
         offsets[t + 1] += offsets[t];
     }
-    let mut binned = Vec::with_capacity(pairs.len());
-    // Fill in tile order: every slot is written exactly once by the counting sort.
-    binned.resize(pairs.len(), tris.first().copied().unwrap_or_else(SetupTri::empty));
+    let n = pairs.len();
+    let mut binned: Vec<SetupTri> = Vec::with_capacity(n);
+    let slots = binned.spare_capacity_mut();
     let mut cursor = offsets.clone();
     for (t, i) in pairs {
-        binned[cursor[t as usize] as usize] = tris[i as usize];
+        slots[cursor[t as usize] as usize].write(tris[i as usize]);
         cursor[t as usize] += 1;
     }
+    // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum to n
+    // and each tile's cursor runs from its offset to the next tile's).
+    unsafe { binned.set_len(n) };
     stats.bin_entries += binned.len() as u64;
     stats.triangles_setup += tris.len() as u64;
     Chunk {

@@ -437,31 +437,21 @@ impl Pipeline {
         let (stats, tile_lists) = self.pool.install(|| {
             let t0 = std::time::Instant::now();
             // Stage 1: vertex programs (an indexed map: order-independent).
-            let verts: Vec<ClipVertex<VP::Out>> = vertices
+            // Per vertex, in the same pass: finite, clip outcode and, inside the clip volume,
+            // the viewport transform (shared by the triangles around the vertex).
+            let (verts, pre): (Vec<ClipVertex<VP::Out>>, Vec<bin::PreVertex>) = vertices
                 .par_iter()
                 .with_min_len(1024)
                 .map(|v| {
                     let (pos, var) = vp.run(v);
-                    ClipVertex { pos, var }
+                    let finite = pos.is_finite() && pos.abs().max_element() <= clip::MAX_CLIP_COORD;
+                    let code = if finite { clipper.outcode(pos) } else { 0 };
+                    let win = (finite && code == 0)
+                        .then(|| setup::window_vertex(&params, pos).ok())
+                        .flatten();
+                    (ClipVertex { pos, var }, bin::PreVertex { finite, code, win })
                 })
-                .collect();
-            // Per vertex, once: finite, clip outcode and, inside the clip volume, the viewport
-            // transform (shared by the triangles around the vertex).
-            let pre: Vec<bin::PreVertex> = verts
-                .par_iter()
-                .with_min_len(1024)
-                .map(|v| {
-                    let finite = v.pos.is_finite() && v.pos.abs().max_element() <= clip::MAX_CLIP_COORD;
-                    let code = if finite { clipper.outcode(v.pos) } else { 0 };
-                    bin::PreVertex {
-                        finite,
-                        code,
-                        win: (finite && code == 0)
-                            .then(|| setup::window_vertex(&params, v.pos).ok())
-                            .flatten(),
-                    }
-                })
-                .collect();
+                .unzip();
             times.vertex += t0.elapsed().as_secs_f64();
             let mut stats = DrawStats::default();
             let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
