@@ -207,10 +207,7 @@ pub(crate) fn small_depth_fused(
             for c in 0..chunks as usize {
                 let or = _mm_or_si128(_mm_or_si128(e0, e1), e2);
                 // Inside all edges (sign bit clear) and inside the box's columns.
-                let inside = _mm_and_si128(
-                    _mm_cmpgt_epi32(or, _mm_set1_epi32(-1)),
-                    _mm_cmplt_epi32(xs, lane_limit),
-                );
+                let inside = _mm_and_si128(_mm_cmpgt_epi32(or, _mm_set1_epi32(-1)), _mm_cmplt_epi32(xs, lane_limit));
                 let inside = _mm_castsi128_ps(inside);
                 let m = _mm_movemask_ps(inside);
                 if m != 0 {
@@ -219,7 +216,11 @@ pub(crate) fn small_depth_fused(
                     let z = _mm_min_ps(one, _mm_max_ps(zero, z));
                     let p = row.add(4 * c);
                     let d = _mm_loadu_ps(p);
-                    let t = if less_equal { _mm_cmple_ps(z, d) } else { _mm_cmplt_ps(z, d) };
+                    let t = if less_equal {
+                        _mm_cmple_ps(z, d)
+                    } else {
+                        _mm_cmplt_ps(z, d)
+                    };
                     let t = _mm_and_ps(t, inside);
                     passed += (_mm_movemask_ps(t) as u32).count_ones();
                     if write {
