@@ -377,20 +377,8 @@ fn point_light_inside_a_caster_shadows_everything_outside() {
 /// Errors against the *hard* reference (visibility of the light's centre), the ground truth of
 /// exact hard-shadow techniques.
 fn hard_errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metrics::Errors {
-    use penumbra::reference::{Reference, ReferenceOptions};
-    let p = Pipeline::new(2).unwrap();
-    let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
-    let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let r = Reference::new(&s);
-    let opts = ReferenceOptions {
-        area: false,
-        ..Default::default()
-    };
-    let rv = p.install(|| r.visibility(f.points(), f.width() as usize, &f.light, &opts));
-    let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let mut t = shadow::create(technique, &sets).unwrap();
-    let v = t.visibility(&p, &f).unwrap();
-    compare(&v, &rv, &f.metric_mask())
+    let (v, r, mask, _) = run_hard(scene, technique, sets);
+    compare(&v, &r, &mask)
 }
 
 #[test]

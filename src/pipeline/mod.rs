@@ -44,7 +44,7 @@ pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentP
 pub use lists::{FragmentLists, ListNode};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
-pub use vertex::{ClipPassthrough, TransformPositions, Varyings, VertexProgram};
+pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
 
 use bin::{process_chunk, TileGrid, CHUNK};
 use clip::{ClipVertex, Clipper};

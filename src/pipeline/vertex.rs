@@ -100,3 +100,17 @@ impl VertexProgram for ClipPassthrough {
         (*v, ())
     }
 }
+
+/// Transforms homogeneous positions (`w = 0`: points at infinity, as shadow volumes and planar
+/// projections use them) by a matrix; no varyings.
+#[derive(Copy, Clone, Debug)]
+pub struct TransformHomogeneous(pub Mat4);
+
+impl VertexProgram for TransformHomogeneous {
+    type In = Vec4;
+    type Out = ();
+    #[inline(always)]
+    fn run(&self, v: &Vec4) -> (Vec4, ()) {
+        (self.0 * *v, ())
+    }
+}

@@ -276,3 +276,29 @@ pub fn backdrop(frame: &Frame) -> Surface<Rgba8> {
     }
     img
 }
+
+/// Depth of every object of `frame`'s scene for which `keep(object index)` holds, seen
+/// through `matrix`, into a fresh `w` x `h` target (1 = empty).
+pub fn scene_depth(
+    p: &Pipeline,
+    frame: &Frame,
+    matrix: glam::Mat4,
+    w: u32,
+    h: u32,
+    keep: impl Fn(usize) -> bool,
+) -> Result<Surface<f32>, String> {
+    use crate::pipeline::{DepthOnly, RenderState, Targets, TransformPositions};
+    let mut d = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+    for (_, o) in frame.scene.objects.iter().enumerate().filter(|(i, _)| keep(*i)) {
+        p.draw(
+            &mut Targets::depth_only(&mut d),
+            &RenderState::default(),
+            &o.mesh.positions,
+            &o.mesh.indices,
+            &TransformPositions(matrix),
+            &DepthOnly,
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(d)
+}

@@ -125,16 +125,6 @@ fn clip_polygon(poly: &[DVec3], f: impl Fn(DVec3) -> f64) -> Vec<DVec3> {
     out
 }
 
-/// Homogeneous world positions, to clip space.
-struct Homogeneous(Mat4);
-impl VertexProgram for Homogeneous {
-    type In = Vec4;
-    type Out = ();
-    fn run(&self, v: &Vec4) -> (Vec4, ()) {
-        (self.0 * *v, ())
-    }
-}
-
 impl Planar {
     /// The flattened casters for receiver `r` with plane `plane` (light side positive):
     /// homogeneous positions (`M p`) and indices.
@@ -331,7 +321,7 @@ impl ShadowTechnique for Planar {
                     &state,
                     &verts,
                     &idx,
-                    &Homogeneous(vp),
+                    &TransformHomogeneous(vp),
                     &Shader(move |_: &Fragment<()>| Vec4::splat(keep)),
                 )
                 .map_err(|e| e.to_string())?;

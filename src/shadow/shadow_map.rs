@@ -339,18 +339,7 @@ impl ShadowMap {
     fn fitted_overview(&self, p: &Pipeline, frame: &Frame, fitted: &LightView) -> Result<Surface<Rgba8>, String> {
         const N: u32 = 256;
         let all = light_views(frame, N)[0];
-        let mut d = Surface::new(N, N, 1.0f32).map_err(|e| e.to_string())?;
-        for o in &frame.scene.objects {
-            p.draw(
-                &mut Targets::depth_only(&mut d),
-                &RenderState::default(),
-                &o.mesh.positions,
-                &o.mesh.indices,
-                &TransformPositions(all.matrix),
-                &DepthOnly,
-            )
-            .map_err(|e| e.to_string())?;
-        }
+        let d = scene_depth(p, frame, all.matrix, N, N, |_| true)?;
         let mut img = d.map(|z| {
             let g = ((1.0 - z) * 220.0 + 20.0) as u8;
             [g, g, g, 255]

@@ -112,16 +112,6 @@ pub fn zpass_is_safe(frame: &Frame) -> bool {
         .any(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
 }
 
-/// Clip-space transform of homogeneous world positions (w = 0: points at infinity).
-struct Homogeneous(Mat4);
-impl VertexProgram for Homogeneous {
-    type In = Vec4;
-    type Out = ();
-    fn run(&self, v: &Vec4) -> (Vec4, ()) {
-        (self.0 * *v, ())
-    }
-}
-
 /// The homogeneous light position: `(p, 1)` for lights at a point, `(-direction, 0)` for
 /// directional ones.
 fn light_position(frame: &Frame) -> Vec4 {
@@ -183,19 +173,7 @@ impl ShadowTechnique for ShadowVolume {
             cam.view_projection()
         };
         let mut depth = if infinite {
-            let mut d = Surface::new(frame.width(), frame.height(), 1.0f32).map_err(|e| e.to_string())?;
-            for o in &frame.scene.objects {
-                p.draw(
-                    &mut Targets::depth_only(&mut d),
-                    &RenderState::default(),
-                    &o.mesh.positions,
-                    &o.mesh.indices,
-                    &TransformPositions(vp),
-                    &DepthOnly,
-                )
-                .map_err(|e| e.to_string())?;
-            }
-            d
+            scene_depth(p, frame, vp, frame.width(), frame.height(), |_| true)?
         } else {
             frame.gbuffer.depth.clone()
         };
@@ -238,7 +216,7 @@ impl ShadowTechnique for ShadowVolume {
             },
             ..Default::default()
         };
-        let vs = Homogeneous(vp);
+        let vs = TransformHomogeneous(vp);
         self.fill = 0;
         for v in &self.volumes {
             let st = p
@@ -328,7 +306,7 @@ impl ShadowTechnique for ShadowVolume {
             blend: BlendMode::Add,
             ..Default::default()
         };
-        let vs = Homogeneous(frame.camera.view_projection());
+        let vs = TransformHomogeneous(frame.camera.view_projection());
         for v in &self.volumes {
             p.draw(
                 &mut Targets::color(&mut fill),
