@@ -196,11 +196,13 @@ pub(crate) fn small_depth_fused(
         let dz = _mm_set1_ps(dzdx);
         let lane_limit = _mm_set1_epi32(x1 - ox + 1);
         let (mut covered, mut passed) = (0u32, 0u32);
+        // Edge values at the box's first pixel, stepped down the rows (exact: small triangles'
+        // edge values stay far inside i32 over their box).
+        let mut rows = [0, 1, 2].map(|k| _mm_add_epi32(_mm_set1_epi32(e[k].at(x0 as i64, y0 as i64) as i32), ramp[k]));
+        let down = [0, 1, 2].map(|k| _mm_set1_epi32(e[k].dy as i32));
         for y in y0..=y1 {
-            let b = [0, 1, 2].map(|k| e[k].at(x0 as i64, y as i64) as i32);
-            let mut e0 = _mm_add_epi32(_mm_set1_epi32(b[0]), ramp[0]);
-            let mut e1 = _mm_add_epi32(_mm_set1_epi32(b[1]), ramp[1]);
-            let mut e2 = _mm_add_epi32(_mm_set1_epi32(b[2]), ramp[2]);
+            let [mut e0, mut e1, mut e2] = rows;
+            rows = [0, 1, 2].map(|k| _mm_add_epi32(rows[k], down[k]));
             let zr = _mm_set1_ps(zrow_at(y - oy));
             let mut xs = xs0;
             let row = depth.add((y - oy) as usize * stride + lx0 as usize);
