@@ -257,7 +257,6 @@ pub fn render_frame(
     let mut out = FrameTimes::default();
     // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
     let t0 = Instant::now();
-    p.clear(&mut t.shadow, 1.0);
     let state = RenderState {
         offset: PolygonOffset {
             factor: 1.1,
@@ -265,8 +264,9 @@ pub fn render_frame(
         },
         ..Default::default()
     };
+    // The clear rides along with the draw (tile by tile, in cache).
     out.depth_stats = p.draw(
-        &mut Targets::depth_only(&mut t.shadow),
+        &mut Targets::depth_only(&mut t.shadow).clearing_depth(1.0),
         &state,
         &mesh.vertices,
         &mesh.indices,

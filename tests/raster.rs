@@ -922,3 +922,45 @@ fn unorm8_store_rounds_to_nearest_and_saturates() {
         assert_eq!(c(i as f32 / 255.0), i, "round trip of {i}");
     }
 }
+
+#[test]
+fn clearing_depth_with_the_draw_equals_clear_then_draw() {
+    // A target that is not a whole number of tiles, triangles that touch some tiles only, and
+    // a draw with no triangles at all; old contents must not survive anywhere.
+    let p = pipeline(2);
+    let verts = [
+        Vec4::new(-0.9, -0.9, 0.3, 1.0),
+        Vec4::new(0.2, -0.8, 0.6, 1.0),
+        Vec4::new(-0.5, 0.1, 0.9, 1.0),
+        Vec4::new(0.5, 0.5, 0.2, 1.0),
+        Vec4::new(0.9, 0.6, 0.4, 1.0),
+        Vec4::new(0.6, 0.95, 0.7, 1.0),
+    ];
+    for idx in [&[0u32, 1, 2, 3, 4, 5][..], &[0, 1, 2], &[]] {
+        let mut a = Surface::new(150, 97, 0.25f32).unwrap();
+        let mut b = a.clone();
+        p.clear(&mut a, 0.8);
+        let sa = p
+            .draw(
+                &mut Targets::depth_only(&mut a),
+                &RenderState::default(),
+                &verts,
+                idx,
+                &ClipPassthrough,
+                &DepthOnly,
+            )
+            .unwrap();
+        let sb = p
+            .draw(
+                &mut Targets::depth_only(&mut b).clearing_depth(0.8),
+                &RenderState::default(),
+                &verts,
+                idx,
+                &ClipPassthrough,
+                &DepthOnly,
+            )
+            .unwrap();
+        assert_eq!(a.data(), b.data(), "{} triangles", idx.len() / 3);
+        assert_eq!(sa, sb);
+    }
+}

@@ -171,6 +171,20 @@ unsafe impl<T: Send> Send for RawSurface<T> {}
 unsafe impl<T: Send> Sync for RawSurface<T> {}
 
 impl<T: Copy> RawSurface<T> {
+    /// Sets every texel of the inclusive rectangle `[x0, y0, x1, y1]` to `v`.
+    ///
+    /// # Safety
+    /// The rectangle lies inside the surface and no other thread accesses it meanwhile.
+    pub unsafe fn fill_rect(&self, rect: [i32; 4], v: T) {
+        let n = (rect[2] - rect[0] + 1) as usize;
+        for y in rect[1]..=rect[3] {
+            // SAFETY: per the contract, the row segment is inside the surface and ours.
+            let row =
+                unsafe { std::slice::from_raw_parts_mut(self.ptr.add(y as usize * self.stride + rect[0] as usize), n) };
+            row.fill(v);
+        }
+    }
+
     #[inline(always)]
     unsafe fn get(&self, x: i32, y: i32) -> T {
         *self.ptr.add(y as usize * self.stride + x as usize)

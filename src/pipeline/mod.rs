@@ -208,6 +208,10 @@ pub struct Targets<'a, C = Rgba8> {
     pub stencil: Option<&'a mut Surface<u8>>,
     /// Per-pixel fragment lists.
     pub lists: Option<&'a mut FragmentLists>,
+    /// Clear the depth target to this value as part of the draw (a render pass's "load op
+    /// clear"): each tile is cleared by its worker just before it rasterizes, while the tile
+    /// is in cache, instead of in a separate pass over the whole target. Default: none.
+    pub depth_clear: Option<f32>,
 }
 
 impl<'a> Targets<'a, Rgba8> {
@@ -218,6 +222,7 @@ impl<'a> Targets<'a, Rgba8> {
             depth: Some(depth),
             stencil: None,
             lists: None,
+            depth_clear: None,
         }
     }
 
@@ -228,6 +233,7 @@ impl<'a> Targets<'a, Rgba8> {
             depth: None,
             stencil: None,
             lists: None,
+            depth_clear: None,
         }
     }
 }
@@ -240,12 +246,20 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
             depth: None,
             stencil: None,
             lists: None,
+            depth_clear: None,
         }
     }
 
     /// Adds a depth target.
     pub fn with_depth(mut self, depth: &'a mut Surface<f32>) -> Self {
         self.depth = Some(depth);
+        self
+    }
+
+    /// Clears the depth target to `value` as part of this draw (see [`Targets::depth_clear`]);
+    /// the result equals [`Pipeline::clear`] followed by the draw.
+    pub fn clearing_depth(mut self, value: f32) -> Self {
+        self.depth_clear = Some(value);
         self
     }
 
@@ -430,6 +444,12 @@ impl Pipeline {
                 .map_or(0, |l| l.capacity().saturating_sub(l.len())),
         };
         let ntri = indices.len() / 3;
+        let depth_clear = targets.depth_clear.filter(|_| raw.depth.is_some());
+        if ntri == 0 {
+            if let (Some(v), Some(d)) = (depth_clear, targets.depth.as_mut()) {
+                self.clear(d, v);
+            }
+        }
         let mut times = StageTimes {
             draws: 1,
             ..Default::default()
@@ -474,15 +494,23 @@ impl Pipeline {
                 times.setup_bin += t1.elapsed().as_secs_f64();
                 let t2 = std::time::Instant::now();
                 // Stages 5-6: each tile walks the chunks in order (= submission order).
+                // The first batch visits every tile when the depth target is cleared with the
+                // draw, so untouched tiles are cleared too.
+                let clear = depth_clear.filter(|_| batch == 0);
                 let tiles: Vec<usize> = (0..grid.count())
-                    .filter(|&t| chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
+                    .filter(|&t| clear.is_some() || chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
                     .collect();
                 let results: Vec<(DrawStats, TileLists)> = tiles
                     .par_iter()
                     .map(|&t| {
                         let mut s = DrawStats::default();
                         let mut l = TileLists::default();
-                        shade_tile(&chunks, t, grid.rect(t), state, &raw, fp, &mut s, &mut l);
+                        let rect = grid.rect(t);
+                        if let (Some(v), Some(d)) = (clear, raw.depth.as_ref()) {
+                            // SAFETY: the tile's rows are this worker's alone during the draw.
+                            unsafe { d.fill_rect(rect, v) };
+                        }
+                        shade_tile(&chunks, t, rect, state, &raw, fp, &mut s, &mut l);
                         (s, l)
                     })
                     .collect();
