@@ -73,16 +73,24 @@ pub struct PreVertex {
     pub win: Option<WinVertex>,
 }
 
+/// Average triangles per touched tile from which a chunk bins indices instead of copies.
+const COHERENT: usize = 8;
+
 /// The binned output of one chunk of triangles.
 pub struct Chunk<V> {
     /// Shading attributes of the chunk's triangles, in submission order (indexed by
     /// [`SetupTri::attr`]; empty when the varyings are empty).
     pub attrs: Vec<TriAttrs<V>>,
-    /// `binned[offsets[t]..offsets[t + 1]]` are the triangles touching tile `t`.
+    /// Entries `offsets[t]..offsets[t + 1]` of `binned` are the triangles touching tile `t`.
     pub offsets: Vec<u32>,
-    /// Copies of the set-up triangles grouped by tile, each group in submission order: a tile
-    /// reads its triangles sequentially (streamed by the hardware prefetcher).
-    pub binned: Vec<SetupTri>,
+    /// Set-up triangles: in submission order for coherent chunks (many triangles per tile,
+    /// as meshes drawn in order give), so each is stored once and a tile reads nearby
+    /// triangles; for scattered chunks (a few triangles per tile) copies grouped by tile, so
+    /// each tile reads its triangles sequentially instead of missing the cache on every one.
+    pub tris: Vec<SetupTri>,
+    /// Indices into `tris`, grouped by tile, each group in submission order (for scattered
+    /// chunks simply `0..n`).
+    pub binned: Vec<u32>,
     /// Counters of stages 2 to 4.
     pub stats: DrawStats,
 }
@@ -182,6 +190,7 @@ pub fn process_chunk<V: Varyings>(
     }
 
     // Bin: count per tile, prefix sum, fill (a stable counting sort).
+    let setup_count = tris.len();
     let ntiles = grid.count();
     let mut offsets = vec![0u32; ntiles + 1];
     let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 2);
@@ -206,21 +215,33 @@ pub fn process_chunk<V: Varyings>(
         offsets[t + 1] += offsets[t];
     }
     let n = pairs.len();
-    let mut binned: Vec<SetupTri> = Vec::with_capacity(n);
-    let slots = binned.spare_capacity_mut();
+    let touched = offsets.windows(2).filter(|w| w[1] > w[0]).count();
     let mut cursor = offsets.clone();
-    for (t, i) in pairs {
-        slots[cursor[t as usize] as usize].write(tris[i as usize]);
-        cursor[t as usize] += 1;
-    }
-    // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum to n
-    // and each tile's cursor runs from its offset to the next tile's).
-    unsafe { binned.set_len(n) };
+    let (tris, binned) = if n >= COHERENT * touched {
+        let mut idx: Vec<u32> = vec![0; n];
+        for (t, i) in pairs {
+            idx[cursor[t as usize] as usize] = i;
+            cursor[t as usize] += 1;
+        }
+        (tris, idx)
+    } else {
+        let mut copies: Vec<SetupTri> = Vec::with_capacity(n);
+        let slots = copies.spare_capacity_mut();
+        for (t, i) in pairs {
+            slots[cursor[t as usize] as usize].write(tris[i as usize]);
+            cursor[t as usize] += 1;
+        }
+        // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum
+        // to n and each tile's cursor runs from its offset to the next tile's).
+        unsafe { copies.set_len(n) };
+        (copies, (0..n as u32).collect())
+    };
     stats.bin_entries += binned.len() as u64;
-    stats.triangles_setup += tris.len() as u64;
+    stats.triangles_setup += setup_count as u64;
     Chunk {
         attrs,
         offsets,
+        tris,
         binned,
         stats,
     }

@@ -392,7 +392,10 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let tris = chunks.iter().flat_map(|c| {
         c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize]
             .iter()
-            .map(move |t| (t, c.attrs.get(t.attr as usize)))
+            .map(move |&i| {
+                let t = &c.tris[i as usize];
+                (t, c.attrs.get(t.attr as usize))
+            })
     });
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
