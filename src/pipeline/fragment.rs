@@ -252,25 +252,43 @@ fn depth_span_x4(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: b
         let ramp = _mm_setr_epi32(0, 1, 2, 3);
         let (lo_v, hi_v) = (_mm_set1_epi32(lo as i32 - 1), _mm_set1_epi32(hi as i32 + 1));
         let mut passed = 0u32;
-        let mut c = lo & !3;
-        while c <= hi {
-            let xi = _mm_add_epi32(_mm_set1_epi32(c as i32), ramp);
-            let valid = _mm_castsi128_ps(_mm_and_si128(_mm_cmpgt_epi32(xi, lo_v), _mm_cmplt_epi32(xi, hi_v)));
-            let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xi)));
+        // One chunk: lanes outside `lo..=hi` masked off when `edge`.
+        let chunk = |c: u32, xf: __m128, edge: bool| -> u32 {
+            let z = _mm_add_ps(zr, _mm_mul_ps(dz, xf));
             let z = _mm_min_ps(one, _mm_max_ps(zero, z));
             let p = row.add(c as usize);
             let d = _mm_loadu_ps(p);
-            let t = if less_equal {
+            let mut t = if less_equal {
                 _mm_cmple_ps(z, d)
             } else {
                 _mm_cmplt_ps(z, d)
             };
-            let t = _mm_and_ps(t, valid);
-            passed += (_mm_movemask_ps(t) as u32).count_ones();
+            if edge {
+                let xi = _mm_add_epi32(_mm_set1_epi32(c as i32), ramp);
+                t = _mm_and_ps(
+                    t,
+                    _mm_castsi128_ps(_mm_and_si128(_mm_cmpgt_epi32(xi, lo_v), _mm_cmplt_epi32(xi, hi_v))),
+                );
+            }
             if write {
                 _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
             }
+            (_mm_movemask_ps(t) as u32).count_ones()
+        };
+        let (first, last) = (lo & !3, hi & !3);
+        // Lane x as a float: exact small integers, stepped by an exact 4.0.
+        let mut xf = _mm_cvtepi32_ps(_mm_add_epi32(_mm_set1_epi32(first as i32), ramp));
+        let four = _mm_set1_ps(4.0);
+        passed += chunk(first, xf, true);
+        let mut c = first + 4;
+        while c < last {
+            xf = _mm_add_ps(xf, four);
+            passed += chunk(c, xf, false);
             c += 4;
+        }
+        if last > first {
+            xf = _mm_add_ps(xf, four);
+            passed += chunk(last, xf, true);
         }
         passed as u64
     }
