@@ -211,23 +211,21 @@ pub(crate) fn small_depth_fused(
                 // Inside all edges (sign bit clear) and inside the box's columns.
                 let inside = _mm_and_si128(_mm_cmpgt_epi32(or, _mm_set1_epi32(-1)), _mm_cmplt_epi32(xs, lane_limit));
                 let inside = _mm_castsi128_ps(inside);
-                let m = _mm_movemask_ps(inside);
-                if m != 0 {
-                    covered += (m as u32).count_ones();
-                    let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xs)));
-                    let z = _mm_min_ps(one, _mm_max_ps(zero, z));
-                    let p = row.add(4 * c);
-                    let d = _mm_loadu_ps(p);
-                    let t = if less_equal {
-                        _mm_cmple_ps(z, d)
-                    } else {
-                        _mm_cmplt_ps(z, d)
-                    };
-                    let t = _mm_and_ps(t, inside);
-                    passed += (_mm_movemask_ps(t) as u32).count_ones();
-                    if write {
-                        _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
-                    }
+                // Branch-free: an empty chunk writes back what it read (lanes in this tile).
+                covered += (_mm_movemask_ps(inside) as u32).count_ones();
+                let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xs)));
+                let z = _mm_min_ps(one, _mm_max_ps(zero, z));
+                let p = row.add(4 * c);
+                let d = _mm_loadu_ps(p);
+                let t = if less_equal {
+                    _mm_cmple_ps(z, d)
+                } else {
+                    _mm_cmplt_ps(z, d)
+                };
+                let t = _mm_and_ps(t, inside);
+                passed += (_mm_movemask_ps(t) as u32).count_ones();
+                if write {
+                    _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
                 }
                 e0 = _mm_add_epi32(e0, step[0]);
                 e1 = _mm_add_epi32(e1, step[1]);
