@@ -359,16 +359,21 @@ impl ShadowMap {
 
     /// Renders one depth layer of `objects` for `view`: `cull` selects faces; `peel` (if any)
     /// keeps only fragments behind the given layer.
+    #[allow(clippy::too_many_arguments)]
     fn depth_layer(
         &self,
         p: &Pipeline,
-        frame: &Frame,
+        casters: &(Vec<Vec3>, Vec<u32>),
         view: &LightView,
-        keep: &[bool],
         cull: CullMode,
         peel: Option<&Surface<f32>>,
+        reuse: Option<Surface<f32>>,
     ) -> Result<Surface<f32>, String> {
-        let mut map = Surface::new(self.size, self.size, 1.0f32).map_err(|e| e.to_string())?;
+        // A previous run's map of the right size is reused; the draw clears it as it goes.
+        let mut map = match reuse {
+            Some(m) if m.width() == self.size && m.height() == self.size => m,
+            _ => Surface::new(self.size, self.size, 1.0f32).map_err(|e| e.to_string())?,
+        };
         let cull = match (cull, mirrored(&view.matrix)) {
             (CullMode::Back, true) => CullMode::Front,
             (CullMode::Front, true) => CullMode::Back,
@@ -388,35 +393,35 @@ impl ShadowMap {
             },
             ..Default::default()
         };
-        for (o, _) in frame.scene.objects.iter().zip(keep).filter(|(_, k)| **k) {
-            let vs = TransformPositions(view.matrix);
-            let r = match peel {
-                None => p.draw(
-                    &mut Targets::depth_only(&mut map),
+        // All kept casters in one draw (in scene order): one pass over the tiles, not one per
+        // object.
+        let (positions, indices) = casters;
+        let vs = TransformPositions(view.matrix);
+        let r = match peel {
+            None => p.draw(
+                &mut Targets::depth_only(&mut map).clearing_depth(1.0),
+                &state,
+                positions,
+                indices,
+                &vs,
+                &DepthOnly,
+            ),
+            Some(first) => {
+                // Depth peeling: only fragments clearly behind the first layer.
+                let eps = 2.0 * self.format.resolvable(1.0).max(1e-6);
+                let fs =
+                    DiscardingShader(move |f: &Fragment<()>| (f.z > first.at(f.x, f.y) + eps).then_some(Vec4::ZERO));
+                p.draw(
+                    &mut Targets::depth_only(&mut map).clearing_depth(1.0),
                     &state,
-                    &o.mesh.positions,
-                    &o.mesh.indices,
+                    positions,
+                    indices,
                     &vs,
-                    &DepthOnly,
-                ),
-                Some(first) => {
-                    // Depth peeling: only fragments clearly behind the first layer.
-                    let eps = 2.0 * self.format.resolvable(1.0).max(1e-6);
-                    let fs = DiscardingShader(move |f: &Fragment<()>| {
-                        (f.z > first.at(f.x, f.y) + eps).then_some(Vec4::ZERO)
-                    });
-                    p.draw(
-                        &mut Targets::depth_only(&mut map),
-                        &state,
-                        &o.mesh.positions,
-                        &o.mesh.indices,
-                        &vs,
-                        &fs,
-                    )
-                }
-            };
-            r.map_err(|e| e.to_string())?;
-        }
+                    &fs,
+                )
+            }
+        };
+        r.map_err(|e| e.to_string())?;
         Ok(map)
     }
 }
@@ -431,15 +436,17 @@ impl ShadowTechnique for ShadowMap {
         let t0 = std::time::Instant::now();
         let (views, keep) = self.views(frame);
         self.fitted = (self.fit_receivers && frame.light.kind == LightKind::Directional).then_some(views[0]);
-        self.maps.clear();
+        let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
         self.ids.clear();
+        let casters = merged_casters(frame, &keep)?;
         for view in views {
+            let reuse = old.pop();
             let map = match self.layer {
-                Layer::First => self.depth_layer(p, frame, &view, &keep, CullMode::None, None)?,
-                Layer::Second => self.depth_layer(p, frame, &view, &keep, CullMode::Front, None)?,
+                Layer::First => self.depth_layer(p, &casters, &view, CullMode::None, None, reuse)?,
+                Layer::Second => self.depth_layer(p, &casters, &view, CullMode::Front, None, reuse)?,
                 Layer::Midpoint => {
-                    let d1 = self.depth_layer(p, frame, &view, &keep, CullMode::None, None)?;
-                    let d2 = self.depth_layer(p, frame, &view, &keep, CullMode::None, Some(&d1))?;
+                    let d1 = self.depth_layer(p, &casters, &view, CullMode::None, None, reuse)?;
+                    let d2 = self.depth_layer(p, &casters, &view, CullMode::None, Some(&d1), None)?;
                     let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
                     Surface::from_vec(self.size, self.size, mid).map_err(|e| e.to_string())?
                 }
@@ -571,6 +578,37 @@ impl ShadowTechnique for ShadowMap {
         }
         Ok(v)
     }
+}
+
+/// The kept objects' triangles as one mesh, in scene order (one draw instead of one per
+/// object). An object whose indices reach past its own vertices is an error, as its own draw
+/// would be.
+fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<(Vec<Vec3>, Vec<u32>), String> {
+    let kept = || {
+        frame
+            .scene
+            .objects
+            .iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(o, _)| o)
+    };
+    let mut positions = Vec::with_capacity(kept().map(|o| o.mesh.positions.len()).sum());
+    let mut indices = Vec::with_capacity(kept().map(|o| o.mesh.indices.len()).sum());
+    for o in kept() {
+        let m = &o.mesh;
+        if let Some(bad) = m.indices.iter().find(|&&i| i as usize >= m.positions.len()) {
+            return Err(format!(
+                "object '{}': index {bad} beyond its {} vertices",
+                o.name,
+                m.positions.len()
+            ));
+        }
+        let base = positions.len() as u32;
+        positions.extend_from_slice(&m.positions);
+        indices.extend(m.indices.iter().map(|i| i + base));
+    }
+    Ok((positions, indices))
 }
 
 /// Light-space texture coordinate and depth of a world point, if in front of the light.
