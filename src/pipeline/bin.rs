@@ -217,24 +217,39 @@ pub fn process_chunk<V: Varyings>(
     let n = pairs.len();
     let touched = offsets.windows(2).filter(|w| w[1] > w[0]).count();
     let mut cursor = offsets.clone();
-    let (tris, binned) = if n >= COHERENT * touched {
+    let (tris, binned, attrs) = if n >= COHERENT * touched {
         let mut idx: Vec<u32> = vec![0; n];
         for (t, i) in pairs {
             idx[cursor[t as usize] as usize] = i;
             cursor[t as usize] += 1;
         }
-        (tris, idx)
+        (tris, idx, attrs)
     } else {
+        // Copies in tile order, their shading attributes too (each copy points at its own).
         let mut copies: Vec<SetupTri> = Vec::with_capacity(n);
+        let mut attr_copies: Vec<TriAttrs<V>> = Vec::with_capacity(if V::EMPTY { 0 } else { n });
         let slots = copies.spare_capacity_mut();
+        let attr_slots = attr_copies.spare_capacity_mut();
         for (t, i) in pairs {
-            slots[cursor[t as usize] as usize].write(tris[i as usize]);
+            let k = cursor[t as usize] as usize;
+            let mut tri = tris[i as usize];
+            if !V::EMPTY {
+                attr_slots[k].write(attrs[tri.attr as usize]);
+                tri.attr = k as u32;
+            }
+            slots[k].write(tri);
             cursor[t as usize] += 1;
         }
         // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum
-        // to n and each tile's cursor runs from its offset to the next tile's).
-        unsafe { copies.set_len(n) };
-        (copies, (0..n as u32).collect())
+        // to n and each tile's cursor runs from its offset to the next tile's), in both
+        // vectors (the attributes' only when the varyings are not empty).
+        unsafe {
+            copies.set_len(n);
+            if !V::EMPTY {
+                attr_copies.set_len(n);
+            }
+        }
+        (copies, (0..n as u32).collect(), attr_copies)
     };
     stats.bin_entries += binned.len() as u64;
     stats.triangles_setup += setup_count as u64;
