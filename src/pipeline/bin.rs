@@ -120,10 +120,13 @@ pub fn process_chunk<V: Varyings>(
     params: &SetupParams,
     clipper: &Clipper,
     grid: &TileGrid,
+    needs_attrs: bool,
 ) -> Chunk<V> {
+    // Shading attributes are kept only when a fragment program will read them.
+    let keep_attrs = needs_attrs && !V::EMPTY;
     let mut stats = DrawStats::default();
     let mut tris: Vec<SetupTri> = Vec::with_capacity(count);
-    let mut attrs: Vec<TriAttrs<V>> = Vec::with_capacity(if V::EMPTY { 0 } else { count });
+    let mut attrs: Vec<TriAttrs<V>> = Vec::with_capacity(if keep_attrs { count } else { 0 });
     let mut poly = Vec::with_capacity(12);
     let mut tmp = Vec::with_capacity(12);
     type Out<'a, V> = (&'a mut Vec<SetupTri>, &'a mut Vec<TriAttrs<V>>);
@@ -131,7 +134,7 @@ pub fn process_chunk<V: Varyings>(
         Ok((mut t, a)) => {
             t.attr = out.0.len() as u32;
             out.0.push(t);
-            if !V::EMPTY {
+            if keep_attrs {
                 out.1.push(a);
             }
         }
@@ -227,13 +230,13 @@ pub fn process_chunk<V: Varyings>(
     } else {
         // Copies in tile order, their shading attributes too (each copy points at its own).
         let mut copies: Vec<SetupTri> = Vec::with_capacity(n);
-        let mut attr_copies: Vec<TriAttrs<V>> = Vec::with_capacity(if V::EMPTY { 0 } else { n });
+        let mut attr_copies: Vec<TriAttrs<V>> = Vec::with_capacity(if keep_attrs { n } else { 0 });
         let slots = copies.spare_capacity_mut();
         let attr_slots = attr_copies.spare_capacity_mut();
         for (t, i) in pairs {
             let k = cursor[t as usize] as usize;
             let mut tri = tris[i as usize];
-            if !V::EMPTY {
+            if keep_attrs {
                 attr_slots[k].write(attrs[tri.attr as usize]);
                 tri.attr = k as u32;
             }
@@ -242,10 +245,10 @@ pub fn process_chunk<V: Varyings>(
         }
         // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum
         // to n and each tile's cursor runs from its offset to the next tile's), in both
-        // vectors (the attributes' only when the varyings are not empty).
+        // vectors (the attributes' only when they are kept).
         unsafe {
             copies.set_len(n);
-            if !V::EMPTY {
+            if keep_attrs {
                 attr_copies.set_len(n);
             }
         }

@@ -444,6 +444,8 @@ impl Pipeline {
                 .map_or(0, |l| l.capacity().saturating_sub(l.len())),
         };
         let ntri = indices.len() / 3;
+        // Shading attributes are read only by fragment programs that run (see `shade_tile`).
+        let needs_attrs = raw.color.is_some() || raw.lists || P::MAY_DISCARD;
         let depth_clear = targets.depth_clear.filter(|_| raw.depth.is_some());
         if ntri == 0 {
             if let (Some(v), Some(d)) = (depth_clear, targets.depth.as_mut()) {
@@ -485,7 +487,17 @@ impl Pipeline {
                     .map(|c| {
                         let first = c * CHUNK;
                         let count = CHUNK.min(ntri - first);
-                        process_chunk(&verts, &pre, indices, first, count, &params, &clipper, &grid)
+                        process_chunk(
+                            &verts,
+                            &pre,
+                            indices,
+                            first,
+                            count,
+                            &params,
+                            &clipper,
+                            &grid,
+                            needs_attrs,
+                        )
                     })
                     .collect();
                 for c in &chunks {
