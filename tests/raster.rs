@@ -940,26 +940,12 @@ fn clearing_depth_with_the_draw_equals_clear_then_draw() {
         let mut a = Surface::new(150, 97, 0.25f32).unwrap();
         let mut b = a.clone();
         p.clear(&mut a, 0.8);
-        let sa = p
-            .draw(
-                &mut Targets::depth_only(&mut a),
-                &RenderState::default(),
-                &verts,
-                idx,
-                &ClipPassthrough,
-                &DepthOnly,
-            )
-            .unwrap();
-        let sb = p
-            .draw(
-                &mut Targets::depth_only(&mut b).clearing_depth(0.8),
-                &RenderState::default(),
-                &verts,
-                idx,
-                &ClipPassthrough,
-                &DepthOnly,
-            )
-            .unwrap();
+        let draw = |t: &mut Targets<'_, Rgba8>| {
+            p.draw(t, &RenderState::default(), &verts, idx, &ClipPassthrough, &DepthOnly)
+                .unwrap()
+        };
+        let sa = draw(&mut Targets::depth_only(&mut a));
+        let sb = draw(&mut Targets::depth_only(&mut b).clearing_depth(0.8));
         assert_eq!(a.data(), b.data(), "{} triangles", idx.len() / 3);
         assert_eq!(sa, sb);
     }
