@@ -604,7 +604,7 @@ fn planar_casters_beyond_the_light_cast_nothing() {
     let p = Pipeline::new(1).unwrap();
     let s = load(Path::new("fixtures/scenes/planar.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    for (r, what) in [("nothing", "no such object"), ("post", "not planar")] {
+    for (r, what) in [("nothing", "no object 'nothing'"), ("post", "not planar")] {
         let mut t = shadow::create("planar", &[("receiver".into(), r.into())]).unwrap();
         let e = t.visibility(&p, &f).err().unwrap();
         assert!(e.contains(what), "{e}");

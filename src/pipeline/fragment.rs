@@ -449,12 +449,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         if fast_depth {
             let depth = targets.depth.as_ref().unwrap();
             let mut passed = 0;
-            for ly in cover.y0..=cover.y1 {
-                let bits = cover.rows[ly as usize];
-                if bits == 0 {
-                    continue;
-                }
-                let (lo, hi) = (bits.trailing_zeros(), 63 - bits.leading_zeros());
+            for (ly, lo, hi) in cover.spans() {
                 let zrow = (zp.c + zp.dy * ly as f32) + zoff;
                 // SAFETY: the row start is inside this worker's tile.
                 let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
@@ -482,12 +477,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         if let Some(deltas) = fast_stencil[tri.front as usize] {
             let stencil = targets.stencil.as_ref().unwrap();
             let mut passed = 0;
-            for ly in cover.y0..=cover.y1 {
-                let bits = cover.rows[ly as usize];
-                if bits == 0 {
-                    continue;
-                }
-                let (lo, hi) = (bits.trailing_zeros(), 63 - bits.leading_zeros());
+            for (ly, lo, hi) in cover.spans() {
                 let zrow = (zp.c + zp.dy * ly as f32) + zoff;
                 // SAFETY: the row starts are inside this worker's tile.
                 let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
@@ -531,12 +521,8 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         };
         let face = if tri.front { st.front } else { st.back };
         // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
-        for lyi in cover.y0..=cover.y1 {
-            let bits = cover.rows[lyi as usize];
-            if bits == 0 {
-                continue;
-            }
-            let (lo, hi) = (bits.trailing_zeros() as i32, 63 - bits.leading_zeros() as i32);
+        for (lyi, lo, hi) in cover.spans() {
+            let (lo, hi) = (lo as i32, hi as i32);
             let y = oy + lyi;
             let ly = lyi as f32;
             let zrow = (zp.c + zp.dy * ly) + zoff;

@@ -36,6 +36,16 @@ impl Default for TileMask {
 }
 
 impl TileMask {
+    /// The covered rows as `(ly, lo, hi)`: tile-local row and its first and last covered
+    /// pixel (a triangle's coverage of a row is one interval).
+    #[inline(always)]
+    pub fn spans(&self) -> impl Iterator<Item = (i32, u32, u32)> + '_ {
+        (self.y0.max(0)..=self.y1).filter_map(move |ly| {
+            let bits = self.rows[ly as usize];
+            (bits != 0).then(|| (ly, bits.trailing_zeros(), 63 - bits.leading_zeros()))
+        })
+    }
+
     /// Number of covered pixels.
     pub fn count(&self) -> u64 {
         if self.y1 < self.y0 {

@@ -117,22 +117,6 @@ pub struct SetupTri {
     pub attr: u32,
 }
 
-impl SetupTri {
-    /// A triangle that covers nothing (filler for buffers).
-    pub fn empty() -> SetupTri {
-        SetupTri {
-            edges: [Edge { dx: 0, dy: 0, c: -1 }; 3],
-            bbox: [0, 0, -1, -1],
-            z: Plane::default(),
-            z_offset: 0.0,
-            front: true,
-            prim: 0,
-            small: true,
-            attr: 0,
-        }
-    }
-}
-
 /// Extent (pixels) below which a triangle is "small" (see [`SetupTri::small`]).
 pub const SMALL_EXTENT: i64 = 32;
 

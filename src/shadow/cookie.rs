@@ -77,12 +77,7 @@ impl Cookie {
         }
         let mut pick = vec![false; objs.len()];
         for name in self.occluders.split(',').map(str::trim) {
-            let i = objs.iter().position(|o| o.name == name).ok_or_else(|| {
-                format!(
-                    "technique 'cookie': option occluders: the scene has no object '{name}' (objects: {})",
-                    objs.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
-                )
-            })?;
+            let i = object_named(frame, "cookie", "occluders", name)?;
             pick[i] = true;
         }
         Ok(pick)
@@ -124,7 +119,6 @@ impl ShadowTechnique for Cookie {
         }
         let t1 = std::time::Instant::now();
         // Pass 2: project the mask onto every receiver pixel.
-        let cube = views.len() == 6;
         let light = frame.light;
         let (w, pts, objs) = (frame.width() as usize, frame.points(), frame.gbuffer.object.data());
         let (masks, occluding, bilinear) = (&self.masks, &self.occluding, self.bilinear);
@@ -137,11 +131,7 @@ impl ShadowTechnique for Cookie {
                     if occluding[objs[y * w + x] as usize] {
                         continue; // occluders receive nothing
                     }
-                    let face = if cube {
-                        CubeFace::from_direction(s.position - light.position).map_or(0, |f| f.0 as usize)
-                    } else {
-                        0
-                    };
+                    let face = light_face(views.len(), &light, s.position);
                     let Some((uv, _)) = project(&views[face].matrix, s.position) else {
                         continue;
                     };

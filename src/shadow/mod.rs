@@ -302,3 +302,34 @@ pub fn scene_depth(
     }
     Ok(d)
 }
+
+/// The index of the object called `name` in `frame`'s scene; the error names the technique,
+/// the option and the objects there are.
+pub fn object_named(frame: &Frame, technique: &str, option: &str, name: &str) -> Result<usize, String> {
+    let objs = &frame.scene.objects;
+    objs.iter().position(|o| o.name == name).ok_or_else(|| {
+        format!(
+            "technique '{technique}': option {option}: the scene has no object '{name}' (objects: {})",
+            objs.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    })
+}
+
+/// Which light view of a point light's six cube faces (in [`CubeFace::ALL`] order) sees
+/// `position`; 0 for single-view lights.
+pub fn light_face(views: usize, light: &crate::scene::Light, position: glam::Vec3) -> usize {
+    if views == 6 {
+        crate::pipeline::CubeFace::from_direction(position - light.position).map_or(0, |f| f.0 as usize)
+    } else {
+        0
+    }
+}
+
+/// The homogeneous light position: `(p, 1)` for lights at a point, `(-direction, 0)` for
+/// directional ones (shadow volumes extrude from it, planar shadows project through it).
+pub fn light_position(frame: &Frame) -> glam::Vec4 {
+    match frame.light.kind {
+        crate::scene::LightKind::Directional => (-frame.light.direction).extend(0.0),
+        _ => frame.light.position.extend(1.0),
+    }
+}

@@ -24,7 +24,7 @@
 
 use super::*;
 use crate::pipeline::*;
-use crate::scene::{LightKind, Mesh};
+use crate::scene::Mesh;
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
 const OPTIONS: &[OptionInfo] = &[
@@ -109,9 +109,10 @@ pub fn projection_matrix(plane: Vec4, light: Vec4) -> Mat4 {
     Mat4::from_cols(cols[0], cols[1], cols[2], cols[3])
 }
 
-/// Clips polygon `poly` to `f(p) >= 0` for an affine `f` (Sutherland-Hodgman, in f64).
-fn clip_polygon(poly: &[DVec3], f: impl Fn(DVec3) -> f64) -> Vec<DVec3> {
-    let mut out = Vec::with_capacity(poly.len() + 2);
+/// Clips polygon `poly` to `f(p) >= 0` for an affine `f` (Sutherland-Hodgman, in f64), into
+/// `out` (cleared first; reused across triangles).
+fn clip_polygon(poly: &[DVec3], f: impl Fn(DVec3) -> f64, out: &mut Vec<DVec3>) {
+    out.clear();
     for i in 0..poly.len() {
         let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
         let (fa, fb) = (f(a), f(b));
@@ -122,7 +123,6 @@ fn clip_polygon(poly: &[DVec3], f: impl Fn(DVec3) -> f64) -> Vec<DVec3> {
             out.push(a + (b - a) * (fa / (fa - fb)));
         }
     }
-    out
 }
 
 impl Planar {
@@ -139,6 +139,7 @@ impl Planar {
             dist(ld.truncate())
         };
         let (mut verts, mut idx) = (Vec::new(), Vec::new());
+        let (mut poly, mut tmp) = (Vec::with_capacity(5), Vec::with_capacity(5));
         for (oi, o) in frame.scene.objects.iter().enumerate() {
             if oi == r {
                 continue;
@@ -146,18 +147,18 @@ impl Planar {
             let pos = |i: u32| o.mesh.positions[i as usize].as_dvec3();
             for t in o.mesh.indices.chunks_exact(3) {
                 let tri = [pos(t[0]), pos(t[1]), pos(t[2])];
-                let poly = if self.clip {
+                if self.clip {
                     // Keep 0 <= dist <= dl (1 - 1e-6): on the plane's light side, short of
                     // the light's own plane, where the projection would reach infinity.
-                    let p = clip_polygon(&tri, dist);
+                    clip_polygon(&tri, dist, &mut poly);
                     if dl.is_finite() {
-                        clip_polygon(&p, |q| dl * (1.0 - 1e-6) - dist(q))
-                    } else {
-                        p
+                        clip_polygon(&poly, |q| dl * (1.0 - 1e-6) - dist(q), &mut tmp);
+                        std::mem::swap(&mut poly, &mut tmp);
                     }
                 } else {
-                    tri.to_vec()
-                };
+                    poly.clear();
+                    poly.extend_from_slice(&tri);
+                }
                 if poly.len() < 3 || poly.iter().all(|q| dist(*q) <= 1e-9 * dl.min(1e9)) {
                     continue;
                 }
@@ -188,22 +189,7 @@ impl ShadowTechnique for Planar {
         let receivers: Vec<usize> = if self.receiver == "auto" {
             (0..scene.objects.len()).collect()
         } else {
-            let i = scene
-                .objects
-                .iter()
-                .position(|o| o.name == self.receiver)
-                .ok_or_else(|| {
-                    format!(
-                        "technique 'planar': option receiver={}: the scene has no such object (objects: {})",
-                        self.receiver,
-                        scene
-                            .objects
-                            .iter()
-                            .map(|o| o.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })?;
+            let i = object_named(frame, "planar", "receiver", &self.receiver)?;
             if plane_of(&scene.objects[i].mesh).is_none() {
                 return Err(format!(
                     "technique 'planar': option receiver={}: that object is not planar",
@@ -212,10 +198,7 @@ impl ShadowTechnique for Planar {
             }
             vec![i]
         };
-        let light = match frame.light.kind {
-            LightKind::Directional => (-frame.light.direction).extend(0.0),
-            _ => frame.light.position.extend(1.0),
-        };
+        let light = light_position(frame);
         let vp = frame.camera.view_projection();
         let (w, h) = (frame.width(), frame.height());
         let mut shadow = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
@@ -410,7 +393,8 @@ mod tests {
     #[test]
     fn clipping_keeps_the_inside() {
         let tri = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 2.0, 0.0)];
-        let p = clip_polygon(&tri, |q| 1.0 - q.x);
+        let mut p = Vec::new();
+        clip_polygon(&tri, |q| 1.0 - q.x, &mut p);
         assert_eq!(p.len(), 4);
         assert!(p.iter().all(|q| q.x <= 1.0 + 1e-12));
     }

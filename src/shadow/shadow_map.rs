@@ -478,7 +478,6 @@ impl ShadowTechnique for ShadowMap {
 
         let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
-        let cube = self.maps.len() == 6;
         let sampler = CompareSampler::default();
         let (w, h, light) = (frame.width() as usize, frame.height() as usize, frame.light);
         let pts = frame.points();
@@ -489,11 +488,7 @@ impl ShadowTechnique for ShadowMap {
             out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
                 for (x, o) in row.iter_mut().enumerate() {
                     let Some(s) = pts[y * w + x] else { continue };
-                    let face = if cube {
-                        CubeFace::from_direction(s.position - light.position).map_or(0, |f| f.0 as usize)
-                    } else {
-                        0
-                    };
+                    let face = light_face(this.maps.len(), &light, s.position);
                     let (map, view) = &this.maps[face];
                     // Normal offset: move the lookup point along the normal (Holbert 2011).
                     let mut pos = s.position;

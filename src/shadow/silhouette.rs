@@ -46,15 +46,6 @@ impl MeshReport {
         self.open_edges == 0 && self.nonmanifold_edges == 0 && self.inconsistent_edges == 0
     }
 
-    /// Adds another report's counts.
-    pub fn add(&mut self, o: &MeshReport) {
-        self.welded_vertices += o.welded_vertices;
-        self.degenerate_triangles += o.degenerate_triangles;
-        self.open_edges += o.open_edges;
-        self.nonmanifold_edges += o.nonmanifold_edges;
-        self.inconsistent_edges += o.inconsistent_edges;
-    }
-
     /// One line for users, e.g. `open (12 open edges), 2 degenerate triangles dropped`.
     pub fn describe(&self) -> String {
         let mut parts = Vec::new();

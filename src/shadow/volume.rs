@@ -68,9 +68,7 @@ struct ShadowVolume {
     stencil: Option<Surface<u8>>,
     /// The last run's volumes, one per object.
     volumes: Vec<Volume>,
-    /// Mesh defects of the last run, summed, and per object (name, description) for the
-    /// irregular ones.
-    report: MeshReport,
+    /// Mesh defects of the last run: (object name, description) of each irregular object.
     irregular: Vec<(String, String)>,
     chose_zpass: bool,
     /// The eye's volume count (z-pass).
@@ -112,15 +110,6 @@ pub fn zpass_is_safe(frame: &Frame) -> bool {
         .any(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
 }
 
-/// The homogeneous light position: `(p, 1)` for lights at a point, `(-direction, 0)` for
-/// directional ones.
-fn light_position(frame: &Frame) -> Vec4 {
-    match frame.light.kind {
-        LightKind::Directional => (-frame.light.direction).extend(0.0),
-        _ => frame.light.position.extend(1.0),
-    }
-}
-
 impl ShadowTechnique for ShadowVolume {
     fn name(&self) -> &'static str {
         "shadow-volume"
@@ -129,7 +118,6 @@ impl ShadowTechnique for ShadowVolume {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
         let t0 = Instant::now();
         let light = light_position(frame);
-        self.report = MeshReport::default();
         self.irregular.clear();
         // Objects in parallel, collected in scene order (the same volumes for any thread count).
         let built: Vec<(MeshReport, Volume)> = p.install(|| {
@@ -145,7 +133,6 @@ impl ShadowTechnique for ShadowVolume {
         });
         self.volumes.clear();
         for (o, (report, volume)) in frame.scene.objects.iter().zip(built) {
-            self.report.add(&report);
             if !report.is_closed_manifold() || report.degenerate_triangles > 0 {
                 self.irregular.push((o.name.clone(), report.describe()));
             }
