@@ -210,6 +210,30 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         };
         Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))
     }
+
+    /// `shade` on four lanes, in the same operation order (bit-identical per lane).
+    #[inline(always)]
+    fn shade4(&self, f: &Fragment4<(Vec3, Vec3, Vec3)>) -> Color4 {
+        let [a, b, c] = f.verts;
+        let n = f.interpolate3(a.0, b.0, c.0);
+        let l = f.interpolate3(a.1, b.1, c.1);
+        let albedo = f.interpolate3(a.2, b.2, c.2);
+        let ndl = n.normalize_or_zero().dot(self.to_light).max(Vec4::ZERO);
+        let half = Vec4::splat(0.5);
+        let (u, v) = (l.x * half + half, half - l.y * half);
+        let shadow = match self.mode {
+            FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, l.z, 5),
+            _ => self.sampler.pcf2x2_4(self.map, u, v, l.z),
+        };
+        let k = Vec4::splat(0.15) + Vec4::splat(0.85) * ndl * shadow;
+        let rgb = albedo.scale(k);
+        Color4 {
+            r: rgb.x,
+            g: rgb.y,
+            b: rgb.z,
+            a: Vec4::ONE,
+        }
+    }
 }
 
 /// The render targets of one spheres frame, reused across repetitions.
@@ -375,6 +399,16 @@ impl FragmentProgram<Vec4> for VaryingColor {
     #[inline(always)]
     fn shade(&self, f: &Fragment<Vec4>) -> Option<Vec4> {
         Some(f.var)
+    }
+    #[inline(always)]
+    fn shade4(&self, f: &Fragment4<Vec4>) -> Color4 {
+        let [a, b, c] = f.verts;
+        Color4 {
+            r: f.interpolate(a.x, b.x, c.x),
+            g: f.interpolate(a.y, b.y, c.y),
+            b: f.interpolate(a.z, b.z, c.z),
+            a: f.interpolate(a.w, b.w, c.w),
+        }
     }
 }
 

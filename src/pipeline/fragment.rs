@@ -15,6 +15,7 @@ use super::raster::small_depth_fused;
 use super::raster::{raster_tile, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
+use super::wide::{shade_row4, Color4, Fragment4, WideTri};
 use super::DrawStats;
 use glam::{Vec2, Vec4};
 
@@ -25,6 +26,11 @@ pub trait ColorFormat: Copy + Send + Sync + 'static {
     fn to_vec4(self) -> Vec4;
     /// RGBA to texel (unused channels dropped).
     fn from_vec4(v: Vec4) -> Self;
+    /// Four colours to texels, lane by lane; must equal [`ColorFormat::from_vec4`] of each lane.
+    #[inline(always)]
+    fn from_color4(c: &Color4) -> [Self; 4] {
+        std::array::from_fn(|i| Self::from_vec4(c.lane(i)))
+    }
 }
 
 /// 8-bit unsigned normalized RGBA.
@@ -44,6 +50,15 @@ impl ColorFormat for [u8; 4] {
         #[allow(clippy::manual_clamp)]
         let c = |x: f32| ((x.max(0.0).min(1.0) * 255.0 + 8_388_608.0).to_bits() & 0xff) as u8;
         [c(v.x), c(v.y), c(v.z), c(v.w)]
+    }
+    /// [`ColorFormat::from_vec4`] on four lanes at once: the same clamp, scale and rounding.
+    #[inline(always)]
+    fn from_color4(c: &Color4) -> [Self; 4] {
+        // clamp01's operand order would keep NaN; `from_vec4` maps it to 0, as `max(x, 0)` does.
+        let q = |v: Vec4| (v.max(Vec4::ZERO).min(Vec4::ONE) * 255.0 + Vec4::splat(8_388_608.0)).to_array();
+        let (r, g, b, a) = (q(c.r), q(c.g), q(c.b), q(c.a));
+        let byte = |x: f32| (x.to_bits() & 0xff) as u8;
+        std::array::from_fn(|i| [byte(r[i]), byte(g[i]), byte(b[i]), byte(a[i])])
     }
 }
 
@@ -104,6 +119,24 @@ pub trait FragmentProgram<V>: Sync {
     const MAY_DISCARD: bool = false;
     /// Shades one fragment.
     fn shade(&self, f: &Fragment<V>) -> Option<Vec4>;
+    /// Shades four fragments of one row at once (used when the program cannot discard and the
+    /// draw has no stencil or fragment lists). The default calls [`FragmentProgram::shade`] on
+    /// each live lane. An override computes in structure-of-arrays form and must return, lane
+    /// by lane, exactly what `shade` returns (same operations in the same order), so output
+    /// never depends on which path ran.
+    #[inline(always)]
+    fn shade4(&self, f: &Fragment4<V>) -> Color4
+    where
+        V: Varyings,
+    {
+        let mut c = [Vec4::ZERO; 4];
+        for (i, ci) in c.iter_mut().enumerate() {
+            if f.mask & (1 << i) != 0 {
+                *ci = self.shade(&f.lane(i)).unwrap_or(Vec4::ZERO);
+            }
+        }
+        Color4::from_lanes(c)
+    }
 }
 
 /// No program: depth/stencil-only passes.
@@ -138,6 +171,18 @@ impl<V, F: Fn(&Fragment<V>) -> Option<Vec4> + Sync> FragmentProgram<V> for Disca
     fn shade(&self, f: &Fragment<V>) -> Option<Vec4> {
         (self.0)(f)
     }
+}
+
+/// Blends `src` over `dst` and keeps `dst` in channels the colour mask excludes.
+#[inline(always)]
+pub(crate) fn blend_masked(mode: BlendMode, mask: [bool; 4], src: Vec4, dst: Vec4) -> Vec4 {
+    let b = blend(mode, src, dst);
+    Vec4::new(
+        if mask[0] { b.x } else { dst.x },
+        if mask[1] { b.y } else { dst.y },
+        if mask[2] { b.z } else { dst.z },
+        if mask[3] { b.w } else { dst.w },
+    )
 }
 
 /// Blends source `s` over destination `d`.
@@ -186,11 +231,11 @@ impl<T: Copy> RawSurface<T> {
     }
 
     #[inline(always)]
-    unsafe fn get(&self, x: i32, y: i32) -> T {
+    pub(crate) unsafe fn get(&self, x: i32, y: i32) -> T {
         *self.ptr.add(y as usize * self.stride + x as usize)
     }
     #[inline(always)]
-    unsafe fn set(&self, x: i32, y: i32, v: T) {
+    pub(crate) unsafe fn set(&self, x: i32, y: i32, v: T) {
         *self.ptr.add(y as usize * self.stride + x as usize) = v;
     }
 }
@@ -415,6 +460,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 (t, c.attrs.get(t.attr as usize))
             })
     });
+    let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
         // Stages 5 and 6 fused for small triangles of depth-only passes.
@@ -519,6 +565,21 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             // Empty varyings: any value of V is the value.
             _ => ([zp; 3], [V::default(); 3]),
         };
+        // Four pixels at a time when nothing per pixel is serial (see `wide`).
+        if wide {
+            if let Some(a) = attrs {
+                let t = WideTri {
+                    tri,
+                    persp,
+                    var: &a.var,
+                    zp,
+                };
+                for (ly, lo, hi) in cover.spans() {
+                    shade_row4(&t, (ox, oy), (ly, lo, hi), state, targets, program, stats);
+                }
+                continue;
+            }
+        }
         let face = if tri.front { st.front } else { st.back };
         // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
         for (lyi, lo, hi) in cover.spans() {
@@ -619,14 +680,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     let out = if state.blend == super::state::BlendMode::Replace && full_mask {
                         src
                     } else {
-                        let dst = unsafe { ct.get(x, y) }.to_vec4();
-                        let b = blend(state.blend, src, dst);
-                        Vec4::new(
-                            if mask[0] { b.x } else { dst.x },
-                            if mask[1] { b.y } else { dst.y },
-                            if mask[2] { b.z } else { dst.z },
-                            if mask[3] { b.w } else { dst.w },
-                        )
+                        blend_masked(state.blend, mask, src, unsafe { ct.get(x, y) }.to_vec4())
                     };
                     unsafe { ct.set(x, y, C::from_vec4(out)) };
                 }

@@ -39,11 +39,13 @@ pub mod setup;
 pub mod state;
 pub mod surface;
 pub mod vertex;
+pub mod wide;
 
 pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
 pub use lists::{FragmentLists, ListNode};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
+pub use wide::{Color4, Fragment4, Vec3x4};
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
 
 use bin::{process_chunk, TileGrid, CHUNK};

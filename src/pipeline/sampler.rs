@@ -6,7 +6,8 @@
 
 use super::state::CompareFunc;
 use super::surface::{MipChain, Surface, Texel};
-use glam::{Vec2, Vec3, Vec4};
+use super::wide::{floor4, index4};
+use glam::{BVec4A, Vec2, Vec3, Vec4};
 
 /// What happens outside [0, 1].
 #[derive(Copy, Clone, Debug, PartialEq, Default)]
@@ -189,6 +190,91 @@ impl CompareSampler {
             sum += wy * rs;
         }
         sum / (n * n) as f32
+    }
+}
+
+/// Four lanes at once: [`CompareSampler::pcf2x2`] and [`CompareSampler::pcf_grid`] on
+/// `Vec4`s of coordinates, each lane equal to the one-lane call bit for bit (same operations
+/// in the same order; texels are fetched lane by lane).
+impl CompareSampler {
+    /// Lanes inside `[0, 1]^2` (NaN is outside), or all lanes when there is no border.
+    #[inline(always)]
+    fn inside4(&self, u: Vec4, v: Vec4) -> BVec4A {
+        match self.border {
+            Some(_) => u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE),
+            None => BVec4A::TRUE,
+        }
+    }
+
+    /// The texel corner (as an exact float) and bilinear fractions of four lanes (see
+    /// [`footprint`]).
+    #[inline(always)]
+    fn footprint4(s: &Surface<f32>, u: Vec4, v: Vec4) -> (Vec4, Vec4, Vec4, Vec4) {
+        let tx = u * s.width() as f32 - Vec4::splat(0.5);
+        let ty = v * s.height() as f32 - Vec4::splat(0.5);
+        let (fx, fy) = (floor4(tx), floor4(ty));
+        (fx, fy, tx - fx, ty - fy)
+    }
+
+    /// [`CompareSampler::pcf2x2`] per lane.
+    #[inline(always)]
+    pub fn pcf2x2_4(&self, s: &Surface<f32>, u: Vec4, v: Vec4, reference: Vec4) -> Vec4 {
+        let inside = self.inside4(u, v);
+        let (w, h) = (s.width() as i64, s.height() as i64);
+        let (x, y, fx, fy) = Self::footprint4(s, u, v);
+        let (x0, x1) = (index4(x, w - 1), index4(x + Vec4::ONE, w - 1));
+        let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
+        let d = s.data();
+        let ws = w as usize;
+        let fetch = |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| d[ys[i] * ws + xs[i]]));
+        let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
+        let a = c(fetch(y0, x0));
+        let b = c(fetch(y0, x1));
+        let cc = c(fetch(y1, x0));
+        let dd = c(fetch(y1, x1));
+        let top = a + (b - a) * fx;
+        let bottom = cc + (dd - cc) * fx;
+        let r = top + (bottom - top) * fy;
+        Vec4::select(inside, r, Vec4::splat(self.border.unwrap_or(0.0)))
+    }
+
+    /// [`CompareSampler::pcf_grid`] per lane.
+    #[inline(always)]
+    pub fn pcf_grid_4(&self, s: &Surface<f32>, u: Vec4, v: Vec4, reference: Vec4, n: u32) -> Vec4 {
+        let inside = self.inside4(u, v);
+        let (w, h) = (s.width() as i64, s.height() as i64);
+        let (x, y, fx, fy) = Self::footprint4(s, u, v);
+        let r = (n / 2) as f32;
+        let d = s.data();
+        let ws = w as usize;
+        let mut sum = Vec4::ZERO;
+        for j in 0..=n as i64 {
+            let wy = grid_weight4(j, n as i64, fy);
+            let yy = index4(y - Vec4::splat(r) + Vec4::splat(j as f32), h - 1);
+            let mut rs = Vec4::ZERO;
+            for i in 0..=n as i64 {
+                let wx = grid_weight4(i, n as i64, fx);
+                let xx = index4(x - Vec4::splat(r) + Vec4::splat(i as f32), w - 1);
+                let t = Vec4::from_array(std::array::from_fn(|k| d[yy[k] * ws + xx[k]]));
+                // `rs += wx` where the test passes; + 0.0 elsewhere leaves `rs` (never -0.0).
+                rs += Vec4::select(self.func.test4(reference, t), wx, Vec4::ZERO);
+            }
+            sum += wy * rs;
+        }
+        let res = sum / (n * n) as f32;
+        Vec4::select(inside, res, Vec4::splat(self.border.unwrap_or(0.0)))
+    }
+}
+
+/// [`grid_weight`] on four lanes.
+#[inline(always)]
+fn grid_weight4(k: i64, n: i64, f: Vec4) -> Vec4 {
+    if k == 0 {
+        Vec4::ONE - f
+    } else if k == n {
+        f
+    } else {
+        Vec4::ONE
     }
 }
 

@@ -73,6 +73,22 @@ impl CompareFunc {
             CompareFunc::Always => true,
         }
     }
+
+    /// [`CompareFunc::test`] on four lanes (same NaN behaviour: only `NotEqual` and `Always`
+    /// pass a NaN).
+    #[inline(always)]
+    pub fn test4(self, a: glam::Vec4, b: glam::Vec4) -> glam::BVec4A {
+        match self {
+            CompareFunc::Never => glam::BVec4A::FALSE,
+            CompareFunc::Less => a.cmplt(b),
+            CompareFunc::Equal => a.cmpeq(b),
+            CompareFunc::LessEqual => a.cmple(b),
+            CompareFunc::Greater => a.cmpgt(b),
+            CompareFunc::NotEqual => a.cmpne(b),
+            CompareFunc::GreaterEqual => a.cmpge(b),
+            CompareFunc::Always => glam::BVec4A::TRUE,
+        }
+    }
 }
 
 /// How a depth value is stored: the precision a shadow map has.

@@ -1,0 +1,341 @@
+//! Stage 6, four fragments at a time: the shaded path of [`super::fragment`] for draws that
+//! need nothing serial per pixel (no stencil, no fragment lists, a program that cannot
+//! discard). A triangle's row span is cut into runs of four consecutive pixels; depth is
+//! tested lane by lane, and the run is shaded by [`FragmentProgram::shade4`] in
+//! structure-of-arrays form (one `Vec4` lane per pixel), then stored.
+//!
+//! Every lane computes exactly what the one-pixel path computes, in the same operation order
+//! (mul then add, no FMA), so images are bit-identical whichever path runs; a program that
+//! overrides `shade4` promises the same of itself (tests check the bundled ones).
+
+use super::fragment::{blend_masked, ColorFormat, Fragment, FragmentProgram, RawTargets};
+use super::setup::{SetupTri, TilePlane};
+use super::state::{BlendMode, DepthFormat, RenderState};
+use super::vertex::Varyings;
+use super::DrawStats;
+use glam::{BVec4A, Vec3, Vec4};
+
+/// Four fragments of one triangle on one row: pixels `x .. x + 4` of row `y`, lane `i` being
+/// pixel `x + i`. Lanes outside the triangle (or that failed the depth test) are off in
+/// [`Fragment4::mask`]; they carry a copy of the first live lane's values, so a program never
+/// sees values extrapolated beyond the triangle, and their results are ignored.
+#[derive(Copy, Clone, Debug)]
+pub struct Fragment4<'a, V> {
+    /// Pixel column of lane 0.
+    pub x: u32,
+    /// Pixel row (0 at the top).
+    pub y: u32,
+    /// Bit `i` set: lane `i` is shaded and stored.
+    pub mask: u8,
+    /// Depth per lane after polygon offset, clamp and quantization.
+    pub z: Vec4,
+    /// Perspective-correct barycentric weights of the three vertices, per lane.
+    pub bary: [Vec4; 3],
+    /// The triangle's varyings at its three vertices.
+    pub verts: &'a [V; 3],
+    /// The triangle faces the viewer.
+    pub front: bool,
+    /// Index of the source triangle in the draw.
+    pub prim: u32,
+}
+
+impl<V: Varyings> Fragment4<'_, V> {
+    /// Lane `i` as the one-pixel path's [`Fragment`] (varyings combined by
+    /// [`Varyings::combine`] with this lane's weights).
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Fragment<V> {
+        let var = if V::EMPTY {
+            self.verts[0]
+        } else {
+            let w = [self.bary[0].to_array()[i], self.bary[1].to_array()[i], self.bary[2].to_array()[i]];
+            V::combine(&self.verts[0], &self.verts[1], &self.verts[2], w)
+        };
+        Fragment {
+            x: self.x + i as u32,
+            y: self.y,
+            z: self.z.to_array()[i],
+            var,
+            front: self.front,
+            prim: self.prim,
+        }
+    }
+
+    /// One scalar varying per lane: `(a * w0 + b * w1) + c * w2`, the order of the linear
+    /// [`Varyings::combine`] implementations, so each lane equals the one-pixel path bit for bit.
+    #[inline(always)]
+    pub fn interpolate(&self, a: f32, b: f32, c: f32) -> Vec4 {
+        Vec4::splat(a) * self.bary[0] + Vec4::splat(b) * self.bary[1] + Vec4::splat(c) * self.bary[2]
+    }
+
+    /// A `Vec3` varying per lane (see [`Fragment4::interpolate`]).
+    #[inline(always)]
+    pub fn interpolate3(&self, a: Vec3, b: Vec3, c: Vec3) -> Vec3x4 {
+        Vec3x4 {
+            x: self.interpolate(a.x, b.x, c.x),
+            y: self.interpolate(a.y, b.y, c.y),
+            z: self.interpolate(a.z, b.z, c.z),
+        }
+    }
+}
+
+/// Four `Vec3`s in structure-of-arrays form, with the few operations fragment programs need,
+/// each matching glam's `Vec3` operation lane by lane.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Vec3x4 {
+    /// x of each lane.
+    pub x: Vec4,
+    /// y of each lane.
+    pub y: Vec4,
+    /// z of each lane.
+    pub z: Vec4,
+}
+
+impl Vec3x4 {
+    /// `Vec3::dot` per lane: `(x * o.x + y * o.y) + z * o.z`.
+    #[inline(always)]
+    pub fn dot(self, o: Vec3) -> Vec4 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    /// `Vec3::normalize_or_zero` per lane: times `1 / sqrt(dot(v, v))` when that is finite and
+    /// positive, else zero.
+    #[inline(always)]
+    pub fn normalize_or_zero(self) -> Vec3x4 {
+        let rcp = Vec4::ONE / sqrt4(self.x * self.x + self.y * self.y + self.z * self.z);
+        let ok = rcp.is_finite_mask() & rcp.cmpgt(Vec4::ZERO);
+        Vec3x4 {
+            x: Vec4::select(ok, self.x * rcp, Vec4::ZERO),
+            y: Vec4::select(ok, self.y * rcp, Vec4::ZERO),
+            z: Vec4::select(ok, self.z * rcp, Vec4::ZERO),
+        }
+    }
+
+    /// Each lane times its scalar `s`.
+    #[inline(always)]
+    pub fn scale(self, s: Vec4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+}
+
+/// Four RGBA colours in structure-of-arrays form: what [`FragmentProgram::shade4`] returns.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Color4 {
+    /// Red of each lane.
+    pub r: Vec4,
+    /// Green of each lane.
+    pub g: Vec4,
+    /// Blue of each lane.
+    pub b: Vec4,
+    /// Alpha of each lane.
+    pub a: Vec4,
+}
+
+impl Color4 {
+    /// From four colours, lane by lane.
+    #[inline(always)]
+    pub fn from_lanes(c: [Vec4; 4]) -> Color4 {
+        Color4 {
+            r: Vec4::new(c[0].x, c[1].x, c[2].x, c[3].x),
+            g: Vec4::new(c[0].y, c[1].y, c[2].y, c[3].y),
+            b: Vec4::new(c[0].z, c[1].z, c[2].z, c[3].z),
+            a: Vec4::new(c[0].w, c[1].w, c[2].w, c[3].w),
+        }
+    }
+
+    /// The colour of lane `i`.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Vec4 {
+        Vec4::new(
+            self.r.to_array()[i],
+            self.g.to_array()[i],
+            self.b.to_array()[i],
+            self.a.to_array()[i],
+        )
+    }
+}
+
+/// `x.floor()` per lane, exact (keeps -0.0, NaN and values beyond 2^23 as `f32::floor` does).
+#[inline(always)]
+pub fn floor4(x: Vec4) -> Vec4 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+    {
+        // SAFETY: SSE4.1 is enabled for this build.
+        Vec4::from(unsafe { std::arch::x86_64::_mm_floor_ps(x.into()) })
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+    {
+        Vec4::from_array(x.to_array().map(f32::floor))
+    }
+}
+
+/// `x.sqrt()` per lane (IEEE, correctly rounded on every path).
+#[inline(always)]
+pub fn sqrt4(x: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE is part of x86-64.
+        Vec4::from(unsafe { std::arch::x86_64::_mm_sqrt_ps(x.into()) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(x.to_array().map(f32::sqrt))
+    }
+}
+
+/// `x.clamp(0.0, 1.0)` per lane as `f32::clamp` does it: NaN and -0.0 pass through.
+#[inline(always)]
+pub fn clamp01(x: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // maxps/minps return their second operand when either is NaN or both are zeros.
+        Vec4::ONE.min(Vec4::ZERO.max(x))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(x.to_array().map(|v| v.clamp(0.0, 1.0)))
+    }
+}
+
+/// A float holding an integer (from [`floor4`]) to `i64` as `as i64` does, then clamped to
+/// `0..=max`, per lane. NaN becomes 0 before the clamp, as with `as`.
+#[inline(always)]
+pub fn index4(f: Vec4, max: i64) -> [usize; 4] {
+    f.to_array().map(|v| (v as i64).clamp(0, max) as usize)
+}
+
+/// The mask of the lanes set in `bits` (bit `i` = lane `i`).
+#[inline(always)]
+pub fn lane_mask(bits: u8) -> BVec4A {
+    BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
+}
+
+/// Lanes of `v` outside `bits` replaced by lane `first` (a lane inside `bits`).
+#[inline(always)]
+fn fill_off_lanes(v: Vec4, bits: u8, first: usize) -> Vec4 {
+    Vec4::select(lane_mask(bits), v, Vec4::splat(v.to_array()[first]))
+}
+
+/// What [`shade_row4`] needs of the triangle, re-based at the tile origin.
+pub(crate) struct WideTri<'a, V> {
+    pub tri: &'a SetupTri,
+    pub persp: [TilePlane; 3],
+    pub var: &'a [V; 3],
+    pub zp: TilePlane,
+}
+
+/// Shades the span `lo..=hi` of tile row `ly` four pixels at a time: depth test and write per
+/// lane, [`FragmentProgram::shade4`] on the lanes that passed, then blend and store. Only for
+/// draws without stencil, lists or discard (the caller checks).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    t: &WideTri<V>,
+    origin: (i32, i32),
+    (ly, lo, hi): (i32, u32, u32),
+    state: &RenderState,
+    targets: &RawTargets<C>,
+    program: &P,
+    stats: &mut DrawStats,
+) {
+    let (ox, oy) = origin;
+    let y = oy + ly;
+    let lyf = ly as f32;
+    let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
+    let func = state.depth.func;
+    let fmt = state.depth.format;
+    let depth = targets.depth.as_ref();
+    let depth_test = depth.is_some() && func != super::state::CompareFunc::Always;
+    let depth_write = depth.is_some() && state.depth.write;
+    let replace = state.blend == BlendMode::Replace && state.color_mask.0 == [true; 4];
+    let mask = state.color_mask.0;
+    // `c + dx * lx + dy * ly` of each perspective plane, with `dy * ly` per row.
+    let prow = t.persp.map(|p| (p.c, p.dx, p.dy * lyf));
+    let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
+    let mut c = lo;
+    while c <= hi {
+        let n = (hi - c + 1).min(4);
+        let live = ((1u32 << n) - 1) as u8;
+        let lx = Vec4::splat(c as f32) + ramp;
+        let x0 = ox + c as i32;
+        let mut z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
+        if fmt != DepthFormat::F32 {
+            z = Vec4::from_array(z.to_array().map(|v| fmt.quantize(v)));
+        }
+        let zs = z.to_array();
+        let mut pass = live;
+        if let (true, Some(d)) = (depth_test, depth) {
+            for (i, &zi) in zs.iter().enumerate().take(n as usize) {
+                // SAFETY: pixel (x0 + i, y) is inside this worker's tile (c + i <= hi).
+                let di = unsafe { d.get(x0 + i as i32, y) };
+                if !func.test(zi, di) {
+                    pass &= !(1 << i);
+                }
+            }
+        }
+        let np = pass.count_ones() as u64;
+        stats.early_z_killed += n as u64 - np;
+        if pass == 0 {
+            c += 4;
+            continue;
+        }
+        stats.fragments_passed += np;
+        stats.fragments_shaded += np;
+        if let (true, Some(d)) = (depth_write, depth) {
+            for (i, &zi) in zs.iter().enumerate() {
+                if pass & (1 << i) != 0 {
+                    // SAFETY: as above.
+                    unsafe { d.set(x0 + i as i32, y, zi) };
+                }
+            }
+        }
+        let first = pass.trailing_zeros() as usize;
+        let bary = if V::EMPTY {
+            [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
+        } else {
+            // The one-pixel path's `w = 1 / p0`, `b1 = p1 * w`, `b2 = p2 * w`, `1 - b1 - b2`.
+            let at = |(pc, pdx, pdy): (f32, f32, f32)| Vec4::splat(pc) + Vec4::splat(pdx) * lx + Vec4::splat(pdy);
+            let w = Vec4::ONE / at(prow[0]);
+            let b1 = at(prow[1]) * w;
+            let b2 = at(prow[2]) * w;
+            let b0 = Vec4::ONE - b1 - b2;
+            [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
+        };
+        let frag = Fragment4 {
+            x: x0 as u32,
+            y: y as u32,
+            mask: pass,
+            z: fill_off_lanes(z, pass, first),
+            bary,
+            verts: t.var,
+            front: t.tri.front,
+            prim: t.tri.prim,
+        };
+        let col = program.shade4(&frag);
+        if let Some(ct) = targets.color.as_ref() {
+            if replace {
+                let texels = C::from_color4(&col);
+                for (i, &tx) in texels.iter().enumerate() {
+                    if pass & (1 << i) != 0 {
+                        // SAFETY: as above.
+                        unsafe { ct.set(x0 + i as i32, y, tx) };
+                    }
+                }
+            } else {
+                for i in 0..4 {
+                    if pass & (1 << i) == 0 {
+                        continue;
+                    }
+                    let (x, src) = (x0 + i as i32, col.lane(i));
+                    // SAFETY: as above.
+                    let out = blend_masked(state.blend, mask, src, unsafe { ct.get(x, y) }.to_vec4());
+                    unsafe { ct.set(x, y, C::from_vec4(out)) };
+                }
+            }
+        }
+        c += 4;
+    }
+}
