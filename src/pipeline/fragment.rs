@@ -575,7 +575,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     zp,
                 };
                 for (ly, lo, hi) in cover.spans() {
-                    shade_row4(&t, (ox, oy), (ly, lo, hi), state, targets, program, stats);
+                    shade_row4(&t, (ox, oy), (ly, lo, hi), tw as u32, state, targets, program, stats);
                 }
                 continue;
             }

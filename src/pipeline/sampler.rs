@@ -226,7 +226,7 @@ impl CompareSampler {
         let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
         let d = s.data();
         let ws = w as usize;
-        let fetch = |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| d[ys[i] * ws + xs[i]]));
+        let fetch = |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| texel(d, ys[i] * ws + xs[i])));
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
         let a = c(fetch(y0, x0));
         let b = c(fetch(y0, x1));
@@ -255,7 +255,7 @@ impl CompareSampler {
             for i in 0..=n as i64 {
                 let wx = grid_weight4(i, n as i64, fx);
                 let xx = index4(x - Vec4::splat(r) + Vec4::splat(i as f32), w - 1);
-                let t = Vec4::from_array(std::array::from_fn(|k| d[yy[k] * ws + xx[k]]));
+                let t = Vec4::from_array(std::array::from_fn(|k| texel(d, yy[k] * ws + xx[k])));
                 // `rs += wx` where the test passes; + 0.0 elsewhere leaves `rs` (never -0.0).
                 rs += Vec4::select(self.func.test4(reference, t), wx, Vec4::ZERO);
             }
@@ -264,6 +264,14 @@ impl CompareSampler {
         let res = sum / (n * n) as f32;
         Vec4::select(inside, res, Vec4::splat(self.border.unwrap_or(0.0)))
     }
+}
+
+/// `d[i]` for an index [`index4`] has clamped into the surface.
+#[inline(always)]
+fn texel(d: &[f32], i: usize) -> f32 {
+    debug_assert!(i < d.len());
+    // SAFETY: callers build `i` as `y * width + x` with `y < height` and `x < width`.
+    unsafe { *d.get_unchecked(i) }
 }
 
 /// [`grid_weight`] on four lanes.

@@ -201,15 +201,40 @@ pub fn clamp01(x: Vec4) -> Vec4 {
 }
 
 /// A float holding an integer (from [`floor4`]) to `i64` as `as i64` does, then clamped to
-/// `0..=max`, per lane. NaN becomes 0 before the clamp, as with `as`.
+/// `0..=max`, per lane. NaN becomes 0 before the clamp, as with `as`. `max` must be below
+/// 2^24 (texture sizes are).
 #[inline(always)]
 pub fn index4(f: Vec4, max: i64) -> [usize; 4] {
-    f.to_array().map(|v| (v as i64).clamp(0, max) as usize)
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // Clamping in float first gives the same integer: `maxps` maps NaN to its second
+        // operand (0), and every clamp bound is an exact float.
+        let c = Vec4::splat(max as f32).min(f.max(Vec4::ZERO));
+        // SAFETY: SSE2 is part of x86-64.
+        let i: [i32; 4] = unsafe { std::mem::transmute(_mm_cvttps_epi32(c.into())) };
+        i.map(|v| v as usize)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        f.to_array().map(|v| (v as i64).clamp(0, max) as usize)
+    }
 }
 
 /// The mask of the lanes set in `bits` (bit `i` = lane `i`).
 #[inline(always)]
 pub fn lane_mask(bits: u8) -> BVec4A {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64; BVec4A is an all-ones/all-zeros __m128 per lane.
+        unsafe {
+            let b = _mm_setr_epi32(1, 2, 4, 8);
+            let m = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(bits as i32), b), b);
+            std::mem::transmute::<__m128, BVec4A>(_mm_castsi128_ps(m))
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
     BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
 }
 
@@ -236,6 +261,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     t: &WideTri<V>,
     origin: (i32, i32),
     (ly, lo, hi): (i32, u32, u32),
+    tw: u32,
     state: &RenderState,
     targets: &RawTargets<C>,
     program: &P,
@@ -248,8 +274,8 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let func = state.depth.func;
     let fmt = state.depth.format;
     let depth = targets.depth.as_ref();
-    let depth_test = depth.is_some() && func != super::state::CompareFunc::Always;
-    let depth_write = depth.is_some() && state.depth.write;
+    let depth_test = func != super::state::CompareFunc::Always;
+    let depth_write = state.depth.write;
     let replace = state.blend == BlendMode::Replace && state.color_mask.0 == [true; 4];
     let mask = state.color_mask.0;
     // `c + dx * lx + dy * ly` of each perspective plane, with `dy * ly` per row.
@@ -265,14 +291,29 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         if fmt != DepthFormat::F32 {
             z = Vec4::from_array(z.to_array().map(|v| fmt.quantize(v)));
         }
-        let zs = z.to_array();
         let mut pass = live;
-        if let (true, Some(d)) = (depth_test, depth) {
-            for (i, &zi) in zs.iter().enumerate().take(n as usize) {
-                // SAFETY: pixel (x0 + i, y) is inside this worker's tile (c + i <= hi).
-                let di = unsafe { d.get(x0 + i as i32, y) };
-                if !func.test(zi, di) {
-                    pass &= !(1 << i);
+        // SAFETY (all target accesses below): pixels x0 .. x0 + 4 of row y lie in this
+        // worker's tile when `in_tile`, else only live lanes (c + i <= hi) are touched.
+        let in_tile = c + 3 < tw;
+        if let Some(d) = depth {
+            let row = unsafe { d.ptr.add(y as usize * d.stride + x0 as usize) };
+            let dv = if in_tile {
+                unsafe { std::ptr::read_unaligned(row as *const [f32; 4]) }
+            } else {
+                std::array::from_fn(|i| if i < n as usize { unsafe { *row.add(i) } } else { 0.0 })
+            };
+            let dv = Vec4::from_array(dv);
+            if depth_test {
+                pass &= func.test4(z, dv).bitmask() as u8;
+            }
+            if depth_write && pass != 0 {
+                let out = Vec4::select(lane_mask(pass), z, dv).to_array();
+                if in_tile {
+                    unsafe { std::ptr::write_unaligned(row as *mut [f32; 4], out) };
+                } else {
+                    for (i, &v) in out.iter().enumerate().take(n as usize) {
+                        unsafe { *row.add(i) = v };
+                    }
                 }
             }
         }
@@ -284,14 +325,6 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         }
         stats.fragments_passed += np;
         stats.fragments_shaded += np;
-        if let (true, Some(d)) = (depth_write, depth) {
-            for (i, &zi) in zs.iter().enumerate() {
-                if pass & (1 << i) != 0 {
-                    // SAFETY: as above.
-                    unsafe { d.set(x0 + i as i32, y, zi) };
-                }
-            }
-        }
         let first = pass.trailing_zeros() as usize;
         let bary = if V::EMPTY {
             [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
