@@ -303,8 +303,6 @@ pub fn render_frame(
     }
     // Pass 2: camera view, colour + depth, shadowed Lambert.
     let t1 = Instant::now();
-    p.clear(&mut t.color, [13, 13, 20, 255]);
-    p.clear(&mut t.depth, 1.0);
     let fs = CameraFs {
         map: &t.shadow,
         to_light: setup.to_light,
@@ -316,7 +314,10 @@ pub fn render_frame(
         light: setup.light_vp,
     };
     out.main_stats = p.draw(
-        &mut Targets::color(&mut t.color).with_depth(&mut t.depth),
+        &mut Targets::color(&mut t.color)
+            .clearing_color([13, 13, 20, 255])
+            .with_depth(&mut t.depth)
+            .clearing_depth(1.0),
         &RenderState::default(),
         &mesh.vertices,
         &mesh.indices,

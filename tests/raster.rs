@@ -950,3 +950,113 @@ fn clearing_depth_with_the_draw_equals_clear_then_draw() {
         assert_eq!(sa, sb);
     }
 }
+
+#[test]
+fn clearing_color_and_depth_with_the_draw_equals_clear_then_draw() {
+    // As above, for a shaded draw that clears both targets (the frame benchmark's camera pass).
+    let p = pipeline(2);
+    let verts = [
+        Vec4::new(-0.9, -0.9, 0.3, 1.0),
+        Vec4::new(0.2, -0.8, 0.6, 1.0),
+        Vec4::new(-0.5, 0.1, 0.9, 1.0),
+        Vec4::new(0.5, 0.5, 0.2, 1.0),
+        Vec4::new(0.9, 0.6, 0.4, 1.0),
+        Vec4::new(0.6, 0.95, 0.7, 1.0),
+    ];
+    let fs = Shader(|f: &Fragment<()>| Vec4::new(f.z, 0.5, f.x as f32 / 150.0, 1.0));
+    for idx in [&[0u32, 1, 2, 3, 4, 5][..], &[0, 1, 2], &[]] {
+        let (mut ca, mut da) = (
+            Surface::new(150, 97, [9u8; 4]).unwrap(),
+            Surface::new(150, 97, 0.25f32).unwrap(),
+        );
+        let (mut cb, mut db) = (ca.clone(), da.clone());
+        p.clear(&mut ca, [1, 2, 3, 4]);
+        p.clear(&mut da, 0.8);
+        let draw = |t: &mut Targets<'_, Rgba8>| {
+            p.draw(t, &RenderState::default(), &verts, idx, &ClipPassthrough, &fs)
+                .unwrap()
+        };
+        let sa = draw(&mut Targets::color(&mut ca).with_depth(&mut da));
+        let sb = draw(
+            &mut Targets::color(&mut cb)
+                .clearing_color([1, 2, 3, 4])
+                .with_depth(&mut db)
+                .clearing_depth(0.8),
+        );
+        assert_eq!(ca.data(), cb.data(), "{} triangles", idx.len() / 3);
+        assert_eq!(da.data(), db.data(), "{} triangles", idx.len() / 3);
+        assert_eq!(sa, sb);
+    }
+}
+
+/// A program that runs through the one-pixel path: it says it may discard (so the pipeline
+/// shades before testing, pixel by pixel) but never does.
+struct OnePixel<F>(F);
+impl<V, F: Fn(&Fragment<V>) -> Vec4 + Sync> FragmentProgram<V> for OnePixel<F> {
+    const MAY_DISCARD: bool = true;
+    fn shade(&self, f: &Fragment<V>) -> Option<Vec4> {
+        Some((self.0)(f))
+    }
+}
+
+/// `VaryingColor` overrides `shade4`; this one keeps the default (one `shade` per lane).
+struct DefaultWide;
+impl FragmentProgram<Vec4> for DefaultWide {
+    fn shade(&self, f: &Fragment<Vec4>) -> Option<Vec4> {
+        Some(f.var * 1.5 - Vec4::splat(f.z) + Vec4::splat(f.x as f32 * 0.01 + f.y as f32 * 0.003))
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// The four-pixel path (`shade4`, SIMD depth test, lane stores) writes exactly what the
+    /// one-pixel path writes, for perspective triangles, every blend mode, colour masks, depth
+    /// functions and formats, on a target whose width is not a multiple of four.
+    #[test]
+    fn four_pixel_path_equals_one_pixel_path(seed in any::<u64>(), n in 1usize..40, state_bits in any::<u32>()) {
+        let mut rng = SplitMix(seed);
+        let verts: Vec<(Vec4, Vec4)> = (0..3 * n).map(|_| {
+            let w = 0.4 + 2.5 * rng.next_f32();
+            let p = Vec4::new(rng.next_f32() * 2.4 - 1.2, rng.next_f32() * 2.4 - 1.2, rng.next_f32() * 1.1 - 0.05, 1.0);
+            let col = Vec4::new(rng.next_f32() * 1.4 - 0.2, rng.next_f32(), rng.next_f32(), rng.next_f32());
+            (Vec4::new(p.x * w, p.y * w, p.z * w, w), col)
+        }).collect();
+        let idx: Vec<u32> = (0..3 * n as u32).collect();
+        let blends = [BlendMode::Replace, BlendMode::Add, BlendMode::Alpha, BlendMode::Multiply, BlendMode::Min, BlendMode::Max];
+        let funcs = [CompareFunc::Less, CompareFunc::LessEqual, CompareFunc::Greater, CompareFunc::Always, CompareFunc::NotEqual, CompareFunc::Equal];
+        let formats = [DepthFormat::F32, DepthFormat::Unorm24, DepthFormat::Unorm16];
+        let b = state_bits as usize;
+        let mut state = RenderState {
+            blend: blends[b % 6],
+            ..Default::default()
+        };
+        state.depth.func = funcs[(b / 6) % 6];
+        state.depth.format = formats[(b / 36) % 3];
+        state.depth.write = !(b / 108).is_multiple_of(4);
+        if (b / 432).is_multiple_of(3) {
+            state.color_mask = ColorMask([b & 1 << 20 != 0, b & 1 << 21 != 0, true, b & 1 << 22 != 0]);
+        }
+        let p = pipeline(2);
+        let run = |wide: bool, override_shade4: bool| {
+            let mut c = Surface::new(150, 97, [40u8, 90, 140, 200]).unwrap();
+            let mut d = Surface::new(150, 97, 0.6f32).unwrap();
+            let mut t = Targets::color(&mut c).with_depth(&mut d);
+            let s = match (wide, override_shade4) {
+                (true, true) => p.draw(&mut t, &state, &verts, &idx, &penumbra::bench::ColoredClip, &penumbra::bench::VaryingColor),
+                (false, true) => p.draw(&mut t, &state, &verts, &idx, &penumbra::bench::ColoredClip, &OnePixel(|f: &Fragment<Vec4>| f.var)),
+                (true, false) => p.draw(&mut t, &state, &verts, &idx, &penumbra::bench::ColoredClip, &DefaultWide),
+                (false, false) => p.draw(&mut t, &state, &verts, &idx, &penumbra::bench::ColoredClip, &OnePixel(|f: &Fragment<Vec4>| DefaultWide.shade(f).unwrap())),
+            }.unwrap();
+            (c, d, s.fragments_passed, s.fragments_rasterized)
+        };
+        for over in [true, false] {
+            let (c1, d1, p1, r1) = run(true, over);
+            let (c2, d2, p2, r2) = run(false, over);
+            prop_assert_eq!((p1, r1), (p2, r2));
+            prop_assert!(c1.data() == c2.data(), "colour differs ({:?}, override {})", state, over);
+            let bits = |s: &Surface<f32>| s.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            prop_assert!(bits(&d1) == bits(&d2), "depth differs ({:?})", state);
+        }
+    }
+}

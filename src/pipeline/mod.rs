@@ -45,8 +45,8 @@ pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentP
 pub use lists::{FragmentLists, ListNode};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
-pub use wide::{Color4, Fragment4, Vec3x4};
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
+pub use wide::{Color4, Fragment4, Vec3x4};
 
 use bin::{process_chunk, TileGrid, CHUNK};
 use clip::{ClipVertex, Clipper};
@@ -214,6 +214,9 @@ pub struct Targets<'a, C = Rgba8> {
     /// clear"): each tile is cleared by its worker just before it rasterizes, while the tile
     /// is in cache, instead of in a separate pass over the whole target. Default: none.
     pub depth_clear: Option<f32>,
+    /// Clear the colour target to this value as part of the draw, as
+    /// [`Targets::depth_clear`] does for depth. Default: none.
+    pub color_clear: Option<C>,
 }
 
 impl<'a> Targets<'a, Rgba8> {
@@ -225,6 +228,7 @@ impl<'a> Targets<'a, Rgba8> {
             stencil: None,
             lists: None,
             depth_clear: None,
+            color_clear: None,
         }
     }
 
@@ -236,6 +240,7 @@ impl<'a> Targets<'a, Rgba8> {
             stencil: None,
             lists: None,
             depth_clear: None,
+            color_clear: None,
         }
     }
 }
@@ -249,6 +254,7 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
             stencil: None,
             lists: None,
             depth_clear: None,
+            color_clear: None,
         }
     }
 
@@ -262,6 +268,13 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
     /// the result equals [`Pipeline::clear`] followed by the draw.
     pub fn clearing_depth(mut self, value: f32) -> Self {
         self.depth_clear = Some(value);
+        self
+    }
+
+    /// Clears the colour target to `value` as part of this draw (see [`Targets::color_clear`]);
+    /// the result equals [`Pipeline::clear`] followed by the draw.
+    pub fn clearing_color(mut self, value: C) -> Self {
+        self.color_clear = Some(value);
         self
     }
 
@@ -449,9 +462,13 @@ impl Pipeline {
         // Shading attributes are read only by fragment programs that run (see `shade_tile`).
         let needs_attrs = raw.color.is_some() || raw.lists || P::MAY_DISCARD;
         let depth_clear = targets.depth_clear.filter(|_| raw.depth.is_some());
+        let color_clear = targets.color_clear.filter(|_| raw.color.is_some());
         if ntri == 0 {
             if let (Some(v), Some(d)) = (depth_clear, targets.depth.as_mut()) {
                 self.clear(d, v);
+            }
+            if let (Some(v), Some(c)) = (color_clear, targets.color.as_mut()) {
+                self.clear(c, v);
             }
         }
         let mut times = StageTimes {
@@ -508,11 +525,12 @@ impl Pipeline {
                 times.setup_bin += t1.elapsed().as_secs_f64();
                 let t2 = std::time::Instant::now();
                 // Stages 5-6: each tile walks the chunks in order (= submission order).
-                // The first batch visits every tile when the depth target is cleared with the
-                // draw, so untouched tiles are cleared too.
-                let clear = depth_clear.filter(|_| batch == 0);
+                // The first batch visits every tile when a target is cleared with the draw, so
+                // untouched tiles are cleared too.
+                let clears = (batch == 0).then_some((depth_clear, color_clear));
+                let clearing = clears.is_some_and(|(d, c)| d.is_some() || c.is_some());
                 let tiles: Vec<usize> = (0..grid.count())
-                    .filter(|&t| clear.is_some() || chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
+                    .filter(|&t| clearing || chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
                     .collect();
                 let results: Vec<(DrawStats, TileLists)> = tiles
                     .par_iter()
@@ -520,9 +538,14 @@ impl Pipeline {
                         let mut s = DrawStats::default();
                         let mut l = TileLists::default();
                         let rect = grid.rect(t);
-                        if let (Some(v), Some(d)) = (clear, raw.depth.as_ref()) {
+                        if let Some((dc, cc)) = clears {
                             // SAFETY: the tile's rows are this worker's alone during the draw.
-                            unsafe { d.fill_rect(rect, v) };
+                            if let (Some(v), Some(d)) = (dc, raw.depth.as_ref()) {
+                                unsafe { d.fill_rect(rect, v) };
+                            }
+                            if let (Some(v), Some(c)) = (cc, raw.color.as_ref()) {
+                                unsafe { c.fill_rect(rect, v) };
+                            }
                         }
                         shade_tile(&chunks, t, rect, state, &raw, fp, &mut s, &mut l);
                         (s, l)

@@ -56,7 +56,9 @@ pub fn footprint(size: (u32, u32), uv: Vec2) -> (i64, i64, f32, f32) {
     let tx = uv.x * size.0 as f32 - 0.5;
     let ty = uv.y * size.1 as f32 - 0.5;
     let (fx, fy) = (tx.floor(), ty.floor());
-    (fx as i64, fy as i64, tx - fx, ty - fy)
+    // Kept within ±2^60 so that neighbour offsets (`x + 1`, `x - r + i`) cannot overflow.
+    const LIM: f32 = (1u64 << 60) as f32;
+    (fx.clamp(-LIM, LIM) as i64, fy.clamp(-LIM, LIM) as i64, tx - fx, ty - fy)
 }
 
 /// Nearest-texel lookup.
@@ -213,7 +215,10 @@ impl CompareSampler {
         let tx = u * s.width() as f32 - Vec4::splat(0.5);
         let ty = v * s.height() as f32 - Vec4::splat(0.5);
         let (fx, fy) = (floor4(tx), floor4(ty));
-        (fx, fy, tx - fx, ty - fy)
+        // A NaN corner is texel 0, as `NaN as i64` makes it in `footprint` (so its neighbour
+        // offsets land where the one-lane path's do).
+        let zero_nan = |f: Vec4| Vec4::select(f.is_nan_mask(), Vec4::ZERO, f);
+        (zero_nan(fx), zero_nan(fy), tx - fx, ty - fy)
     }
 
     /// [`CompareSampler::pcf2x2`] per lane.
@@ -226,7 +231,8 @@ impl CompareSampler {
         let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
         let d = s.data();
         let ws = w as usize;
-        let fetch = |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| texel(d, ys[i] * ws + xs[i])));
+        let fetch =
+            |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| texel(d, ys[i] * ws + xs[i])));
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
         let a = c(fetch(y0, x0));
         let b = c(fetch(y0, x1));
@@ -324,6 +330,87 @@ pub fn select_level<T: Texel>(m: &MipChain<T>, duv_dx: Vec2, duv_dy: Vec2) -> f3
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Equal bits, or both NaN (a NaN's payload is not part of the contract).
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    #[test]
+    fn huge_coordinates_clamp_without_overflow() {
+        // Regression: `pcf_grid` added its offsets to a saturated `i64` (overflow panic in
+        // debug builds, a wrapped index in release).
+        let s = Surface::from_vec(4, 4, (0..16).map(|i| i as f32 / 16.0).collect()).unwrap();
+        let cs = CompareSampler {
+            func: CompareFunc::LessEqual,
+            border: None,
+        };
+        for big in [1e30f32, -1e30, 3e18] {
+            let uv = Vec2::new(0.4, big);
+            let edge = Vec2::new(0.4, if big > 0.0 { 1.0 } else { 0.0 });
+            assert_eq!(cs.pcf_grid(&s, uv, 0.5, 3), cs.pcf_grid(&s, edge, 0.5, 3), "{big}");
+        }
+    }
+
+    #[test]
+    fn four_lane_pcf_equals_one_lane_bit_for_bit() {
+        let mut rng = crate::bench::SplitMix(11);
+        let data = (0..37 * 23).map(|_| rng.next_f32()).collect();
+        let s = Surface::from_vec(37, 23, data).unwrap();
+        let special = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e30,
+            -1e30,
+            -0.0,
+            0.0,
+            1.0,
+            0.5 / 37.0,
+        ];
+        let coord = |rng: &mut crate::bench::SplitMix| {
+            if rng.next_u64().is_multiple_of(6) {
+                special[(rng.next_u64() % special.len() as u64) as usize]
+            } else {
+                rng.next_f32() * 1.6 - 0.3
+            }
+        };
+        let funcs = [
+            CompareFunc::Never,
+            CompareFunc::Less,
+            CompareFunc::Equal,
+            CompareFunc::LessEqual,
+            CompareFunc::Greater,
+            CompareFunc::NotEqual,
+            CompareFunc::GreaterEqual,
+            CompareFunc::Always,
+        ];
+        for round in 0..3000 {
+            let cs = CompareSampler {
+                func: funcs[round % 8],
+                border: [Some(1.0), Some(0.25), None][round % 3],
+            };
+            let u = Vec4::from_array(std::array::from_fn(|_| coord(&mut rng)));
+            let v = Vec4::from_array(std::array::from_fn(|_| coord(&mut rng)));
+            let r = Vec4::from_array(std::array::from_fn(|i| {
+                if i == 3 && round % 7 == 0 {
+                    f32::NAN
+                } else {
+                    rng.next_f32()
+                }
+            }));
+            let two = cs.pcf2x2_4(&s, u, v, r).to_array();
+            for n in [1, 3, 5] {
+                let grid = cs.pcf_grid_4(&s, u, v, r, n).to_array();
+                for i in 0..4 {
+                    let uv = Vec2::new(u.to_array()[i], v.to_array()[i]);
+                    let rf = r.to_array()[i];
+                    assert!(same(grid[i], cs.pcf_grid(&s, uv, rf, n)), "grid {n} {cs:?} {uv} {rf}");
+                    assert!(same(two[i], cs.pcf2x2(&s, uv, rf)), "2x2 {cs:?} {uv} {rf}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn bilinear_at_texel_centre_is_exact() {

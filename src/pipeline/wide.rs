@@ -47,7 +47,11 @@ impl<V: Varyings> Fragment4<'_, V> {
         let var = if V::EMPTY {
             self.verts[0]
         } else {
-            let w = [self.bary[0].to_array()[i], self.bary[1].to_array()[i], self.bary[2].to_array()[i]];
+            let w = [
+                self.bary[0].to_array()[i],
+                self.bary[1].to_array()[i],
+                self.bary[2].to_array()[i],
+            ];
             V::combine(&self.verts[0], &self.verts[1], &self.verts[2], w)
         };
         Fragment {
@@ -370,5 +374,112 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             }
         }
         c += 4;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::Rgba8;
+
+    /// Awkward values: signed zeros, NaN, infinities, tiny, huge, ties and plain numbers.
+    fn values() -> Vec<f32> {
+        let mut v = vec![
+            0.0,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-40,
+            -1e-40,
+            1e30,
+            -1e30,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            8_388_607.5,
+            -8_388_608.5,
+            3e9,
+            0.5 / 255.0,
+            1.0,
+            255.5 / 255.0,
+        ];
+        let mut rng = crate::bench::SplitMix(3);
+        v.extend((0..200).map(|_| rng.next_f32() * 4.0 - 2.0));
+        v
+    }
+
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    #[test]
+    fn lane_helpers_equal_their_scalar_counterparts() {
+        let v = values();
+        for w in v.chunks(4).filter(|w| w.len() == 4) {
+            let x = Vec4::from_slice(w);
+            for (i, &wi) in w.iter().enumerate() {
+                assert!(same(floor4(x).to_array()[i], wi.floor()), "floor {wi}");
+                assert!(same(clamp01(x).to_array()[i], wi.clamp(0.0, 1.0)), "clamp {wi}");
+                assert!(same(sqrt4(x).to_array()[i], wi.sqrt()), "sqrt {wi}");
+                let idx = index4(floor4(x), 37)[i];
+                assert_eq!(idx, (wi.floor() as i64).clamp(0, 37) as usize, "index {wi}");
+            }
+        }
+        for bits in 0..16u8 {
+            let m = lane_mask(bits).bitmask() as u8;
+            assert_eq!(m, bits);
+        }
+    }
+
+    #[test]
+    fn vec3x4_matches_glam_vec3() {
+        let v = values();
+        let l = Vec3::new(0.3, -0.8, 0.52).normalize();
+        for w in v.chunks(12).filter(|w| w.len() == 12) {
+            let lanes: [Vec3; 4] = std::array::from_fn(|i| Vec3::new(w[i], w[4 + i], w[8 + i]));
+            let s = Vec3x4 {
+                x: Vec4::from_slice(&w[0..4]),
+                y: Vec4::from_slice(&w[4..8]),
+                z: Vec4::from_slice(&w[8..12]),
+            };
+            let n = s.normalize_or_zero();
+            let d = s.dot(l);
+            for (i, a) in lanes.iter().enumerate() {
+                let e = a.normalize_or_zero();
+                assert!(same(n.x.to_array()[i], e.x) && same(n.y.to_array()[i], e.y) && same(n.z.to_array()[i], e.z));
+                assert!(same(d.to_array()[i], a.dot(l)));
+            }
+        }
+        // Zero, infinite and NaN vectors normalize to zero.
+        let s = Vec3x4 {
+            x: Vec4::new(0.0, f32::INFINITY, f32::NAN, 1e-30),
+            y: Vec4::ZERO,
+            z: Vec4::ZERO,
+        };
+        let n = s.normalize_or_zero();
+        assert_eq!(n.x.to_array()[..3], [0.0; 3]);
+    }
+
+    #[test]
+    fn rgba8_four_lanes_equal_one_lane() {
+        let v = values();
+        for w in v.chunks(16).filter(|w| w.len() == 16) {
+            let c = Color4 {
+                r: Vec4::from_slice(&w[0..4]),
+                g: Vec4::from_slice(&w[4..8]),
+                b: Vec4::from_slice(&w[8..12]),
+                a: Vec4::from_slice(&w[12..16]),
+            };
+            let four = Rgba8::from_color4(&c);
+            for (i, t) in four.iter().enumerate() {
+                assert_eq!(*t, Rgba8::from_vec4(c.lane(i)), "{:?}", c.lane(i));
+            }
+            let back = Color4::from_lanes(std::array::from_fn(|i| c.lane(i)));
+            for (x, y) in [(back.r, c.r), (back.g, c.g), (back.b, c.b), (back.a, c.a)] {
+                assert!((0..4).all(|i| same(x.to_array()[i], y.to_array()[i])));
+            }
+        }
     }
 }
