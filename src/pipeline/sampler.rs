@@ -253,15 +253,25 @@ impl CompareSampler {
         let r = (n / 2) as f32;
         let d = s.data();
         let ws = w as usize;
+        // Column indices of every tap, computed once (for kernels up to 15 x 15 on the stack).
+        const MAX_TAPS: usize = 16;
+        let col = |i: i64| index4(x - Vec4::splat(r) + Vec4::splat(i as f32), w - 1);
+        let mut cols = [[0usize; 4]; MAX_TAPS];
+        let cached = (n as usize) < MAX_TAPS;
+        if cached {
+            for (i, c) in cols.iter_mut().enumerate().take(n as usize + 1) {
+                *c = col(i as i64);
+            }
+        }
         let mut sum = Vec4::ZERO;
         for j in 0..=n as i64 {
             let wy = grid_weight4(j, n as i64, fy);
-            let yy = index4(y - Vec4::splat(r) + Vec4::splat(j as f32), h - 1);
+            let rows = index4(y - Vec4::splat(r) + Vec4::splat(j as f32), h - 1).map(|yy| yy * ws);
             let mut rs = Vec4::ZERO;
             for i in 0..=n as i64 {
                 let wx = grid_weight4(i, n as i64, fx);
-                let xx = index4(x - Vec4::splat(r) + Vec4::splat(i as f32), w - 1);
-                let t = Vec4::from_array(std::array::from_fn(|k| texel(d, yy[k] * ws + xx[k])));
+                let xx = if cached { cols[i as usize] } else { col(i) };
+                let t = Vec4::from_array(std::array::from_fn(|k| texel(d, rows[k] + xx[k])));
                 // `rs += wx` where the test passes; + 0.0 elsewhere leaves `rs` (never -0.0).
                 rs += Vec4::select(self.func.test4(reference, t), wx, Vec4::ZERO);
             }
