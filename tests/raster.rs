@@ -1060,3 +1060,43 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// A draw that shares no vertices runs the vertex program during set-up instead of in its
+    /// own stage; the output must not tell: the same soup drawn through the vertex stage (one
+    /// extra degenerate triangle makes the indices outnumber the vertices) writes the same
+    /// pixels and counts the same fragments. Includes near-plane clipping and NaN vertices.
+    #[test]
+    fn vertex_program_on_demand_equals_vertex_stage(seed in any::<u64>(), n in 1usize..200) {
+        let mut rng = SplitMix(seed);
+        let verts: Vec<(Vec4, Vec4)> = (0..3 * n).map(|k| {
+            let w = 2.0 * rng.next_f32() - 0.3;
+            let p = Vec4::new(rng.next_f32() * 2.4 - 1.2, rng.next_f32() * 2.4 - 1.2, rng.next_f32(), 1.0);
+            let p = if k % 97 == 5 { Vec4::NAN } else { Vec4::new(p.x * w, p.y * w, p.z * w, w) };
+            (p, Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), 1.0))
+        }).collect();
+        let soup: Vec<u32> = (0..3 * n as u32).collect();
+        let mut shared = soup.clone();
+        shared.extend([0, 0, 0]);
+        let p = pipeline(2);
+        let run = |idx: &[u32]| {
+            let mut c = Surface::new(173, 91, [0u8; 4]).unwrap();
+            let mut d = Surface::new(173, 91, 1.0f32).unwrap();
+            let s = p.draw(&mut Targets::color(&mut c).with_depth(&mut d), &RenderState::default(), &verts, idx,
+                &penumbra::bench::ColoredClip, &penumbra::bench::VaryingColor).unwrap();
+            (c, d, s)
+        };
+        let (c1, d1, s1) = run(&soup);
+        let (c2, d2, s2) = run(&shared);
+        prop_assert!(c1.data() == c2.data());
+        prop_assert!(d1.data() == d2.data());
+        prop_assert_eq!(s1.fragments_rasterized, s2.fragments_rasterized);
+        prop_assert_eq!(s1.clipped, s2.clipped);
+        // The extra triangle is degenerate, outside or non-finite, as its one vertex is.
+        let rejected = |s: &DrawStats| s.culled_degenerate + s.culled_outside + s.dropped_nonfinite;
+        prop_assert_eq!(rejected(&s1) + 1, rejected(&s2));
+        prop_assert_eq!(s1.triangles_setup, s2.triangles_setup);
+    }
+}

@@ -73,6 +73,61 @@ pub struct PreVertex {
     pub win: Option<WinVertex>,
 }
 
+/// Where set-up finds a triangle's vertices: the vertex stage's output arrays, or the vertex
+/// program run on the spot (for draws that share no vertices, see `Pipeline::draw`).
+pub trait VertexSource<V>: Sync {
+    /// Clip outcodes, validity and window positions of three vertices.
+    fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3];
+    /// Clip-space positions and varyings of three vertices.
+    fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3];
+}
+
+/// The vertex stage's output, one entry per input vertex.
+pub struct VertexArrays<'a, V> {
+    /// Clip vertices.
+    pub verts: &'a [ClipVertex<V>],
+    /// Their pre-computed set-up data.
+    pub pre: &'a [PreVertex],
+}
+
+impl<V: Varyings> VertexSource<V> for VertexArrays<'_, V> {
+    #[inline(always)]
+    fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3] {
+        ia.map(|i| self.pre[i])
+    }
+    #[inline(always)]
+    fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
+        ia.map(|i| self.verts[i])
+    }
+}
+
+/// Vertices computed when set-up asks for them: `run` maps an input vertex to its clip
+/// vertex, `pre` a clip vertex to its set-up data (both pure, so running them again gives the
+/// same values the vertex stage would have stored).
+pub struct VertexOnDemand<'a, In, R, P> {
+    /// The draw's input vertices.
+    pub input: &'a [In],
+    /// The vertex program.
+    pub run: R,
+    /// Outcode, validity and viewport transform of a clip position.
+    pub pre: P,
+}
+
+impl<V: Varyings, In: Sync, R, P> VertexSource<V> for VertexOnDemand<'_, In, R, P>
+where
+    R: Fn(&In) -> ClipVertex<V> + Sync,
+    P: Fn(glam::Vec4) -> PreVertex + Sync,
+{
+    #[inline(always)]
+    fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3] {
+        ia.map(|i| (self.pre)((self.run)(&self.input[i]).pos))
+    }
+    #[inline(always)]
+    fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
+        ia.map(|i| (self.run)(&self.input[i]))
+    }
+}
+
 /// Average triangles per touched tile from which a chunk bins indices instead of copies.
 const COHERENT: usize = 8;
 
@@ -112,8 +167,7 @@ pub fn rect_rejected(tri: &SetupTri, rect: [i32; 4]) -> bool {
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub fn process_chunk<V: Varyings>(
-    verts: &[ClipVertex<V>],
-    pre: &[PreVertex],
+    src: &impl VertexSource<V>,
     indices: &[u32],
     first: usize,
     count: usize,
@@ -150,7 +204,7 @@ pub fn process_chunk<V: Varyings>(
             indices[3 * t + 1] as usize,
             indices[3 * t + 2] as usize,
         ];
-        let p = [pre[ia[0]], pre[ia[1]], pre[ia[2]]];
+        let p = src.pre3(ia);
         if !(p[0].finite && p[1].finite && p[2].finite) {
             stats.dropped_nonfinite += 1;
             continue;
@@ -166,16 +220,16 @@ pub fn process_chunk<V: Varyings>(
                     let vars = if V::EMPTY {
                         [V::default(); 3]
                     } else {
-                        [verts[ia[0]].var, verts[ia[1]].var, verts[ia[2]].var]
+                        src.clip3(ia).map(|v| v.var)
                     };
                     setup_window(params, [a, b, c], vars, t as u32)
                 }
-                _ => setup_triangle(params, [verts[ia[0]], verts[ia[1]], verts[ia[2]]], t as u32),
+                _ => setup_triangle(params, src.clip3(ia), t as u32),
             };
             push(r, &mut stats, (&mut tris, &mut attrs));
             continue;
         }
-        let tri = [verts[ia[0]], verts[ia[1]], verts[ia[2]]];
+        let tri = src.clip3(ia);
         stats.clipped += 1;
         clipper.clip_polygon(tri, mask, &mut poly, &mut tmp);
         if poly.is_empty() {

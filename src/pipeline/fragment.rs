@@ -54,11 +54,30 @@ impl ColorFormat for [u8; 4] {
     /// [`ColorFormat::from_vec4`] on four lanes at once: the same clamp, scale and rounding.
     #[inline(always)]
     fn from_color4(c: &Color4) -> [Self; 4] {
-        // clamp01's operand order would keep NaN; `from_vec4` maps it to 0, as `max(x, 0)` does.
-        let q = |v: Vec4| (v.max(Vec4::ZERO).min(Vec4::ONE) * 255.0 + Vec4::splat(8_388_608.0)).to_array();
-        let (r, g, b, a) = (q(c.r), q(c.g), q(c.b), q(c.a));
-        let byte = |x: f32| (x.to_bits() & 0xff) as u8;
-        std::array::from_fn(|i| [byte(r[i]), byte(g[i]), byte(b[i]), byte(a[i])])
+        // `max(x, 0)` first maps NaN to 0, as in `from_vec4` (maxps returns its second operand).
+        let q = |v: Vec4| v.max(Vec4::ZERO).min(Vec4::ONE) * 255.0 + Vec4::splat(8_388_608.0);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE2 is part of x86-64; the result is four packed little-endian RGBA8.
+            unsafe {
+                let byte = |v: Vec4| _mm_and_si128(_mm_castps_si128(q(v).into()), _mm_set1_epi32(0xff));
+                let rg = _mm_or_si128(byte(c.r), _mm_slli_epi32(byte(c.g), 8));
+                let ba = _mm_or_si128(_mm_slli_epi32(byte(c.b), 16), _mm_slli_epi32(byte(c.a), 24));
+                std::mem::transmute::<__m128i, [[u8; 4]; 4]>(_mm_or_si128(rg, ba))
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let (r, g, b, a) = (
+                q(c.r).to_array(),
+                q(c.g).to_array(),
+                q(c.b).to_array(),
+                q(c.a).to_array(),
+            );
+            let byte = |x: f32| (x.to_bits() & 0xff) as u8;
+            std::array::from_fn(|i| [byte(r[i]), byte(g[i]), byte(b[i]), byte(a[i])])
+        }
     }
 }
 

@@ -480,19 +480,43 @@ impl Pipeline {
             // Stage 1: vertex programs (an indexed map: order-independent).
             // Per vertex, in the same pass: finite, clip outcode and, inside the clip volume,
             // the viewport transform (shared by the triangles around the vertex).
-            let (verts, pre): (Vec<ClipVertex<VP::Out>>, Vec<bin::PreVertex>) = vertices
-                .par_iter()
-                .with_min_len(1024)
-                .map(|v| {
-                    let (pos, var) = vp.run(v);
-                    let finite = pos.is_finite() && pos.abs().max_element() <= clip::MAX_CLIP_COORD;
-                    let code = if finite { clipper.outcode(pos) } else { 0 };
-                    let win = (finite && code == 0)
-                        .then(|| setup::window_vertex(&params, pos).ok())
-                        .flatten();
-                    (ClipVertex { pos, var }, bin::PreVertex { finite, code, win })
-                })
-                .unzip();
+            let run = |v: &VP::In| {
+                let (pos, var) = vp.run(v);
+                ClipVertex { pos, var }
+            };
+            let pre = |pos: glam::Vec4| {
+                let finite = pos.is_finite() && pos.abs().max_element() <= clip::MAX_CLIP_COORD;
+                let code = if finite { clipper.outcode(pos) } else { 0 };
+                let win = (finite && code == 0)
+                    .then(|| setup::window_vertex(&params, pos).ok())
+                    .flatten();
+                bin::PreVertex { finite, code, win }
+            };
+            // A draw with at least one vertex per index shares (on average) no vertices: set-up
+            // then runs the vertex program itself, as often as the stage would, and the
+            // stage's arrays (tens of bytes per vertex, written then read back) are skipped.
+            let on_demand = vertices.len() >= indices.len();
+            let (verts, pres): (Vec<ClipVertex<VP::Out>>, Vec<bin::PreVertex>) = if on_demand {
+                (Vec::new(), Vec::new())
+            } else {
+                vertices
+                    .par_iter()
+                    .with_min_len(1024)
+                    .map(|v| {
+                        let cv = run(v);
+                        (cv, pre(cv.pos))
+                    })
+                    .unzip()
+            };
+            let arrays = bin::VertexArrays {
+                verts: &verts,
+                pre: &pres,
+            };
+            let lazy = bin::VertexOnDemand {
+                input: vertices,
+                run,
+                pre,
+            };
             times.vertex += t0.elapsed().as_secs_f64();
             let mut stats = DrawStats::default();
             let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
@@ -504,19 +528,12 @@ impl Pipeline {
                 let chunks: Vec<_> = (batch..batch_end)
                     .into_par_iter()
                     .map(|c| {
-                        let first = c * CHUNK;
-                        let count = CHUNK.min(ntri - first);
-                        process_chunk(
-                            &verts,
-                            &pre,
-                            indices,
-                            first,
-                            count,
-                            &params,
-                            &clipper,
-                            &grid,
-                            needs_attrs,
-                        )
+                        let (first, count) = (c * CHUNK, CHUNK.min(ntri - c * CHUNK));
+                        if on_demand {
+                            process_chunk(&lazy, indices, first, count, &params, &clipper, &grid, needs_attrs)
+                        } else {
+                            process_chunk(&arrays, indices, first, count, &params, &clipper, &grid, needs_attrs)
+                        }
                     })
                     .collect();
                 for c in &chunks {

@@ -71,7 +71,9 @@ pub trait VertexProgram: Sync {
     type In: Sync;
     /// The varyings handed to the fragment program.
     type Out: Varyings;
-    /// Runs the program on one vertex: (clip position, varyings).
+    /// Runs the program on one vertex: (clip position, varyings). Must be a pure function of
+    /// `v`: the pipeline may run it more than once per vertex (draws that share no vertices
+    /// run it during set-up, where a shaded triangle asks for positions and varyings apart).
     fn run(&self, v: &Self::In) -> (Vec4, Self::Out);
 }
 

@@ -242,6 +242,38 @@ pub fn lane_mask(bits: u8) -> BVec4A {
     BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
 }
 
+/// Four floats from `p` (unaligned).
+///
+/// # Safety
+/// `p .. p + 4` is readable.
+#[inline(always)]
+unsafe fn load4(p: *const f32) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        Vec4::from(unsafe { std::arch::x86_64::_mm_loadu_ps(p) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(unsafe { std::ptr::read_unaligned(p as *const [f32; 4]) })
+    }
+}
+
+/// Four floats to `p` (unaligned).
+///
+/// # Safety
+/// `p .. p + 4` is writable and not aliased.
+#[inline(always)]
+unsafe fn store4(p: *mut f32, v: Vec4) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        unsafe { std::arch::x86_64::_mm_storeu_ps(p, v.into()) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        unsafe { std::ptr::write_unaligned(p as *mut [f32; 4], v.to_array()) }
+    }
+}
+
 /// Lanes of `v` outside `bits` replaced by lane `first` (a lane inside `bits`).
 #[inline(always)]
 fn fill_off_lanes(v: Vec4, bits: u8, first: usize) -> Vec4 {
@@ -302,20 +334,25 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         if let Some(d) = depth {
             let row = unsafe { d.ptr.add(y as usize * d.stride + x0 as usize) };
             let dv = if in_tile {
-                unsafe { std::ptr::read_unaligned(row as *const [f32; 4]) }
+                unsafe { load4(row) }
             } else {
-                std::array::from_fn(|i| if i < n as usize { unsafe { *row.add(i) } } else { 0.0 })
+                Vec4::from_array(std::array::from_fn(|i| {
+                    if i < n as usize {
+                        unsafe { *row.add(i) }
+                    } else {
+                        0.0
+                    }
+                }))
             };
-            let dv = Vec4::from_array(dv);
             if depth_test {
                 pass &= func.test4(z, dv).bitmask() as u8;
             }
             if depth_write && pass != 0 {
-                let out = Vec4::select(lane_mask(pass), z, dv).to_array();
+                let out = Vec4::select(lane_mask(pass), z, dv);
                 if in_tile {
-                    unsafe { std::ptr::write_unaligned(row as *mut [f32; 4], out) };
+                    unsafe { store4(row, out) };
                 } else {
-                    for (i, &v) in out.iter().enumerate().take(n as usize) {
+                    for (i, &v) in out.to_array().iter().enumerate().take(n as usize) {
                         unsafe { *row.add(i) = v };
                     }
                 }
@@ -355,10 +392,18 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         if let Some(ct) = targets.color.as_ref() {
             if replace {
                 let texels = C::from_color4(&col);
-                for (i, &tx) in texels.iter().enumerate() {
-                    if pass & (1 << i) != 0 {
-                        // SAFETY: as above.
-                        unsafe { ct.set(x0 + i as i32, y, tx) };
+                if pass == 0xf {
+                    // SAFETY: all four lanes are live, so the four pixels are in this tile.
+                    unsafe {
+                        let dst = ct.ptr.add(y as usize * ct.stride + x0 as usize);
+                        std::ptr::copy_nonoverlapping(texels.as_ptr(), dst, 4);
+                    }
+                } else {
+                    for (i, &tx) in texels.iter().enumerate() {
+                        if pass & (1 << i) != 0 {
+                            // SAFETY: as above.
+                            unsafe { ct.set(x0 + i as i32, y, tx) };
+                        }
                     }
                 }
             } else {
