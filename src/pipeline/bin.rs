@@ -93,11 +93,11 @@ pub struct VertexArrays<'a, V> {
 impl<V: Varyings> VertexSource<V> for VertexArrays<'_, V> {
     #[inline(always)]
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3] {
-        ia.map(|i| self.pre[i])
+        [self.pre[ia[0]], self.pre[ia[1]], self.pre[ia[2]]]
     }
     #[inline(always)]
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
-        ia.map(|i| self.verts[i])
+        [self.verts[ia[0]], self.verts[ia[1]], self.verts[ia[2]]]
     }
 }
 
@@ -120,11 +120,13 @@ where
 {
     #[inline(always)]
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3] {
-        ia.map(|i| (self.pre)((self.run)(&self.input[i]).pos))
+        let f = |i: usize| (self.pre)((self.run)(&self.input[i]).pos);
+        [f(ia[0]), f(ia[1]), f(ia[2])]
     }
     #[inline(always)]
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
-        ia.map(|i| (self.run)(&self.input[i]))
+        let f = |i: usize| (self.run)(&self.input[i]);
+        [f(ia[0]), f(ia[1]), f(ia[2])]
     }
 }
 
@@ -220,7 +222,8 @@ pub fn process_chunk<V: Varyings>(
                     let vars = if V::EMPTY {
                         [V::default(); 3]
                     } else {
-                        src.clip3(ia).map(|v| v.var)
+                        let [a, b, c] = src.clip3(ia);
+                        [a.var, b.var, c.var]
                     };
                     setup_window(params, [a, b, c], vars, t as u32)
                 }
