@@ -268,9 +268,14 @@ pub struct FrameTimes {
     pub depth_stats: DrawStats,
     /// Camera-pass counters.
     pub main_stats: DrawStats,
+    /// Light depth pass, per-stage times.
+    pub depth_stages: StageTimes,
+    /// Camera pass, per-stage times.
+    pub main_stages: StageTimes,
 }
 
-/// Renders one spheres frame into `t`.
+/// Renders one spheres frame into `t`. Per-stage times of each pass are taken from the
+/// pipeline's accumulator ([`Pipeline::take_times`]) into the result.
 pub fn render_frame(
     p: &Pipeline,
     mesh: &BenchMesh,
@@ -298,6 +303,7 @@ pub fn render_frame(
         &DepthOnly,
     )?;
     out.ms_depth = t0.elapsed().as_secs_f64() * 1e3;
+    out.depth_stages = p.take_times();
     if mode == FrameMode::Depth {
         return Ok(out);
     }
@@ -325,6 +331,7 @@ pub fn render_frame(
         &fs,
     )?;
     out.ms_main = t1.elapsed().as_secs_f64() * 1e3;
+    out.main_stages = p.take_times();
     Ok(out)
 }
 

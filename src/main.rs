@@ -276,14 +276,16 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
     let mut main = Vec::new();
     let mut frame = Vec::new();
     let mut last = FrameTimes::default();
+    let (mut depth_st, mut main_st) = (StageTimes::default(), StageTimes::default());
     for _ in 0..a.common.reps.max(1) {
         let t0 = Instant::now();
         last = render_frame(&p, &mesh, &setup, a.mode, &mut t).map_err(|e| e.to_string())?;
         frame.push(t0.elapsed().as_secs_f64() * 1e3);
         depth.push(last.ms_depth);
         main.push(last.ms_main);
+        depth_st += last.depth_stages;
+        main_st += last.main_stages;
     }
-    let st = p.take_times();
     let (md, mm, mf) = (median(&mut depth), median(&mut main), median(&mut frame));
     let hash = frame_hash(&t, a.mode);
     let tris = mesh.triangles() as f64;
@@ -305,7 +307,12 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         );
     }
     println!("frame:      {mf:8.2} ms (median of {})", frame.len());
-    print_stage_times(&st);
+    print!("depth pass ");
+    print_stage_times(&depth_st);
+    if a.mode != FrameMode::Depth {
+        print!("main pass  ");
+        print_stage_times(&main_st);
+    }
     println!("hash:       {hash:016x}");
     if let Some(dir) = &a.out {
         if a.mode != FrameMode::Depth {
