@@ -43,9 +43,8 @@ fn random(c: &mut Criterion) {
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::new("depth", area), &area, |b, _| {
             b.iter(|| {
-                depth.fill(1.0);
                 p.draw(
-                    &mut Targets::depth_only(&mut depth),
+                    &mut Targets::depth_only(&mut depth).clearing_depth(1.0),
                     &RenderState::default(),
                     &verts,
                     &idx,
@@ -57,9 +56,11 @@ fn random(c: &mut Criterion) {
         });
         g.bench_with_input(BenchmarkId::new("color", area), &area, |b, _| {
             b.iter(|| {
-                depth.fill(1.0);
                 p.draw(
-                    &mut Targets::color(&mut color).with_depth(&mut depth),
+                    &mut Targets::color(&mut color)
+                        .clearing_color([0, 0, 0, 255])
+                        .with_depth(&mut depth)
+                        .clearing_depth(1.0),
                     &RenderState::default(),
                     &verts,
                     &idx,

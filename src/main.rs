@@ -350,11 +350,13 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let mut depth = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
     let state = RenderState::default();
     let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, String> {
-        color.fill([0, 0, 0, 255]);
-        depth.fill(1.0);
+        // The clears ride along with the draw (load-op clears, tile by tile, still timed).
         let r = if color_mode {
             p.draw(
-                &mut Targets::color(color).with_depth(depth),
+                &mut Targets::color(color)
+                    .clearing_color([0, 0, 0, 255])
+                    .with_depth(depth)
+                    .clearing_depth(1.0),
                 &state,
                 &verts,
                 &idx,
@@ -363,7 +365,7 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
             )
         } else {
             p.draw(
-                &mut Targets::depth_only(depth),
+                &mut Targets::depth_only(depth).clearing_depth(1.0),
                 &state,
                 &verts,
                 &idx,

@@ -923,19 +923,23 @@ fn unorm8_store_rounds_to_nearest_and_saturates() {
     }
 }
 
+/// Two triangles that touch some tiles of a 150 x 97 target only (for the load-op clear tests,
+/// with index lists of two, one and no triangles).
+const CLEAR_TEST_VERTS: [Vec4; 6] = [
+    Vec4::new(-0.9, -0.9, 0.3, 1.0),
+    Vec4::new(0.2, -0.8, 0.6, 1.0),
+    Vec4::new(-0.5, 0.1, 0.9, 1.0),
+    Vec4::new(0.5, 0.5, 0.2, 1.0),
+    Vec4::new(0.9, 0.6, 0.4, 1.0),
+    Vec4::new(0.6, 0.95, 0.7, 1.0),
+];
+
 #[test]
 fn clearing_depth_with_the_draw_equals_clear_then_draw() {
     // A target that is not a whole number of tiles, triangles that touch some tiles only, and
     // a draw with no triangles at all; old contents must not survive anywhere.
     let p = pipeline(2);
-    let verts = [
-        Vec4::new(-0.9, -0.9, 0.3, 1.0),
-        Vec4::new(0.2, -0.8, 0.6, 1.0),
-        Vec4::new(-0.5, 0.1, 0.9, 1.0),
-        Vec4::new(0.5, 0.5, 0.2, 1.0),
-        Vec4::new(0.9, 0.6, 0.4, 1.0),
-        Vec4::new(0.6, 0.95, 0.7, 1.0),
-    ];
+    let verts = CLEAR_TEST_VERTS;
     for idx in [&[0u32, 1, 2, 3, 4, 5][..], &[0, 1, 2], &[]] {
         let mut a = Surface::new(150, 97, 0.25f32).unwrap();
         let mut b = a.clone();
@@ -955,14 +959,7 @@ fn clearing_depth_with_the_draw_equals_clear_then_draw() {
 fn clearing_color_and_depth_with_the_draw_equals_clear_then_draw() {
     // As above, for a shaded draw that clears both targets (the frame benchmark's camera pass).
     let p = pipeline(2);
-    let verts = [
-        Vec4::new(-0.9, -0.9, 0.3, 1.0),
-        Vec4::new(0.2, -0.8, 0.6, 1.0),
-        Vec4::new(-0.5, 0.1, 0.9, 1.0),
-        Vec4::new(0.5, 0.5, 0.2, 1.0),
-        Vec4::new(0.9, 0.6, 0.4, 1.0),
-        Vec4::new(0.6, 0.95, 0.7, 1.0),
-    ];
+    let verts = CLEAR_TEST_VERTS;
     let fs = Shader(|f: &Fragment<()>| Vec4::new(f.z, 0.5, f.x as f32 / 150.0, 1.0));
     for idx in [&[0u32, 1, 2, 3, 4, 5][..], &[0, 1, 2], &[]] {
         let (mut ca, mut da) = (

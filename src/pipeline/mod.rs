@@ -10,7 +10,10 @@
 //! 5. [`raster`]: per tile, hierarchical block tests (16 x 16 -> 4 x 4 -> pixel) with trivial
 //!    accept/reject; standard, conservative overestimate and underestimate modes.
 //! 6. [`fragment`]: early/late depth and stencil tests, two-sided stencil ops, the fragment
-//!    program, depth write, blending with colour masks, per-pixel fragment [`lists`].
+//!    program, depth write, blending with colour masks, per-pixel fragment [`lists`]; shaded
+//!    draws without stencil, lists or discard run four pixels at a time ([`wide`]:
+//!    [`FragmentProgram::shade4`] on structure-of-arrays lanes, bit-identical to the
+//!    one-pixel path).
 //!
 //! Around them: [`surface`] (targets, cube maps, arrays, mip chains), [`sampler`] (nearest,
 //! bilinear, 2x2 comparison PCF, gather, explicit mip level) and [`compute`] (min/max reduce,
