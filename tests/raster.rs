@@ -1047,6 +1047,26 @@ proptest! {
             }.unwrap();
             (c, d, s.fragments_passed, s.fragments_rasterized)
         };
+        // No varyings at all (the draw keeps no shading attributes).
+        let positions: Vec<Vec4> = verts.iter().map(|v| v.0).collect();
+        let at = |f: &Fragment<()>| Vec4::new(f.z, f.x as f32 * 0.01, f.y as f32 * 0.007, 0.5);
+        let run_empty = |wide: bool| {
+            let mut c = Surface::new(150, 97, [40u8, 90, 140, 200]).unwrap();
+            let mut d = Surface::new(150, 97, 0.6f32).unwrap();
+            let mut t = Targets::color(&mut c).with_depth(&mut d);
+            let s = if wide {
+                p.draw(&mut t, &state, &positions, &idx, &ClipPassthrough, &Shader(at))
+            } else {
+                p.draw(&mut t, &state, &positions, &idx, &ClipPassthrough, &OnePixel(at))
+            }
+            .unwrap();
+            (c, d, s.fragments_passed)
+        };
+        let (c1, d1, p1) = run_empty(true);
+        let (c2, d2, p2) = run_empty(false);
+        prop_assert_eq!(p1, p2);
+        prop_assert!(c1.data() == c2.data(), "colour differs without varyings ({:?})", state);
+        prop_assert!(d1.data().iter().zip(d2.data()).all(|(a, b)| a.to_bits() == b.to_bits()));
         for over in [true, false] {
             let (c1, d1, p1, r1) = run(true, over);
             let (c2, d2, p2, r2) = run(false, over);

@@ -479,6 +479,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 (t, c.attrs.get(t.attr as usize))
             })
     });
+    let no_varyings = [V::default(); 3];
     let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
@@ -586,13 +587,14 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         };
         // Four pixels at a time when nothing per pixel is serial (see `wide`).
         if wide {
-            if let Some(a) = attrs {
-                let t = WideTri {
-                    tri,
-                    persp,
-                    var: &a.var,
-                    zp,
-                };
+            // Draws without varyings keep no attributes; any value of V is the value.
+            let var = match attrs {
+                Some(a) => Some(&a.var),
+                None if V::EMPTY => Some(&no_varyings),
+                None => None,
+            };
+            if let Some(var) = var {
+                let t = WideTri { tri, persp, var, zp };
                 for (ly, lo, hi) in cover.spans() {
                     shade_row4(&t, (ox, oy), (ly, lo, hi), tw as u32, state, targets, program, stats);
                 }
