@@ -3,7 +3,7 @@
 //!
 //! - [`pipeline`]: the software GPU (tiled raster, depth, stencil, conservative raster,
 //!   fragment lists, samplers, compute helpers).
-//! - [`bench`]: the benchmark workloads (the "spheres" frame and random triangles).
+//! - [`mod@bench`]: the benchmark workloads (the "spheres" frame and random triangles).
 //! - [`hash`]: stable hashing of outputs for golden tests.
 //!
 //! ```

@@ -1,7 +1,7 @@
 //! Scenes: triangle meshes with materials, one camera, lights and an optional camera path.
 //! A scene is data: it knows nothing of the pipeline (DESIGN.md section 1).
 //!
-//! Scenes are written as TOML files ([`file`]) naming procedural or OBJ meshes ([`mesh`]).
+//! Scenes are written as TOML files ([`mod@file`]) naming procedural or OBJ meshes ([`mesh`]).
 
 pub mod file;
 pub mod mesh;

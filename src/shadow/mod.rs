@@ -315,7 +315,7 @@ pub fn object_named(frame: &Frame, technique: &str, option: &str, name: &str) ->
     })
 }
 
-/// Which light view of a point light's six cube faces (in [`CubeFace::ALL`] order) sees
+/// Which light view of a point light's six cube faces (in [`crate::pipeline::CubeFace::ALL`] order) sees
 /// `position`; 0 for single-view lights.
 pub fn light_face(views: usize, light: &crate::scene::Light, position: glam::Vec3) -> usize {
     if views == 6 {
