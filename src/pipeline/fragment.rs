@@ -479,7 +479,6 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 (t, c.attrs.get(t.attr as usize))
             })
     });
-    let no_varyings = [V::default(); 3];
     let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
@@ -586,20 +585,18 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             _ => ([zp; 3], [V::default(); 3]),
         };
         // Four pixels at a time when nothing per pixel is serial (see `wide`).
+        // (A shaded draw keeps attributes unless it has no varyings, so `var` is right.)
         if wide {
-            // Draws without varyings keep no attributes; any value of V is the value.
-            let var = match attrs {
-                Some(a) => Some(&a.var),
-                None if V::EMPTY => Some(&no_varyings),
-                None => None,
+            let t = WideTri {
+                tri,
+                persp,
+                var: &var,
+                zp,
             };
-            if let Some(var) = var {
-                let t = WideTri { tri, persp, var, zp };
-                for (ly, lo, hi) in cover.spans() {
-                    shade_row4(&t, (ox, oy), (ly, lo, hi), tw as u32, state, targets, program, stats);
-                }
-                continue;
+            for (ly, lo, hi) in cover.spans() {
+                shade_row4(&t, (ox, oy), (ly, lo, hi), tw as u32, state, targets, program, stats);
             }
+            continue;
         }
         let face = if tri.front { st.front } else { st.back };
         // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
