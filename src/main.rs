@@ -419,9 +419,14 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
 
 fn print_stage_times(st: &StageTimes) {
     let per = 1e3 / st.draws.max(1) as f64;
+    // Draws that share no vertices run the vertex program inside set-up.
+    let vertex = if st.vertex > 0.0 {
+        format!("{:.2} ms", st.vertex * per)
+    } else {
+        "(in set-up)".to_string()
+    };
     println!(
-        "stages (mean per draw): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms, list merge {:.2} ms",
-        st.vertex * per,
+        "stages (mean per draw): vertex {vertex}, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms, list merge {:.2} ms",
         st.setup_bin * per,
         st.raster_fragment * per,
         st.list_merge * per

@@ -328,7 +328,7 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
 /// [`Pipeline::take_times`] (not part of the deterministic output).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct StageTimes {
-    /// Stage 1, vertex programs, seconds.
+    /// Stage 1, vertex programs, seconds (0 for draws that run them during set-up).
     pub vertex: f64,
     /// Stages 2-4, clip + setup + bin, seconds.
     pub setup_bin: f64,
@@ -520,7 +520,9 @@ impl Pipeline {
                 run,
                 pre,
             };
-            times.vertex += t0.elapsed().as_secs_f64();
+            if !on_demand {
+                times.vertex += t0.elapsed().as_secs_f64();
+            }
             let mut stats = DrawStats::default();
             let mut all_lists: Vec<(usize, TileLists)> = Vec::new();
             let nchunks = ntri.div_ceil(CHUNK);
