@@ -80,6 +80,11 @@ pub trait VertexSource<V>: Sync {
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3];
     /// Clip-space positions and varyings of three vertices.
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3];
+    /// Both of the above (a source that computes vertices computes each once).
+    #[inline(always)]
+    fn both3(&self, ia: [usize; 3]) -> ([PreVertex; 3], [ClipVertex<V>; 3]) {
+        (self.pre3(ia), self.clip3(ia))
+    }
 }
 
 /// The vertex stage's output, one entry per input vertex.
@@ -127,6 +132,11 @@ where
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
         let f = |i: usize| (self.run)(&self.input[i]);
         [f(ia[0]), f(ia[1]), f(ia[2])]
+    }
+    #[inline(always)]
+    fn both3(&self, ia: [usize; 3]) -> ([PreVertex; 3], [ClipVertex<V>; 3]) {
+        let c = self.clip3(ia);
+        ([(self.pre)(c[0].pos), (self.pre)(c[1].pos), (self.pre)(c[2].pos)], c)
     }
 }
 
@@ -206,7 +216,16 @@ pub fn process_chunk<V: Varyings>(
             indices[3 * t + 1] as usize,
             indices[3 * t + 2] as usize,
         ];
-        let p = src.pre3(ia);
+        // With varyings, set-up reads the clip vertices anyway: fetch them with the set-up
+        // data (one vertex-program run per vertex when computed on demand). Without, only a
+        // clipped triangle needs them.
+        let (p, fetched) = if V::EMPTY {
+            (src.pre3(ia), None)
+        } else {
+            let (p, c) = src.both3(ia);
+            (p, Some(c))
+        };
+        let clip = || fetched.unwrap_or_else(|| src.clip3(ia));
         if !(p[0].finite && p[1].finite && p[2].finite) {
             stats.dropped_nonfinite += 1;
             continue;
@@ -222,17 +241,17 @@ pub fn process_chunk<V: Varyings>(
                     let vars = if V::EMPTY {
                         [V::default(); 3]
                     } else {
-                        let [a, b, c] = src.clip3(ia);
+                        let [a, b, c] = clip();
                         [a.var, b.var, c.var]
                     };
                     setup_window(params, [a, b, c], vars, t as u32)
                 }
-                _ => setup_triangle(params, src.clip3(ia), t as u32),
+                _ => setup_triangle(params, clip(), t as u32),
             };
             push(r, &mut stats, (&mut tris, &mut attrs));
             continue;
         }
-        let tri = src.clip3(ia);
+        let tri = clip();
         stats.clipped += 1;
         clipper.clip_polygon(tri, mask, &mut poly, &mut tmp);
         if poly.is_empty() {

@@ -15,7 +15,7 @@ use super::raster::small_depth_fused;
 use super::raster::{raster_tile, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
-use super::wide::{shade_row4, Color4, Fragment4, WideTri};
+use super::wide::{shade_row4, Color4, Fragment4, WideState, WideTri};
 use super::DrawStats;
 use glam::{Vec2, Vec4};
 
@@ -479,6 +479,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 (t, c.attrs.get(t.attr as usize))
             })
     });
+    let wide_state = WideState::new(state);
     let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
@@ -594,7 +595,16 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 zp,
             };
             for (ly, lo, hi) in cover.spans() {
-                shade_row4(&t, (ox, oy), (ly, lo, hi), tw as u32, state, targets, program, stats);
+                shade_row4(
+                    &t,
+                    (ox, oy),
+                    (ly, lo, hi),
+                    tw as u32,
+                    &wide_state,
+                    targets,
+                    program,
+                    stats,
+                );
             }
             continue;
         }

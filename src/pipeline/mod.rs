@@ -496,8 +496,9 @@ impl Pipeline {
                 bin::PreVertex { finite, code, win }
             };
             // A draw with at least one vertex per index shares (on average) no vertices: set-up
-            // then runs the vertex program itself, as often as the stage would, and the
-            // stage's arrays (tens of bytes per vertex, written then read back) are skipped.
+            // then runs the vertex program itself, once per index (no more often than the
+            // stage would; again only for a triangle that needs clipping), and the stage's
+            // arrays (tens of bytes per vertex, written then read back) are skipped.
             let on_demand = vertices.len() >= indices.len();
             let (verts, pres): (Vec<ClipVertex<VP::Out>>, Vec<bin::PreVertex>) = if on_demand {
                 (Vec::new(), Vec::new())

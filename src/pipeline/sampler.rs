@@ -236,10 +236,12 @@ impl CompareSampler {
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
         // Both columns in the map for every lane: each row's two texels are adjacent, one
         // 8-byte load per lane and row instead of two (the same texels).
-        #[cfg(target_arch = "x86_64")]
-        if w >= 2 && (x.cmpge(Vec4::ZERO) & x.cmple(Vec4::splat((w - 2) as f32))).all() {
-            use std::arch::x86_64::*;
-            let pairs = |ys: [usize; 4]| {
+        let paired = w >= 2 && (x.cmpge(Vec4::ZERO) & x.cmple(Vec4::splat((w - 2) as f32))).all();
+        // The texels of columns x0 and x1 in rows `ys`.
+        let row = |ys: [usize; 4]| -> (Vec4, Vec4) {
+            #[cfg(target_arch = "x86_64")]
+            if paired {
+                use std::arch::x86_64::*;
                 let at = |k: usize| {
                     let i = ys[k] * ws + x0[k];
                     debug_assert!(i + 1 < d.len());
@@ -247,28 +249,27 @@ impl CompareSampler {
                     unsafe { _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64)) }
                 };
                 // SAFETY: SSE is part of x86-64.
-                unsafe {
+                return unsafe {
                     let (p01, p23) = (_mm_movelh_ps(at(0), at(1)), _mm_movelh_ps(at(2), at(3)));
                     (
                         Vec4::from(_mm_shuffle_ps::<0b10_00_10_00>(p01, p23)),
                         Vec4::from(_mm_shuffle_ps::<0b11_01_11_01>(p01, p23)),
                     )
-                }
-            };
-            let ((t0, t1), (b0, b1)) = (pairs(y0), pairs(y1));
-            let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
-            let top = a + (b - a) * fx;
-            let bottom = cc + (dd - cc) * fx;
-            let r = top + (bottom - top) * fy;
-            return Vec4::select(inside, r, Vec4::splat(self.border.unwrap_or(0.0)));
-        }
-        let a = c(fetch(y0, x0));
-        let b = c(fetch(y0, x1));
-        let cc = c(fetch(y1, x0));
-        let dd = c(fetch(y1, x1));
+                };
+            }
+            let _ = paired;
+            (fetch(ys, x0), fetch(ys, x1))
+        };
+        let ((t0, t1), (b0, b1)) = (row(y0), row(y1));
+        let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
         let top = a + (b - a) * fx;
         let bottom = cc + (dd - cc) * fx;
-        let r = top + (bottom - top) * fy;
+        self.bordered(inside, top + (bottom - top) * fy)
+    }
+
+    /// `r` where `inside`, the border value elsewhere.
+    #[inline(always)]
+    fn bordered(&self, inside: BVec4A, r: Vec4) -> Vec4 {
         Vec4::select(inside, r, Vec4::splat(self.border.unwrap_or(0.0)))
     }
 
@@ -305,8 +306,7 @@ impl CompareSampler {
             }
             sum += wy * rs;
         }
-        let res = sum / (n * n) as f32;
-        Vec4::select(inside, res, Vec4::splat(self.border.unwrap_or(0.0)))
+        self.bordered(inside, sum / (n * n) as f32)
     }
 }
 

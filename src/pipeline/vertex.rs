@@ -73,7 +73,7 @@ pub trait VertexProgram: Sync {
     type Out: Varyings;
     /// Runs the program on one vertex: (clip position, varyings). Must be a pure function of
     /// `v`: the pipeline may run it more than once per vertex (draws that share no vertices
-    /// run it during set-up, where a shaded triangle asks for positions and varyings apart).
+    /// run it during set-up, and again for a triangle that needs clipping).
     fn run(&self, v: &Self::In) -> (Vec4, Self::Out);
 }
 

@@ -10,7 +10,7 @@
 
 use super::fragment::{blend_masked, ColorFormat, Fragment, FragmentProgram, RawTargets};
 use super::setup::{SetupTri, TilePlane};
-use super::state::{BlendMode, DepthFormat, RenderState};
+use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::DrawStats;
 use glam::{BVec4A, Vec3, Vec4};
@@ -288,6 +288,33 @@ pub(crate) struct WideTri<'a, V> {
     pub zp: TilePlane,
 }
 
+/// What [`shade_row4`] needs of the render state, derived once per tile.
+pub(crate) struct WideState {
+    func: CompareFunc,
+    fmt: DepthFormat,
+    depth_test: bool,
+    depth_write: bool,
+    /// Replace with every channel written: texels are stored without reading them.
+    replace: bool,
+    blend: BlendMode,
+    mask: [bool; 4],
+}
+
+impl WideState {
+    pub fn new(state: &RenderState) -> Self {
+        let mask = state.color_mask.0;
+        WideState {
+            func: state.depth.func,
+            fmt: state.depth.format,
+            depth_test: state.depth.func != CompareFunc::Always,
+            depth_write: state.depth.write,
+            replace: state.blend == BlendMode::Replace && mask == [true; 4],
+            blend: state.blend,
+            mask,
+        }
+    }
+}
+
 /// Shades the span `lo..=hi` of tile row `ly` four pixels at a time: depth test and write per
 /// lane, [`FragmentProgram::shade4`] on the lanes that passed, then blend and store. Only for
 /// draws without stencil, lists or discard (the caller checks).
@@ -298,7 +325,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     origin: (i32, i32),
     (ly, lo, hi): (i32, u32, u32),
     tw: u32,
-    state: &RenderState,
+    st: &WideState,
     targets: &RawTargets<C>,
     program: &P,
     stats: &mut DrawStats,
@@ -307,13 +334,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let y = oy + ly;
     let lyf = ly as f32;
     let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
-    let func = state.depth.func;
-    let fmt = state.depth.format;
     let depth = targets.depth.as_ref();
-    let depth_test = func != super::state::CompareFunc::Always;
-    let depth_write = state.depth.write;
-    let replace = state.blend == BlendMode::Replace && state.color_mask.0 == [true; 4];
-    let mask = state.color_mask.0;
     // `c + dx * lx + dy * ly` of each perspective plane, with `dy * ly` per row.
     let prow = t.persp.map(|p| (p.c, p.dx, p.dy * lyf));
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
@@ -324,8 +345,8 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         let lx = Vec4::splat(c as f32) + ramp;
         let x0 = ox + c as i32;
         let mut z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
-        if fmt != DepthFormat::F32 {
-            z = Vec4::from_array(z.to_array().map(|v| fmt.quantize(v)));
+        if st.fmt != DepthFormat::F32 {
+            z = Vec4::from_array(z.to_array().map(|v| st.fmt.quantize(v)));
         }
         let mut pass = live;
         // SAFETY (all target accesses below): pixels x0 .. x0 + 4 of row y lie in this
@@ -344,10 +365,10 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     }
                 }))
             };
-            if depth_test {
-                pass &= func.test4(z, dv).bitmask() as u8;
+            if st.depth_test {
+                pass &= st.func.test4(z, dv).bitmask() as u8;
             }
-            if depth_write && pass != 0 {
+            if st.depth_write && pass != 0 {
                 let out = Vec4::select(lane_mask(pass), z, dv);
                 if in_tile {
                     unsafe { store4(row, out) };
@@ -390,7 +411,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         };
         let col = program.shade4(&frag);
         if let Some(ct) = targets.color.as_ref() {
-            if replace {
+            if st.replace {
                 let texels = C::from_color4(&col);
                 if pass == 0xf {
                     // SAFETY: all four lanes are live, so the four pixels are in this tile.
@@ -413,7 +434,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     }
                     let (x, src) = (x0 + i as i32, col.lane(i));
                     // SAFETY: as above.
-                    let out = blend_masked(state.blend, mask, src, unsafe { ct.get(x, y) }.to_vec4());
+                    let out = blend_masked(st.blend, st.mask, src, unsafe { ct.get(x, y) }.to_vec4());
                     unsafe { ct.set(x, y, C::from_vec4(out)) };
                 }
             }
