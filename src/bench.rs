@@ -126,6 +126,8 @@ pub struct FrameSetup {
     pub camera_vp: Mat4,
     /// Unit direction towards the light.
     pub to_light: Vec3,
+    /// When the camera pass runs its program (default: [`Shading::Deferred`]).
+    pub shading: Shading,
 }
 
 /// The fixed camera and the light frustum fitted to the scene bounds (+0.1 in x/y, +1 in depth).
@@ -165,6 +167,7 @@ pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
         light_vp: proj * view,
         camera_vp: camera,
         to_light,
+        shading: Shading::Deferred,
     }
 }
 
@@ -324,7 +327,10 @@ pub fn render_frame(
             .clearing_color([13, 13, 20, 255])
             .with_depth(&mut t.depth)
             .clearing_depth(1.0),
-        &RenderState::default(),
+        &RenderState {
+            shading: setup.shading,
+            ..Default::default()
+        },
         &mesh.vertices,
         &mesh.indices,
         &vs,

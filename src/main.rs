@@ -157,6 +157,9 @@ struct FrameArgs {
     /// Write the image (and the shadow map) as PNG into this folder.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// deferred (hidden surface removal before shading) | immediate
+    #[arg(long, default_value = "deferred")]
+    shading: Shading,
     #[command(flatten)]
     common: Common,
 }
@@ -184,6 +187,9 @@ struct RasterArgs {
     /// depth | color
     #[arg(long, default_value = "color")]
     mode: String,
+    /// deferred (hidden surface removal before shading) | immediate
+    #[arg(long, default_value = "deferred")]
+    shading: Shading,
     #[command(flatten)]
     common: Common,
 }
@@ -256,7 +262,10 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let mesh = spheres_scene(a.triangles);
-    let setup = frame_setup(&mesh, a.width, a.height);
+    let setup = FrameSetup {
+        shading: a.shading,
+        ..frame_setup(&mesh, a.width, a.height)
+    };
     let mut t = FrameTargets::new(a.map, a.width, a.height).map_err(|e| e.to_string())?;
     let (stacks, slices) = sphere_tessellation(a.triangles);
     println!(
@@ -298,12 +307,13 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
     );
     if a.mode != FrameMode::Depth {
         println!(
-            "main pass:  {mm:8.2} ms  {:7.2} Mtri/s  {:6.3} Gpix/s  ({} fragments, {} shaded, {} early-z killed)",
+            "main pass:  {mm:8.2} ms  {:7.2} Mtri/s  {:6.3} Gpix/s  ({} fragments, {} early-z killed, {} hidden before shading, {} shaded)",
             tris / mm / 1e3,
             last.main_stats.fragments_rasterized as f64 / mm / 1e6,
             last.main_stats.fragments_rasterized,
-            last.main_stats.fragments_shaded,
-            last.main_stats.early_z_killed
+            last.main_stats.early_z_killed,
+            last.main_stats.fragments_hidden,
+            last.main_stats.fragments_shaded
         );
     }
     println!("frame:      {mf:8.2} ms (median of {})", frame.len());
@@ -348,7 +358,10 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let (verts, idx) = random_triangles(a.triangles, a.area, w, h, 1);
     let mut color = Surface::new(w, h, [0u8; 4]).map_err(|e| e.to_string())?;
     let mut depth = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
-    let state = RenderState::default();
+    let state = RenderState {
+        shading: a.shading,
+        ..Default::default()
+    };
     let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, String> {
         // The clears ride along with the draw (load-op clears, tile by tile, still timed).
         let r = if color_mode {

@@ -1118,3 +1118,123 @@ proptest! {
         prop_assert_eq!(s1.triangles_setup, s2.triangles_setup);
     }
 }
+
+/// A program with a per-pixel input of every kind (varyings, depth, position, facing and
+/// primitive): any lane fed the wrong triangle or pixel changes the image.
+struct Everything;
+impl FragmentProgram<Vec4> for Everything {
+    fn shade(&self, f: &Fragment<Vec4>) -> Option<Vec4> {
+        let k = (f.prim % 7) as f32 * 0.1 + if f.front { 0.05 } else { 0.0 };
+        Some(f.var * 0.9 + Vec4::splat(f.z * 0.3 + k) + Vec4::splat(f.x as f32 * 0.002 - f.y as f32 * 0.001))
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+
+    /// Hidden surface removal before shading (`Shading::Deferred`) gives the image, depth and
+    /// counters of shading every passing fragment (`Shading::Immediate`), for heavy overdraw of
+    /// small and large, overlapping and coplanar triangles across tile and target edges, with
+    /// `Less` and `LessEqual`, depth writes on and off and polygon offset; it shades exactly
+    /// the fragments that stay visible, no more (`shaded + hidden = passed`).
+    #[test]
+    fn deferred_shading_equals_immediate(seed in any::<u64>(), n in 1usize..120, bits in any::<u32>()) {
+        let mut rng = SplitMix(seed);
+        let big = bits % 3 == 0;
+        let mut verts: Vec<(Vec4, Vec4)> = Vec::new();
+        for t in 0..n {
+            let (cx, cy) = (rng.next_f32() * 2.6 - 1.3, rng.next_f32() * 2.6 - 1.3);
+            let r = if big || t % 5 == 0 { 1.2 } else { 0.08 };
+            // Every fourth triangle repeats the previous one's depth (coplanar ties).
+            let z = if t % 4 == 3 { verts.last().map_or(0.5, |v: &(Vec4, Vec4)| v.0.z / v.0.w) } else { rng.next_f32() };
+            for _ in 0..3 {
+                let w = 0.5 + 2.0 * rng.next_f32();
+                let p = Vec4::new(cx + r * (rng.next_f32() * 2.0 - 1.0), cy + r * (rng.next_f32() * 2.0 - 1.0), z, 1.0);
+                let col = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), 1.0);
+                verts.push((Vec4::new(p.x * w, p.y * w, p.z * w, w), col));
+            }
+        }
+        let idx: Vec<u32> = (0..verts.len() as u32).collect();
+        let mut state = RenderState::default();
+        state.depth.func = if bits & 4 != 0 { CompareFunc::LessEqual } else { CompareFunc::Less };
+        state.depth.write = bits & 8 == 0;
+        if bits & 16 != 0 {
+            state.offset = PolygonOffset { factor: 1.1, units: 4.0 };
+        }
+        let p = pipeline(2);
+        let run = |shading: Shading| {
+            let mut c = Surface::new(203, 141, [40u8, 90, 140, 200]).unwrap();
+            let mut d = Surface::new(203, 141, 0.7f32).unwrap();
+            let st = RenderState { shading, ..state };
+            let s = p.draw(&mut Targets::color(&mut c).with_depth(&mut d), &st, &verts, &idx, &penumbra::bench::ColoredClip, &Everything).unwrap();
+            (c, d, s)
+        };
+        let (c1, d1, s1) = run(Shading::Deferred);
+        let (c2, d2, s2) = run(Shading::Immediate);
+        prop_assert!(c1.data() == c2.data(), "colour differs ({:?})", state);
+        let bits_of = |s: &Surface<f32>| s.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        prop_assert!(bits_of(&d1) == bits_of(&d2), "depth differs ({:?})", state);
+        prop_assert_eq!(s2.fragments_shaded, s2.fragments_passed);
+        prop_assert_eq!(s2.fragments_hidden, 0);
+        prop_assert_eq!(s1.fragments_shaded + s1.fragments_hidden, s1.fragments_passed);
+        // The rest of the counters agree.
+        let strip = |s: DrawStats| DrawStats { fragments_shaded: 0, fragments_hidden: 0, ..s };
+        prop_assert_eq!(strip(s1), strip(s2));
+        // Each shaded fragment is a visible pixel: no more program runs than pixels written.
+        let changed = c1.data().iter().filter(|&&t| t != [40u8, 90, 140, 200]).count() as u64;
+        prop_assert!(s1.fragments_shaded >= changed);
+        prop_assert!(s1.fragments_shaded <= 203 * 141);
+    }
+}
+
+/// The deferred path shades each visible pixel once: two full-screen layers drawn back to
+/// front shade one layer's pixels, not two, and the counters say so.
+#[test]
+fn deferred_shading_runs_the_program_once_per_visible_pixel() {
+    let p = pipeline(2);
+    let quad = |z: f32| -> Vec<Vec4> {
+        [
+            (-1.0, -1.0),
+            (1.0, -1.0),
+            (1.0, 1.0),
+            (-1.0, -1.0),
+            (1.0, 1.0),
+            (-1.0, 1.0),
+        ]
+        .iter()
+        .map(|&(x, y)| Vec4::new(x, y, z, 1.0))
+        .collect()
+    };
+    let mut verts = quad(0.8);
+    verts.extend(quad(0.2));
+    let idx: Vec<u32> = (0..12).collect();
+    let calls = std::sync::atomic::AtomicU64::new(0);
+    let fs = Shader(|_: &Fragment<()>| {
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Vec4::ONE
+    });
+    for (shading, runs) in [(Shading::Deferred, 100 * 70), (Shading::Immediate, 2 * 100 * 70)] {
+        calls.store(0, std::sync::atomic::Ordering::Relaxed);
+        let mut c = Surface::new(100, 70, [0u8; 4]).unwrap();
+        let mut d = Surface::new(100, 70, 1.0f32).unwrap();
+        let state = RenderState {
+            shading,
+            ..Default::default()
+        };
+        let s = p
+            .draw(
+                &mut Targets::color(&mut c).with_depth(&mut d),
+                &state,
+                &verts,
+                &idx,
+                &ClipPassthrough,
+                &fs,
+            )
+            .unwrap();
+        assert_eq!(s.fragments_passed, 2 * 100 * 70);
+        assert_eq!(s.fragments_shaded, runs, "{shading:?}");
+        assert_eq!(s.fragments_hidden, 2 * 100 * 70 - runs, "{shading:?}");
+        assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), runs, "{shading:?}");
+        assert!(c.data().iter().all(|&t| t == [255u8; 4]));
+    }
+}

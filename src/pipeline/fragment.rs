@@ -13,6 +13,7 @@ use super::lists::{ListNode, NONE};
 #[cfg(target_arch = "x86_64")]
 use super::raster::small_depth_fused;
 use super::raster::{raster_tile, TileMask};
+use super::setup::{SetupTri, TriAttrs};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::wide::{shade_row4, Color4, Fragment4, WideState, WideTri};
@@ -304,10 +305,21 @@ fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
 /// tile (`(hi | 3) < tile width`), so every lane read lies in this worker's tile; lanes outside
 /// `lo..=hi` are written back unchanged. The arithmetic is the scalar path's, in the same
 /// order (mul then add, no FMA; clamp with the operand order that keeps -0.0 and NaN as the
-/// scalar `clamp` does), so results are bit-identical.
+/// scalar `clamp` does), so results are bit-identical. With `ids = Some((p, k))`, `p` points
+/// at the row's tile-local pixel 0 of a `u32` buffer and `k` is written where a lane passes.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn depth_span_x4(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: bool, less_equal: bool) -> u64 {
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn depth_span_x4(
+    row: *mut f32,
+    lo: u32,
+    hi: u32,
+    zrow: f32,
+    dzdx: f32,
+    write: bool,
+    less_equal: bool,
+    ids: Option<(*mut u32, u32)>,
+) -> u64 {
     use std::arch::x86_64::*;
     // SAFETY: SSE4.1 is in the build's target (x86-64-v2); pointers stay within the tile row.
     unsafe {
@@ -336,6 +348,12 @@ fn depth_span_x4(row: *mut f32, lo: u32, hi: u32, zrow: f32, dzdx: f32, write: b
             }
             if write {
                 _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
+            }
+            if let Some((ip, k)) = ids {
+                let ip = ip.add(c as usize) as *mut __m128i;
+                let old = _mm_castsi128_ps(_mm_loadu_si128(ip));
+                let new = _mm_blendv_ps(old, _mm_castsi128_ps(_mm_set1_epi32(k as i32)), t);
+                _mm_storeu_si128(ip, _mm_castps_si128(new));
             }
             (_mm_movemask_ps(t) as u32).count_ones()
         };
@@ -417,7 +435,24 @@ fn stencil_span(
     passed as u64
 }
 
-/// Runs stages 5 and 6 for one tile over `tris` (in submission order).
+/// The triangles of tile `tile` with their shading attributes, in submission order: chunk by
+/// chunk, each chunk's tile list.
+#[inline(always)]
+pub(crate) fn tile_tris<V>(
+    chunks: &[Chunk<V>],
+    tile: usize,
+) -> impl Iterator<Item = (&SetupTri, Option<&TriAttrs<V>>)> {
+    chunks.iter().flat_map(move |c| {
+        c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize]
+            .iter()
+            .map(move |&i| {
+                let t = &c.tris[i as usize];
+                (t, c.attrs.get(t.attr as usize))
+            })
+    })
+}
+
+/// Runs stages 5 and 6 for one tile over its triangles (in submission order).
 ///
 /// Fragment depth is `((c + dz/dy * ly) + offset) + dz/dx * lx` at tile-local pixel (lx, ly),
 /// then clamped to [0, 1] and quantized to the depth format; every path uses this one formula.
@@ -470,17 +505,14 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         prefetch_rows(c, rect);
     }
 
-    // The tile's triangles, in submission order: chunk by chunk, each chunk's tile list.
-    let tris = chunks.iter().flat_map(|c| {
-        c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize]
-            .iter()
-            .map(move |&i| {
-                let t = &c.tris[i as usize];
-                (t, c.attrs.get(t.attr as usize))
-            })
-    });
     let wide_state = WideState::new(state);
     let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
+    #[cfg(target_arch = "x86_64")]
+    if super::deferred::applies(state, targets, wide) {
+        super::deferred::shade_tile_deferred(chunks, tile, rect, state, targets, program, stats);
+        return;
+    }
+    let tris = tile_tris(chunks, tile);
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     for (tri, attrs) in tris {
         // Stages 5 and 6 fused for small triangles of depth-only passes.
@@ -494,7 +526,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             let le = state.depth.func == CompareFunc::LessEqual;
             let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
             if let Some((emitted, passed)) =
-                small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, depth_write, le)
+                small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, depth_write, le, None)
             {
                 stats.fragments_rasterized += emitted;
                 stats.fragments_passed += passed;
@@ -523,7 +555,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 #[cfg(target_arch = "x86_64")]
                 if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
                     let le = state.depth.func == CompareFunc::LessEqual;
-                    passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le);
+                    passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);
                     continue;
                 }
                 passed += match state.depth.func {

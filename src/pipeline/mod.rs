@@ -33,6 +33,7 @@
 pub mod bin;
 pub mod clip;
 pub mod compute;
+pub mod deferred;
 pub mod fixed;
 pub mod fragment;
 pub mod lists;
@@ -182,6 +183,9 @@ pub struct DrawStats {
     pub stencil_failed: u64,
     /// Fragment-program invocations.
     pub fragments_shaded: u64,
+    /// Fragments that passed the depth test but were hidden by a later fragment of the same
+    /// tile before shading ([`Shading::Deferred`]), so never shaded.
+    pub fragments_hidden: u64,
     /// Fragments discarded by the program.
     pub fragments_discarded: u64,
     /// Fragments that passed every test (depth/stencil written, colour blended).
@@ -198,7 +202,7 @@ impl std::ops::AddAssign for DrawStats {
     fn add_assign(&mut self, o: DrawStats) {
         add_fields!(self, o; triangles_in, dropped_nonfinite, clipped, clip_triangles_out, culled_backface,
             culled_degenerate, culled_outside, triangles_setup, bin_entries, fragments_rasterized,
-            early_z_killed, depth_failed, stencil_failed, fragments_shaded, fragments_discarded,
+            early_z_killed, depth_failed, stencil_failed, fragments_shaded, fragments_hidden, fragments_discarded,
             fragments_passed, list_nodes);
     }
 }

@@ -162,7 +162,8 @@ impl RowLanes {
 ///
 /// `depth` points at the tile's origin pixel, `stride` is the target's row length, `zrow_at`
 /// gives the depth plane's value at the start of tile row `ly` (offset included) and `dzdx`
-/// its step.
+/// its step. With `ids = Some((p, k))`, `p` points at a [`TILE`]-wide `u32` buffer of the tile
+/// and `k` is written to every pixel that passes (the deferred path's visibility buffer).
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -175,6 +176,7 @@ pub(crate) fn small_depth_fused(
     dzdx: f32,
     write: bool,
     less_equal: bool,
+    ids: Option<(*mut u32, u32)>,
 ) -> Option<(u64, u64)> {
     use std::arch::x86_64::*;
     let x0 = tri.bbox[0].max(rect[0]);
@@ -236,6 +238,12 @@ pub(crate) fn small_depth_fused(
                 passed += (_mm_movemask_ps(t) as u32).count_ones();
                 if write {
                     _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
+                }
+                if let Some((ip, k)) = ids {
+                    let ip = ip.add((y - oy) as usize * TILE as usize + lx0 as usize + 4 * c) as *mut __m128i;
+                    let old = _mm_castsi128_ps(_mm_loadu_si128(ip));
+                    let new = _mm_blendv_ps(old, _mm_castsi128_ps(_mm_set1_epi32(k as i32)), t);
+                    _mm_storeu_si128(ip, _mm_castps_si128(new));
                 }
                 e0 = _mm_add_epi32(e0, step[0]);
                 e1 = _mm_add_epi32(e1, step[1]);

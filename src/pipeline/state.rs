@@ -303,6 +303,35 @@ impl Default for ColorMask {
     }
 }
 
+/// When the fragment program runs for a draw that it would otherwise run for every fragment
+/// passing the depth test.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub enum Shading {
+    /// Hidden surface removal before shading, where it gives the same image: per tile and
+    /// batch, every triangle is depth-tested first and the program then runs once per pixel
+    /// for the fragment that stays visible (tile-based deferred shading, as PowerVR, Apple and
+    /// Mali hardware do). Taken for draws with a colour target, `Replace` blending, a 32-bit
+    /// float depth target with `Less` or `LessEqual`, no stencil, no fragment lists and a
+    /// program that cannot discard; other draws shade immediately. Images, depth and every
+    /// counter but [`crate::pipeline::DrawStats::fragments_shaded`] and
+    /// [`crate::pipeline::DrawStats::fragments_hidden`] equal `Immediate`'s. (Default.)
+    #[default]
+    Deferred,
+    /// The program runs for every fragment that passes the depth test, in submission order.
+    Immediate,
+}
+
+impl std::str::FromStr for Shading {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "deferred" => Ok(Shading::Deferred),
+            "immediate" => Ok(Shading::Immediate),
+            _ => Err(format!("unknown shading '{s}' (expected deferred or immediate)")),
+        }
+    }
+}
+
 /// All fixed-function state of one draw.
 #[derive(Copy, Clone, Debug, PartialEq, Default)]
 pub struct RenderState {
@@ -322,6 +351,8 @@ pub struct RenderState {
     pub blend: BlendMode,
     /// Colour write mask. Default: all channels.
     pub color_mask: ColorMask,
+    /// When programs run. Default: `Deferred` (hidden surface removal where it is exact).
+    pub shading: Shading,
 }
 
 #[cfg(test)]

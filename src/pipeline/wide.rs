@@ -335,8 +335,6 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let lyf = ly as f32;
     let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
     let depth = targets.depth.as_ref();
-    // `c + dx * lx + dy * ly` of each perspective plane, with `dy * ly` per row.
-    let prow = t.persp.map(|p| (p.c, p.dx, p.dy * lyf));
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
     let mut c = lo;
     while c <= hi {
@@ -381,65 +379,86 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         }
         let np = pass.count_ones() as u64;
         stats.early_z_killed += n as u64 - np;
-        if pass == 0 {
-            c += 4;
-            continue;
+        if pass != 0 {
+            stats.fragments_passed += np;
+            shade_lanes(t, (x0, y), lx, lyf, z, pass, st, targets, program, stats);
         }
-        stats.fragments_passed += np;
-        stats.fragments_shaded += np;
-        let first = pass.trailing_zeros() as usize;
-        let bary = if V::EMPTY {
-            [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
+        c += 4;
+    }
+}
+
+/// Shades and stores the lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of
+/// triangle `t`: `lx` is the lanes' tile-local column and `lyf` the tile-local row (as floats),
+/// `z` the lanes' depth. Barycentrics come from the triangle's planes at each pixel, so a
+/// lane's result depends only on its pixel, never on which lanes share the call.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    t: &WideTri<V>,
+    (x0, y): (i32, i32),
+    lx: Vec4,
+    lyf: f32,
+    z: Vec4,
+    pass: u8,
+    st: &WideState,
+    targets: &RawTargets<C>,
+    program: &P,
+    stats: &mut DrawStats,
+) {
+    stats.fragments_shaded += pass.count_ones() as u64;
+    let first = pass.trailing_zeros() as usize;
+    let bary = if V::EMPTY {
+        [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
+    } else {
+        // The one-pixel path's `w = 1 / p0`, `b1 = p1 * w`, `b2 = p2 * w`, `1 - b1 - b2`, with
+        // each plane evaluated as `(c + dx * lx) + dy * ly`.
+        let at = |p: &TilePlane| Vec4::splat(p.c) + Vec4::splat(p.dx) * lx + Vec4::splat(p.dy * lyf);
+        let w = Vec4::ONE / at(&t.persp[0]);
+        let b1 = at(&t.persp[1]) * w;
+        let b2 = at(&t.persp[2]) * w;
+        let b0 = Vec4::ONE - b1 - b2;
+        [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
+    };
+    let frag = Fragment4 {
+        x: x0 as u32,
+        y: y as u32,
+        mask: pass,
+        z: fill_off_lanes(z, pass, first),
+        bary,
+        verts: t.var,
+        front: t.tri.front,
+        prim: t.tri.prim,
+    };
+    let col = program.shade4(&frag);
+    let Some(ct) = targets.color.as_ref() else {
+        return;
+    };
+    if st.replace {
+        let texels = C::from_color4(&col);
+        if pass == 0xf {
+            // SAFETY: all four lanes are live, so the four pixels are in this worker's tile.
+            unsafe {
+                let dst = ct.ptr.add(y as usize * ct.stride + x0 as usize);
+                std::ptr::copy_nonoverlapping(texels.as_ptr(), dst, 4);
+            }
         } else {
-            // The one-pixel path's `w = 1 / p0`, `b1 = p1 * w`, `b2 = p2 * w`, `1 - b1 - b2`.
-            let at = |(pc, pdx, pdy): (f32, f32, f32)| Vec4::splat(pc) + Vec4::splat(pdx) * lx + Vec4::splat(pdy);
-            let w = Vec4::ONE / at(prow[0]);
-            let b1 = at(prow[1]) * w;
-            let b2 = at(prow[2]) * w;
-            let b0 = Vec4::ONE - b1 - b2;
-            [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
-        };
-        let frag = Fragment4 {
-            x: x0 as u32,
-            y: y as u32,
-            mask: pass,
-            z: fill_off_lanes(z, pass, first),
-            bary,
-            verts: t.var,
-            front: t.tri.front,
-            prim: t.tri.prim,
-        };
-        let col = program.shade4(&frag);
-        if let Some(ct) = targets.color.as_ref() {
-            if st.replace {
-                let texels = C::from_color4(&col);
-                if pass == 0xf {
-                    // SAFETY: all four lanes are live, so the four pixels are in this tile.
-                    unsafe {
-                        let dst = ct.ptr.add(y as usize * ct.stride + x0 as usize);
-                        std::ptr::copy_nonoverlapping(texels.as_ptr(), dst, 4);
-                    }
-                } else {
-                    for (i, &tx) in texels.iter().enumerate() {
-                        if pass & (1 << i) != 0 {
-                            // SAFETY: as above.
-                            unsafe { ct.set(x0 + i as i32, y, tx) };
-                        }
-                    }
-                }
-            } else {
-                for i in 0..4 {
-                    if pass & (1 << i) == 0 {
-                        continue;
-                    }
-                    let (x, src) = (x0 + i as i32, col.lane(i));
-                    // SAFETY: as above.
-                    let out = blend_masked(st.blend, st.mask, src, unsafe { ct.get(x, y) }.to_vec4());
-                    unsafe { ct.set(x, y, C::from_vec4(out)) };
+            for (i, &tx) in texels.iter().enumerate() {
+                if pass & (1 << i) != 0 {
+                    // SAFETY: live lanes are pixels of this worker's tile.
+                    unsafe { ct.set(x0 + i as i32, y, tx) };
                 }
             }
         }
-        c += 4;
+    } else {
+        for i in 0..4 {
+            if pass & (1 << i) == 0 {
+                continue;
+            }
+            let (x, src) = (x0 + i as i32, col.lane(i));
+            // SAFETY: as above.
+            let out = blend_masked(st.blend, st.mask, src, unsafe { ct.get(x, y) }.to_vec4());
+            unsafe { ct.set(x, y, C::from_vec4(out)) };
+        }
     }
 }
 
