@@ -214,6 +214,18 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))
     }
 
+    /// The 2 x 2 footprints' texels, ahead of `shade4` (the map is 16 MB: far beyond the
+    /// caches, so its lines are fetched from memory once per frame).
+    #[inline(always)]
+    fn prefetch4(&self, f: &Fragment4<(Vec3, Vec3, Vec3)>) {
+        if self.mode == FrameMode::Pcf2 {
+            let [a, b, c] = f.verts;
+            let l = f.interpolate3(a.1, b.1, c.1);
+            let half = Vec4::splat(0.5);
+            CompareSampler::prefetch2x2_4(self.map, l.x * half + half, half - l.y * half);
+        }
+    }
+
     /// `shade` on four lanes, in the same operation order (bit-identical per lane).
     #[inline(always)]
     fn shade4(&self, f: &Fragment4<(Vec3, Vec3, Vec3)>) -> Color4 {

@@ -24,12 +24,15 @@ use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::setup::{SetupTri, TriAttrs};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
 use super::vertex::Varyings;
-use super::wide::{clamp01, shade_lanes, WideState, WideTri};
+use super::wide::{clamp01, fragment4, shade_fragment4, Fragment4, WideState, WideTri};
 use super::DrawStats;
 use glam::Vec4;
 
 /// No triangle covers the pixel (yet).
 const EMPTY: u32 = u32::MAX;
+
+/// How many groups of four ahead of shading [`FragmentProgram::prefetch4`] is called.
+const AHEAD: usize = 8;
 
 /// Pixels of the visibility buffer: one tile, [`TILE`] pixels per row.
 const PIXELS: usize = (TILE * TILE) as usize;
@@ -141,6 +144,10 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     prepared.resize_with(list.len(), || None);
     let shaded_before = stats.fragments_shaded;
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
+    // Groups are shaded `AHEAD` groups after they are formed, and `prefetch4` is called as
+    // each is formed, so the program's memory loads have time to arrive.
+    let mut ring: [Option<Fragment4<V>>; AHEAD] = [None; AHEAD];
+    let mut n = 0usize;
     for ly in 0..th {
         let lyf = ly as f32;
         let y = oy + ly;
@@ -166,8 +173,18 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                 let lx = Vec4::splat(c as f32) + ramp;
                 let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
                 let z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
-                shade_lanes(t, (ox + c, y), lx, lyf, z, lanes, &st, targets, program, stats);
+                let frag = fragment4(t, (ox + c, y), lx, lyf, z, lanes);
+                program.prefetch4(&frag);
+                if let Some(due) = ring[n % AHEAD].replace(frag) {
+                    shade_fragment4(&due, &st, targets, program, stats);
+                }
+                n += 1;
             }
+        }
+    }
+    for i in n..n + AHEAD {
+        if let Some(due) = ring[i % AHEAD].take() {
+            shade_fragment4(&due, &st, targets, program, stats);
         }
     }
     stats.fragments_hidden += passed_all - (stats.fragments_shaded - shaded_before);

@@ -156,6 +156,22 @@ pub trait FragmentProgram<V>: Sync {
         }
         Color4::from_lanes(c)
     }
+    /// A hint, called by the deferred path ([`Shading::Deferred`]) for a group of four
+    /// fragments a few groups before [`FragmentProgram::shade4`] runs on the same group: the
+    /// program may start the memory loads it will need (texel prefetches, as
+    /// [`CompareSampler::prefetch2x2_4`]), so that cache misses of large textures overlap
+    /// instead of stalling one group after another. It must not change any result. The
+    /// default does nothing.
+    ///
+    /// [`Shading::Deferred`]: super::state::Shading::Deferred
+    /// [`CompareSampler::prefetch2x2_4`]: super::sampler::CompareSampler::prefetch2x2_4
+    #[inline(always)]
+    fn prefetch4(&self, f: &Fragment4<V>)
+    where
+        V: Varyings,
+    {
+        let _ = f;
+    }
 }
 
 /// No program: depth/stencil-only passes.

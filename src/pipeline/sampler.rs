@@ -221,6 +221,36 @@ impl CompareSampler {
         (zero_nan(fx), zero_nan(fy), tx - fx, ty - fy)
     }
 
+    /// Asks the memory system for the texels [`CompareSampler::pcf2x2_4`] reads at `(u, v)`
+    /// (one cache line per lane and row of the 2 x 2 footprint), without waiting for them.
+    /// Changes no result: a program calls it from [`FragmentProgram::prefetch4`] so that a
+    /// large map's cache misses overlap instead of stalling one lookup after another.
+    ///
+    /// [`FragmentProgram::prefetch4`]: super::FragmentProgram::prefetch4
+    #[inline(always)]
+    pub fn prefetch2x2_4(s: &Surface<f32>, u: Vec4, v: Vec4) {
+        let (w, h) = (s.width() as i64, s.height() as i64);
+        let (x, y, _, _) = Self::footprint4(s, u, v);
+        let x0 = index4(x, w - 1);
+        let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
+        let d = s.data();
+        let ws = w as usize;
+        #[cfg(target_arch = "x86_64")]
+        for k in 0..4 {
+            for ys in [y0, y1] {
+                debug_assert!(ys[k] * ws + x0[k] < d.len());
+                // SAFETY: the index is clamped into the map; prefetching never faults.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                        d.as_ptr().add(ys[k] * ws + x0[k]) as *const i8,
+                    )
+                };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (d, ws, x0, y0, y1);
+    }
+
     /// [`CompareSampler::pcf2x2`] per lane.
     #[inline(always)]
     pub fn pcf2x2_4(&self, s: &Surface<f32>, u: Vec4, v: Vec4, reference: Vec4) -> Vec4 {
@@ -437,6 +467,9 @@ mod tests {
                     rng.next_f32()
                 }
             }));
+            // The prefetch hint takes the same awkward coordinates (clamped, never out of
+            // the map) and changes nothing.
+            CompareSampler::prefetch2x2_4(&s, u, v);
             let two = cs.pcf2x2_4(&s, u, v, r).to_array();
             for n in [1, 3, 5] {
                 let grid = cs.pcf_grid_4(&s, u, v, r, n).to_array();

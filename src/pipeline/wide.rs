@@ -388,9 +388,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 }
 
 /// Shades and stores the lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of
-/// triangle `t`: `lx` is the lanes' tile-local column and `lyf` the tile-local row (as floats),
-/// `z` the lanes' depth. Barycentrics come from the triangle's planes at each pixel, so a
-/// lane's result depends only on its pixel, never on which lanes share the call.
+/// triangle `t` (see [`fragment4`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
@@ -405,7 +403,23 @@ pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     program: &P,
     stats: &mut DrawStats,
 ) {
-    stats.fragments_shaded += pass.count_ones() as u64;
+    let frag = fragment4(t, (x0, y), lx, lyf, z, pass);
+    shade_fragment4(&frag, st, targets, program, stats);
+}
+
+/// The lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of triangle `t` as a
+/// [`Fragment4`]: `lx` is the lanes' tile-local column and `lyf` the tile-local row (as
+/// floats), `z` the lanes' depth. Barycentrics come from the triangle's planes at each pixel,
+/// so a lane's values depend only on its pixel, never on which lanes share the group.
+#[inline(always)]
+pub(crate) fn fragment4<'a, V: Varyings>(
+    t: &WideTri<'a, V>,
+    (x0, y): (i32, i32),
+    lx: Vec4,
+    lyf: f32,
+    z: Vec4,
+    pass: u8,
+) -> Fragment4<'a, V> {
     let first = pass.trailing_zeros() as usize;
     let bary = if V::EMPTY {
         [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
@@ -419,7 +433,7 @@ pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         let b0 = Vec4::ONE - b1 - b2;
         [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
     };
-    let frag = Fragment4 {
+    Fragment4 {
         x: x0 as u32,
         y: y as u32,
         mask: pass,
@@ -428,8 +442,22 @@ pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         verts: t.var,
         front: t.tri.front,
         prim: t.tri.prim,
-    };
-    let col = program.shade4(&frag);
+    }
+}
+
+/// Runs the program on `frag`'s live lanes and blends and stores their colours.
+#[inline(always)]
+pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    frag: &Fragment4<V>,
+    st: &WideState,
+    targets: &RawTargets<C>,
+    program: &P,
+    stats: &mut DrawStats,
+) {
+    let pass = frag.mask;
+    let (x0, y) = (frag.x as i32, frag.y as i32);
+    stats.fragments_shaded += pass.count_ones() as u64;
+    let col = program.shade4(frag);
     let Some(ct) = targets.color.as_ref() else {
         return;
     };
