@@ -202,6 +202,8 @@ struct CameraFs<'a> {
     sampler: CompareSampler,
 }
 impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
+    const PREFETCHES: bool = true;
+
     #[inline(always)]
     fn shade(&self, f: &Fragment<(Vec3, Vec3, Vec3)>) -> Option<Vec4> {
         let (n, l, albedo) = f.var;

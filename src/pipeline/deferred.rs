@@ -137,20 +137,37 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         return;
     }
 
-    // Pass 2: one program run per visible pixel, grouped by triangle within aligned fours.
-    let st = WideState::new(state);
+    // Pass 2: one program run per visible pixel. An aligned four of a row that shows one
+    // triangle is shaded as a run; other pixels wait in their triangle's slot until four of
+    // them fill a group (or the tile ends), so lanes are rarely idle.
     let no_vars = [V::default(); 3];
-    let mut prepared: Vec<Option<WideTri<V>>> = Vec::new();
-    prepared.resize_with(list.len(), || None);
+    let mut slots: Vec<Slot<V>> = Vec::new();
+    slots.resize_with(list.len(), || Slot {
+        tri: None,
+        pending: Pending::default(),
+    });
     let shaded_before = stats.fragments_shaded;
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
-    // Groups are shaded `AHEAD` groups after they are formed, and `prefetch4` is called as
-    // each is formed, so the program's memory loads have time to arrive.
-    let mut ring: [Option<Fragment4<V>>; AHEAD] = [None; AHEAD];
-    let mut n = 0usize;
+    let mut queue = Queue {
+        ring: [None; AHEAD],
+        n: 0,
+        st: WideState::new(state),
+        targets,
+        program,
+    };
+    let prepare = |k: usize| {
+        let (tri, attrs) = list[k];
+        let zp = tri.z.at_origin(ox as i64, oy as i64);
+        let (persp, var) = match attrs {
+            Some(a) => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
+            // Empty varyings: any value of V is the value.
+            None => ([zp; 3], &no_vars),
+        };
+        WideTri { tri, persp, var, zp }
+    };
     for ly in 0..th {
         let lyf = ly as f32;
-        let y = oy + ly;
+        let y = (oy + ly) as u32;
         let row = &ids[ly as usize * TILE as usize..][..TILE as usize];
         for (g, v) in row.chunks_exact(4).enumerate().take(tw.div_ceil(4) as usize) {
             // Columns past the tile's width were never written: they stay empty.
@@ -159,33 +176,109 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                 let k = v[live.trailing_zeros() as usize];
                 let lanes = (0..4).fold(0u8, |m, i| m | ((v[i] == k) as u8) << i) & live;
                 live &= !lanes;
-                let t = prepared[k as usize].get_or_insert_with(|| {
-                    let (tri, attrs) = list[k as usize];
-                    let zp = tri.z.at_origin(ox as i64, oy as i64);
-                    let (persp, var) = match attrs {
-                        Some(a) => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
-                        // Empty varyings: any value of V is the value.
-                        None => ([zp; 3], &no_vars),
-                    };
-                    WideTri { tri, persp, var, zp }
-                });
-                let c = 4 * g as i32;
-                let lx = Vec4::splat(c as f32) + ramp;
-                let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
-                let z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
-                let frag = fragment4(t, (ox + c, y), lx, lyf, z, lanes);
-                program.prefetch4(&frag);
-                if let Some(due) = ring[n % AHEAD].replace(frag) {
-                    shade_fragment4(&due, &st, targets, program, stats);
+                let Slot { tri, pending } = &mut slots[k as usize];
+                let t = tri.get_or_insert_with(|| prepare(k as usize));
+                let c = 4 * g as u32;
+                if lanes == 0xf {
+                    let lx = Vec4::splat(c as f32) + ramp;
+                    let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
+                    let z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
+                    let xs = std::array::from_fn(|i| ox as u32 + c + i as u32);
+                    queue.push(fragment4(t, (xs, [y; 4]), (lx, Vec4::splat(lyf)), z, 0xf), stats);
+                    continue;
                 }
-                n += 1;
+                let mut bits = lanes;
+                while bits != 0 {
+                    let i = bits.trailing_zeros();
+                    bits &= bits - 1;
+                    pending.x[pending.n as usize] = (c + i) as u8;
+                    pending.y[pending.n as usize] = ly as u8;
+                    pending.n += 1;
+                    if pending.n == 4 {
+                        queue.push(pending.fragment4(t, (ox, oy)), stats);
+                        pending.n = 0;
+                    }
+                }
             }
         }
     }
-    for i in n..n + AHEAD {
-        if let Some(due) = ring[i % AHEAD].take() {
-            shade_fragment4(&due, &st, targets, program, stats);
+    for Slot { tri, pending } in &slots {
+        if let (Some(t), true) = (tri, pending.n > 0) {
+            queue.push(pending.fragment4(t, (ox, oy)), stats);
         }
     }
+    queue.finish(stats);
     stats.fragments_hidden += passed_all - (stats.fragments_shaded - shaded_before);
+}
+
+/// Up to three visible pixels of one triangle in a tile, waiting for a fourth.
+#[derive(Copy, Clone, Default)]
+struct Pending {
+    /// Pixels held.
+    n: u8,
+    /// Tile-local columns.
+    x: [u8; 4],
+    /// Tile-local rows.
+    y: [u8; 4],
+}
+
+impl Pending {
+    /// The held pixels (lanes `0..n`) of `t` as a group; the tile's origin is `(ox, oy)`.
+    #[inline(always)]
+    fn fragment4<'a, V: Varyings>(&self, t: &WideTri<'a, V>, (ox, oy): (i32, i32)) -> Fragment4<'a, V> {
+        // Idle lanes repeat lane 0 (their values are replaced by lane 0's anyway).
+        let lane = |i: usize| if i < self.n as usize { i } else { 0 };
+        let lx = Vec4::from_array(std::array::from_fn(|i| self.x[lane(i)] as f32));
+        let ly = Vec4::from_array(std::array::from_fn(|i| self.y[lane(i)] as f32));
+        // The depth formula of every path, lane by lane: ((c + dy * ly) + offset) + dx * lx.
+        let zrow = (Vec4::splat(t.zp.c) + Vec4::splat(t.zp.dy) * ly) + Vec4::splat(t.tri.z_offset);
+        let z = clamp01(zrow + Vec4::splat(t.zp.dx) * lx);
+        let xs = std::array::from_fn(|i| (ox + self.x[lane(i)] as i32) as u32);
+        let ys = std::array::from_fn(|i| (oy + self.y[lane(i)] as i32) as u32);
+        fragment4(t, (xs, ys), (lx, ly), z, ((1u32 << self.n) - 1) as u8)
+    }
+}
+
+/// A triangle of the tile: its planes re-based at the tile (once it shows a pixel) and its
+/// pending pixels.
+struct Slot<'a, V> {
+    tri: Option<WideTri<'a, V>>,
+    pending: Pending,
+}
+
+/// Groups on their way to the program: for a program that [`FragmentProgram::PREFETCHES`],
+/// each is shaded [`AHEAD`] groups after it is queued, and [`FragmentProgram::prefetch4`] runs
+/// when it is queued, so the program's memory loads have time to arrive; other programs shade
+/// it at once.
+struct Queue<'a, 'p, V, P, C> {
+    ring: [Option<Fragment4<'a, V>>; AHEAD],
+    n: usize,
+    st: WideState,
+    targets: &'p RawTargets<C>,
+    program: &'p P,
+}
+
+impl<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat> Queue<'a, '_, V, P, C> {
+    #[inline(always)]
+    fn push(&mut self, frag: Fragment4<'a, V>, stats: &mut DrawStats) {
+        if !P::PREFETCHES {
+            shade_fragment4(&frag, &self.st, self.targets, self.program, stats);
+            return;
+        }
+        self.program.prefetch4(&frag);
+        if let Some(due) = self.ring[self.n % AHEAD].replace(frag) {
+            shade_fragment4(&due, &self.st, self.targets, self.program, stats);
+        }
+        self.n += 1;
+    }
+
+    /// Shades what is still queued.
+    #[inline(always)]
+    fn finish(&mut self, stats: &mut DrawStats) {
+        for i in self.n..self.n + AHEAD {
+            if let Some(due) = self.ring[i % AHEAD].take() {
+                shade_fragment4(&due, &self.st, self.targets, self.program, stats);
+            }
+        }
+    }
 }

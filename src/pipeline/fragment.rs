@@ -136,6 +136,10 @@ pub trait FragmentProgram<V>: Sync {
     /// Set to true when [`FragmentProgram::shade`] may return `None`; depth and stencil are
     /// then tested after the program (no early-z).
     const MAY_DISCARD: bool = false;
+    /// Set to true when [`FragmentProgram::prefetch4`] is overridden: the deferred path then
+    /// holds each group back for a few groups after the hint (which costs a copy per group),
+    /// and otherwise shades it at once.
+    const PREFETCHES: bool = false;
     /// Shades one fragment.
     fn shade(&self, f: &Fragment<V>) -> Option<Vec4>;
     /// Shades four fragments of one row at once (used when the program cannot discard and the
@@ -160,8 +164,8 @@ pub trait FragmentProgram<V>: Sync {
     /// fragments a few groups before [`FragmentProgram::shade4`] runs on the same group: the
     /// program may start the memory loads it will need (texel prefetches, as
     /// [`CompareSampler::prefetch2x2_4`]), so that cache misses of large textures overlap
-    /// instead of stalling one group after another. It must not change any result. The
-    /// default does nothing.
+    /// instead of stalling one group after another. It must not change any result. Called
+    /// only when [`FragmentProgram::PREFETCHES`] is true; the default does nothing.
     ///
     /// [`Shading::Deferred`]: super::state::Shading::Deferred
     /// [`CompareSampler::prefetch2x2_4`]: super::sampler::CompareSampler::prefetch2x2_4

@@ -15,16 +15,18 @@ use super::vertex::Varyings;
 use super::DrawStats;
 use glam::{BVec4A, Vec3, Vec4};
 
-/// Four fragments of one triangle on one row: pixels `x .. x + 4` of row `y`, lane `i` being
-/// pixel `x + i`. Lanes outside the triangle (or that failed the depth test) are off in
+/// Four fragments of one triangle: lane `i` is pixel (`x[i]`, `y[i]`). The one-pixel-per-
+/// run path fills lanes with consecutive pixels of a row; the deferred path
+/// ([`crate::pipeline::Shading::Deferred`]) packs any four visible pixels of the triangle in a
+/// tile. Lanes outside the triangle (or that failed the depth test) are off in
 /// [`Fragment4::mask`]; they carry a copy of the first live lane's values, so a program never
 /// sees values extrapolated beyond the triangle, and their results are ignored.
 #[derive(Copy, Clone, Debug)]
 pub struct Fragment4<'a, V> {
-    /// Pixel column of lane 0.
-    pub x: u32,
-    /// Pixel row (0 at the top).
-    pub y: u32,
+    /// Pixel column of each lane.
+    pub x: [u32; 4],
+    /// Pixel row of each lane (0 at the top).
+    pub y: [u32; 4],
     /// Bit `i` set: lane `i` is shaded and stored.
     pub mask: u8,
     /// Depth per lane after polygon offset, clamp and quantization.
@@ -55,8 +57,8 @@ impl<V: Varyings> Fragment4<'_, V> {
             V::combine(&self.verts[0], &self.verts[1], &self.verts[2], w)
         };
         Fragment {
-            x: self.x + i as u32,
-            y: self.y,
+            x: self.x[i],
+            y: self.y[i],
             z: self.z.to_array()[i],
             var,
             front: self.front,
@@ -388,7 +390,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 }
 
 /// Shades and stores the lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of
-/// triangle `t` (see [`fragment4`]).
+/// triangle `t` (see [`fragment4`]; `lx` the lanes' tile-local columns, `lyf` the row).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
@@ -403,20 +405,20 @@ pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     program: &P,
     stats: &mut DrawStats,
 ) {
-    let frag = fragment4(t, (x0, y), lx, lyf, z, pass);
+    let xs = std::array::from_fn(|i| (x0 + i as i32) as u32);
+    let frag = fragment4(t, (xs, [y as u32; 4]), (lx, Vec4::splat(lyf)), z, pass);
     shade_fragment4(&frag, st, targets, program, stats);
 }
 
-/// The lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of triangle `t` as a
-/// [`Fragment4`]: `lx` is the lanes' tile-local column and `lyf` the tile-local row (as
-/// floats), `z` the lanes' depth. Barycentrics come from the triangle's planes at each pixel,
-/// so a lane's values depend only on its pixel, never on which lanes share the group.
+/// The lanes `pass` (non-empty) of triangle `t` at pixels (`x[i]`, `y[i]`) as a
+/// [`Fragment4`]: `lx` and `ly` are the lanes' tile-local column and row (as floats), `z` the
+/// lanes' depth. Barycentrics come from the triangle's planes at each pixel, so a lane's values
+/// depend only on its pixel, never on which lanes share the group.
 #[inline(always)]
 pub(crate) fn fragment4<'a, V: Varyings>(
     t: &WideTri<'a, V>,
-    (x0, y): (i32, i32),
-    lx: Vec4,
-    lyf: f32,
+    (x, y): ([u32; 4], [u32; 4]),
+    (lx, ly): (Vec4, Vec4),
     z: Vec4,
     pass: u8,
 ) -> Fragment4<'a, V> {
@@ -426,7 +428,7 @@ pub(crate) fn fragment4<'a, V: Varyings>(
     } else {
         // The one-pixel path's `w = 1 / p0`, `b1 = p1 * w`, `b2 = p2 * w`, `1 - b1 - b2`, with
         // each plane evaluated as `(c + dx * lx) + dy * ly`.
-        let at = |p: &TilePlane| Vec4::splat(p.c) + Vec4::splat(p.dx) * lx + Vec4::splat(p.dy * lyf);
+        let at = |p: &TilePlane| Vec4::splat(p.c) + Vec4::splat(p.dx) * lx + Vec4::splat(p.dy) * ly;
         let w = Vec4::ONE / at(&t.persp[0]);
         let b1 = at(&t.persp[1]) * w;
         let b2 = at(&t.persp[2]) * w;
@@ -434,8 +436,8 @@ pub(crate) fn fragment4<'a, V: Varyings>(
         [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
     };
     Fragment4 {
-        x: x0 as u32,
-        y: y as u32,
+        x,
+        y,
         mask: pass,
         z: fill_off_lanes(z, pass, first),
         bary,
@@ -455,7 +457,9 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
     stats: &mut DrawStats,
 ) {
     let pass = frag.mask;
-    let (x0, y) = (frag.x as i32, frag.y as i32);
+    let (x0, y) = (frag.x[0] as i32, frag.y[0] as i32);
+    // Four consecutive pixels of one row: one store.
+    let run = pass == 0xf && frag.y[3] == frag.y[0] && frag.x[3] == frag.x[0] + 3;
     stats.fragments_shaded += pass.count_ones() as u64;
     let col = program.shade4(frag);
     let Some(ct) = targets.color.as_ref() else {
@@ -463,7 +467,7 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
     };
     if st.replace {
         let texels = C::from_color4(&col);
-        if pass == 0xf {
+        if run {
             // SAFETY: all four lanes are live, so the four pixels are in this worker's tile.
             unsafe {
                 let dst = ct.ptr.add(y as usize * ct.stride + x0 as usize);
@@ -473,7 +477,7 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
             for (i, &tx) in texels.iter().enumerate() {
                 if pass & (1 << i) != 0 {
                     // SAFETY: live lanes are pixels of this worker's tile.
-                    unsafe { ct.set(x0 + i as i32, y, tx) };
+                    unsafe { ct.set(frag.x[i] as i32, frag.y[i] as i32, tx) };
                 }
             }
         }
@@ -482,7 +486,7 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
             if pass & (1 << i) == 0 {
                 continue;
             }
-            let (x, src) = (x0 + i as i32, col.lane(i));
+            let (x, y, src) = (frag.x[i] as i32, frag.y[i] as i32, col.lane(i));
             // SAFETY: as above.
             let out = blend_masked(st.blend, st.mask, src, unsafe { ct.get(x, y) }.to_vec4());
             unsafe { ct.set(x, y, C::from_vec4(out)) };
