@@ -21,7 +21,6 @@
 use super::bin::{Chunk, TILE};
 use super::fragment::{depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
-use super::setup::{SetupTri, TriAttrs};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
 use super::vertex::Varyings;
 use super::wide::{clamp01, fragment4, shade_fragment4, Fragment4, WideState, WideTri};
@@ -77,7 +76,9 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     let mut ids = [EMPTY; PIXELS];
     let idp = ids.as_mut_ptr();
     let mut cover = TileMask::default();
-    let mut list: Vec<(&SetupTri, Option<&TriAttrs<V>>)> = Vec::new();
+    let no_vars = [V::default(); 3];
+    // One slot per triangle of the tile (index = its visibility-buffer id).
+    let mut slots: Vec<Slot<V>> = Vec::new();
     let mut passed_all = 0u64;
 
     // Pass 1: coverage, depth test and write, visibility buffer.
@@ -86,8 +87,7 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         for &ti in &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize] {
             let tri = &c.tris[ti as usize];
             let attrs = c.attrs.get(tri.attr as usize);
-            let k = list.len() as u32;
-            list.push((tri, attrs));
+            let k = slots.len() as u32;
             let zp = tri.z.at_origin(ox as i64, oy as i64);
             let zoff = tri.z_offset;
             let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
@@ -131,6 +131,17 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
             stats.fragments_passed += passed;
             stats.early_z_killed += emitted - passed;
             passed_all += passed;
+            // A triangle that may show a pixel gets its shading planes now, while its data
+            // is at hand (pass 2 would wait for them); the others are never read.
+            let (persp, var) = match attrs {
+                Some(a) if passed > 0 => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
+                // Empty varyings: any value of V is the value.
+                _ => ([zp; 3], &no_vars),
+            };
+            slots.push(Slot {
+                tri: WideTri { tri, persp, var, zp },
+                pending: Pending::default(),
+            });
         }
     }
     if passed_all == 0 {
@@ -140,12 +151,6 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     // Pass 2: one program run per visible pixel. An aligned four of a row that shows one
     // triangle is shaded as a run; other pixels wait in their triangle's slot until four of
     // them fill a group (or the tile ends), so lanes are rarely idle.
-    let no_vars = [V::default(); 3];
-    let mut slots: Vec<Slot<V>> = Vec::new();
-    slots.resize_with(list.len(), || Slot {
-        tri: None,
-        pending: Pending::default(),
-    });
     let shaded_before = stats.fragments_shaded;
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
     let mut queue = Queue {
@@ -154,16 +159,6 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         st: WideState::new(state),
         targets,
         program,
-    };
-    let prepare = |k: usize| {
-        let (tri, attrs) = list[k];
-        let zp = tri.z.at_origin(ox as i64, oy as i64);
-        let (persp, var) = match attrs {
-            Some(a) => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
-            // Empty varyings: any value of V is the value.
-            None => ([zp; 3], &no_vars),
-        };
-        WideTri { tri, persp, var, zp }
     };
     for ly in 0..th {
         let lyf = ly as f32;
@@ -176,8 +171,7 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                 let k = v[live.trailing_zeros() as usize];
                 let lanes = (0..4).fold(0u8, |m, i| m | ((v[i] == k) as u8) << i) & live;
                 live &= !lanes;
-                let Slot { tri, pending } = &mut slots[k as usize];
-                let t = tri.get_or_insert_with(|| prepare(k as usize));
+                let Slot { tri: t, pending } = &mut slots[k as usize];
                 let c = 4 * g as u32;
                 if lanes == 0xf {
                     let lx = Vec4::splat(c as f32) + ramp;
@@ -203,8 +197,8 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         }
     }
     for Slot { tri, pending } in &slots {
-        if let (Some(t), true) = (tri, pending.n > 0) {
-            queue.push(pending.fragment4(t, (ox, oy)), stats);
+        if pending.n > 0 {
+            queue.push(pending.fragment4(tri, (ox, oy)), stats);
         }
     }
     queue.finish(stats);
@@ -239,10 +233,9 @@ impl Pending {
     }
 }
 
-/// A triangle of the tile: its planes re-based at the tile (once it shows a pixel) and its
-/// pending pixels.
+/// A triangle of the tile: its planes re-based at the tile and its pending pixels.
 struct Slot<'a, V> {
-    tri: Option<WideTri<'a, V>>,
+    tri: WideTri<'a, V>,
     pending: Pending,
 }
 
