@@ -28,6 +28,14 @@ fn spheres(c: &mut Criterion) {
                 b.iter(|| render_frame(&p, &mesh, &setup, mode, &mut targets).unwrap())
             });
         }
+        // The camera pass without hidden surface removal before shading, for comparison.
+        let immediate = FrameSetup {
+            shading: Shading::Immediate,
+            ..setup
+        };
+        g.bench_with_input(BenchmarkId::new("Pcf2_immediate", t), &t, |b, _| {
+            b.iter(|| render_frame(&p, &mesh, &immediate, FrameMode::Pcf2, &mut targets).unwrap())
+        });
     }
     g.finish();
 }
@@ -54,22 +62,28 @@ fn random(c: &mut Criterion) {
                 .unwrap()
             })
         });
-        g.bench_with_input(BenchmarkId::new("color", area), &area, |b, _| {
-            b.iter(|| {
-                p.draw(
-                    &mut Targets::color(&mut color)
-                        .clearing_color([0, 0, 0, 255])
-                        .with_depth(&mut depth)
-                        .clearing_depth(1.0),
-                    &RenderState::default(),
-                    &verts,
-                    &idx,
-                    &ColoredClip,
-                    &VaryingColor,
-                )
-                .unwrap()
-            })
-        });
+        for (name, shading) in [("color", Shading::Deferred), ("color_immediate", Shading::Immediate)] {
+            let state = RenderState {
+                shading,
+                ..Default::default()
+            };
+            g.bench_with_input(BenchmarkId::new(name, area), &area, |b, _| {
+                b.iter(|| {
+                    p.draw(
+                        &mut Targets::color(&mut color)
+                            .clearing_color([0, 0, 0, 255])
+                            .with_depth(&mut depth)
+                            .clearing_depth(1.0),
+                        &state,
+                        &verts,
+                        &idx,
+                        &ColoredClip,
+                        &VaryingColor,
+                    )
+                    .unwrap()
+                })
+            });
+        }
     }
     g.finish();
 }

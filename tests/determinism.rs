@@ -130,3 +130,28 @@ fn lists_and_stencil_identical_across_threads() {
     };
     same_for_1_2_4_threads(run);
 }
+
+#[test]
+fn deferred_shading_identical_across_threads() {
+    // Replace blending and a float depth target: the deferred path (hidden surface removal
+    // before shading, with packed groups); its counters, hidden fragments included, too.
+    let (verts, idx) = random_triangles(20_000, 60.0, 640, 360, 9);
+    let run = |threads: usize| {
+        let p = Pipeline::new(threads).unwrap();
+        let mut c = Surface::new(640, 360, [0u8; 4]).unwrap();
+        let mut d = Surface::new(640, 360, 1.0f32).unwrap();
+        let s = p
+            .draw(
+                &mut Targets::color(&mut c).with_depth(&mut d),
+                &RenderState::default(),
+                &verts,
+                &idx,
+                &ColoredClip,
+                &VaryingColor,
+            )
+            .unwrap();
+        assert!(s.fragments_hidden > 0 && s.fragments_shaded + s.fragments_hidden == s.fragments_passed);
+        (hash_rgba8(c.data()), hash_f32(d.data()), s)
+    };
+    same_for_1_2_4_threads(run);
+}
