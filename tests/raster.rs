@@ -1238,3 +1238,51 @@ fn deferred_shading_runs_the_program_once_per_visible_pixel() {
         assert!(c.data().iter().all(|&t| t == [255u8; 4]));
     }
 }
+
+/// A draw larger than one batch (131 072 triangles) is set up, binned and shaded batch by
+/// batch; the result must not tell: one draw of 140 000 triangles equals the same triangles in
+/// two draws, deferred and immediate alike (with a load-op clear on the first).
+#[test]
+fn draws_larger_than_a_batch_equal_split_draws() {
+    let (verts, idx) = penumbra::bench::random_triangles(140_000, 6.0, 320, 180, 5);
+    let p = pipeline(2);
+    for shading in [Shading::Deferred, Shading::Immediate] {
+        let state = RenderState {
+            shading,
+            ..Default::default()
+        };
+        let draw = |c: &mut Surface<[u8; 4]>, d: &mut Surface<f32>, range: std::ops::Range<usize>, clear: bool| {
+            let mut t = Targets::color(c).with_depth(d);
+            if clear {
+                t = t.clearing_color([1, 2, 3, 4]).clearing_depth(1.0);
+            }
+            p.draw(
+                &mut t,
+                &state,
+                &verts,
+                &idx[range],
+                &penumbra::bench::ColoredClip,
+                &penumbra::bench::VaryingColor,
+            )
+            .unwrap()
+        };
+        let (mut c1, mut d1) = (
+            Surface::new(320, 180, [0u8; 4]).unwrap(),
+            Surface::new(320, 180, 0.0f32).unwrap(),
+        );
+        let whole = draw(&mut c1, &mut d1, 0..idx.len(), true);
+        let (mut c2, mut d2) = (
+            Surface::new(320, 180, [0u8; 4]).unwrap(),
+            Surface::new(320, 180, 0.0f32).unwrap(),
+        );
+        let a = draw(&mut c2, &mut d2, 0..3 * 70_000, true);
+        let b = draw(&mut c2, &mut d2, 3 * 70_000..idx.len(), false);
+        assert!(c1.data() == c2.data(), "{shading:?}: colour differs");
+        assert!(
+            d1.data().iter().zip(d2.data()).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{shading:?}"
+        );
+        assert_eq!(whole.fragments_passed, a.fragments_passed + b.fragments_passed);
+        assert_eq!(whole.triangles_in, 140_000);
+    }
+}
