@@ -132,6 +132,14 @@ pub struct Fragment<V> {
 }
 
 /// A fragment program: returns the colour, or `None` to discard.
+///
+/// A program must be a pure function of its fragment: with [`Shading::Deferred`] (the
+/// default) the pipeline runs it only for the fragments that stay visible, in an order of its
+/// choosing, so a side effect would see fewer and reordered calls (set
+/// [`Shading::Immediate`] to run it for every fragment that passes the depth test).
+///
+/// [`Shading::Deferred`]: super::state::Shading::Deferred
+/// [`Shading::Immediate`]: super::state::Shading::Immediate
 pub trait FragmentProgram<V>: Sync {
     /// Set to true when [`FragmentProgram::shade`] may return `None`; depth and stencil are
     /// then tested after the program (no early-z).
