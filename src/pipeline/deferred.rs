@@ -18,7 +18,7 @@
 //!
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
-use super::bin::{Chunk, TILE};
+use super::bin::{Chunk, PREFETCH_TRIS, TILE};
 use super::fragment::{depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
@@ -84,7 +84,11 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     // Pass 1: coverage, depth test and write, visibility buffer.
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
     for c in chunks {
-        for &ti in &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize] {
+        let list = &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
+        for (j, &ti) in list.iter().enumerate() {
+            if let Some(&next) = list.get(j + PREFETCH_TRIS) {
+                c.prefetch(next as usize);
+            }
             let tri = &c.tris[ti as usize];
             let attrs = c.attrs.get(tri.attr as usize);
             let k = slots.len() as u32;

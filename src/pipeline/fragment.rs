@@ -8,7 +8,7 @@
 //! tests before the program when the program cannot discard (so killed fragments are never
 //! shaded); the result is identical to the late path.
 
-use super::bin::Chunk;
+use super::bin::{Chunk, PREFETCH_TRIS};
 use super::lists::{ListNode, NONE};
 #[cfg(target_arch = "x86_64")]
 use super::raster::small_depth_fused;
@@ -525,7 +525,11 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
     for c in chunks {
-        for &ti in &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize] {
+        let list = &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
+        for (j, &ti) in list.iter().enumerate() {
+            if let Some(&next) = list.get(j + PREFETCH_TRIS) {
+                c.prefetch(next as usize);
+            }
             let tri = &c.tris[ti as usize];
             let attrs = c.attrs.get(tri.attr as usize);
             // Stages 5 and 6 fused for small triangles of depth-only passes.
