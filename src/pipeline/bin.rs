@@ -196,6 +196,55 @@ impl<V> Chunk<V> {
     }
 }
 
+/// The triangles of one tile with their shading attributes, in submission order (chunk by
+/// chunk, each chunk's tile list), prefetching [`PREFETCH_TRIS`] ahead within a chunk.
+pub(crate) struct TileTris<'a, V> {
+    chunks: &'a [Chunk<V>],
+    tile: usize,
+    /// Current chunk and its tile list `binned[j..end]`.
+    c: usize,
+    j: usize,
+    end: usize,
+}
+
+impl<'a, V> TileTris<'a, V> {
+    /// The walk over tile `tile` of `chunks`.
+    #[inline(always)]
+    pub(crate) fn new(chunks: &'a [Chunk<V>], tile: usize) -> Self {
+        let (j, end) = chunks
+            .first()
+            .map_or((0, 0), |c| (c.offsets[tile] as usize, c.offsets[tile + 1] as usize));
+        TileTris {
+            chunks,
+            tile,
+            c: 0,
+            j,
+            end,
+        }
+    }
+}
+
+impl<'a, V> Iterator for TileTris<'a, V> {
+    type Item = (&'a SetupTri, Option<&'a TriAttrs<V>>);
+    #[inline(always)]
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            if self.j < self.end {
+                let c = &self.chunks[self.c];
+                if self.j + PREFETCH_TRIS < self.end {
+                    c.prefetch(c.binned[self.j + PREFETCH_TRIS] as usize);
+                }
+                let tri = &c.tris[c.binned[self.j] as usize];
+                self.j += 1;
+                return Some((tri, c.attrs.get(tri.attr as usize)));
+            }
+            self.c += 1;
+            let c = self.chunks.get(self.c)?;
+            (self.j, self.end) = (c.offsets[self.tile] as usize, c.offsets[self.tile + 1] as usize);
+        }
+    }
+}
+
 /// True if no pixel centre of `rect` can pass all edges (conservative: may keep a tile that
 /// ends up empty, never drops a covered one).
 #[inline]

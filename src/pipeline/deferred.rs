@@ -18,7 +18,7 @@
 //!
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
-use super::bin::{Chunk, PREFETCH_TRIS, TILE};
+use super::bin::{Chunk, TileTris, TILE};
 use super::fragment::{depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
@@ -83,70 +83,62 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
 
     // Pass 1: coverage, depth test and write, visibility buffer.
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
-    for c in chunks {
-        let list = &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
-        for (j, &ti) in list.iter().enumerate() {
-            if let Some(&next) = list.get(j + PREFETCH_TRIS) {
-                c.prefetch(next as usize);
-            }
-            let tri = &c.tris[ti as usize];
-            let attrs = c.attrs.get(tri.attr as usize);
-            let k = slots.len() as u32;
-            let zp = tri.z.at_origin(ox as i64, oy as i64);
-            let zoff = tri.z_offset;
-            let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
-            let (emitted, passed) =
-                match small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, write, le, Some((idp, k))) {
-                    Some(r) => r,
-                    None => {
-                        let emitted = raster_tile(tri, rect, &mut cover);
-                        let mut passed = 0;
-                        if emitted > 0 {
-                            for (ly, lo, hi) in cover.spans() {
-                                // SAFETY: row `ly` of the tile, in the target and in the buffer.
-                                let row = unsafe { origin.add(ly as usize * depth.stride) };
-                                let idrow = unsafe { idp.add(ly as usize * TILE as usize) };
-                                if (hi | 3) < tw {
-                                    passed += depth_span_x4(row, lo, hi, zrow(ly), zp.dx, write, le, Some((idrow, k)));
-                                    continue;
-                                }
-                                // The tile's last, partial chunk of a row: one pixel at a time, with
-                                // the same formula.
-                                for x in lo..=hi {
-                                    let z = (zrow(ly) + zp.dx * x as f32).clamp(0.0, 1.0);
-                                    // SAFETY: x <= hi < tile width.
-                                    unsafe {
-                                        let d = row.add(x as usize);
-                                        if if le { z <= *d } else { z < *d } {
-                                            if write {
-                                                *d = z;
-                                            }
-                                            *idrow.add(x as usize) = k;
-                                            passed += 1;
+    for (tri, attrs) in TileTris::new(chunks, tile) {
+        let k = slots.len() as u32;
+        let zp = tri.z.at_origin(ox as i64, oy as i64);
+        let zoff = tri.z_offset;
+        let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
+        let (emitted, passed) =
+            match small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, write, le, Some((idp, k))) {
+                Some(r) => r,
+                None => {
+                    let emitted = raster_tile(tri, rect, &mut cover);
+                    let mut passed = 0;
+                    if emitted > 0 {
+                        for (ly, lo, hi) in cover.spans() {
+                            // SAFETY: row `ly` of the tile, in the target and in the buffer.
+                            let row = unsafe { origin.add(ly as usize * depth.stride) };
+                            let idrow = unsafe { idp.add(ly as usize * TILE as usize) };
+                            if (hi | 3) < tw {
+                                passed += depth_span_x4(row, lo, hi, zrow(ly), zp.dx, write, le, Some((idrow, k)));
+                                continue;
+                            }
+                            // The tile's last, partial chunk of a row: one pixel at a time, with
+                            // the same formula.
+                            for x in lo..=hi {
+                                let z = (zrow(ly) + zp.dx * x as f32).clamp(0.0, 1.0);
+                                // SAFETY: x <= hi < tile width.
+                                unsafe {
+                                    let d = row.add(x as usize);
+                                    if if le { z <= *d } else { z < *d } {
+                                        if write {
+                                            *d = z;
                                         }
+                                        *idrow.add(x as usize) = k;
+                                        passed += 1;
                                     }
                                 }
                             }
                         }
-                        (emitted, passed)
                     }
-                };
-            stats.fragments_rasterized += emitted;
-            stats.fragments_passed += passed;
-            stats.early_z_killed += emitted - passed;
-            passed_all += passed;
-            // A triangle that may show a pixel gets its shading planes now, while its data
-            // is at hand (pass 2 would wait for them); the others are never read.
-            let (persp, var) = match attrs {
-                Some(a) if passed > 0 => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
-                // Empty varyings: any value of V is the value.
-                _ => ([zp; 3], &no_vars),
+                    (emitted, passed)
+                }
             };
-            slots.push(Slot {
-                tri: WideTri { tri, persp, var, zp },
-                pending: Pending::default(),
-            });
-        }
+        stats.fragments_rasterized += emitted;
+        stats.fragments_passed += passed;
+        stats.early_z_killed += emitted - passed;
+        passed_all += passed;
+        // A triangle that may show a pixel gets its shading planes now, while its data
+        // is at hand (pass 2 would wait for them); the others are never read.
+        let (persp, var) = match attrs {
+            Some(a) if passed > 0 => (a.persp.map(|p| p.at_origin(ox as i64, oy as i64)), &a.var),
+            // Empty varyings: any value of V is the value.
+            _ => ([zp; 3], &no_vars),
+        };
+        slots.push(Slot {
+            tri: WideTri { tri, persp, var, zp },
+            pending: Pending::default(),
+        });
     }
     if passed_all == 0 {
         return;

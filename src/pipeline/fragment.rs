@@ -8,7 +8,7 @@
 //! tests before the program when the program cannot discard (so killed fragments are never
 //! shaded); the result is identical to the late path.
 
-use super::bin::{Chunk, PREFETCH_TRIS};
+use super::bin::{Chunk, TileTris};
 use super::lists::{ListNode, NONE};
 #[cfg(target_arch = "x86_64")]
 use super::raster::small_depth_fused;
@@ -524,267 +524,257 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     }
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
-    for c in chunks {
-        let list = &c.binned[c.offsets[tile] as usize..c.offsets[tile + 1] as usize];
-        for (j, &ti) in list.iter().enumerate() {
-            if let Some(&next) = list.get(j + PREFETCH_TRIS) {
-                c.prefetch(next as usize);
-            }
-            let tri = &c.tris[ti as usize];
-            let attrs = c.attrs.get(tri.attr as usize);
-            // Stages 5 and 6 fused for small triangles of depth-only passes.
-            #[cfg(target_arch = "x86_64")]
-            if fused_small {
-                let depth = targets.depth.as_ref().unwrap();
-                // SAFETY: the tile origin is inside the target.
-                let origin = unsafe { depth.ptr.add(oy as usize * depth.stride + ox as usize) };
-                let zp = tri.z.at_origin(ox as i64, oy as i64);
-                let zoff = tri.z_offset;
-                let le = state.depth.func == CompareFunc::LessEqual;
-                let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
-                if let Some((emitted, passed)) =
-                    small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, depth_write, le, None)
-                {
-                    stats.fragments_rasterized += emitted;
-                    stats.fragments_passed += passed;
-                    stats.early_z_killed += emitted - passed;
-                    continue;
-                }
-            }
-            // Stage 5: coverage mask of this triangle in this tile.
-            let emitted = raster_tile(tri, rect, &mut cover);
-            stats.fragments_rasterized += emitted;
-            if emitted == 0 {
-                continue;
-            }
+    for (tri, attrs) in TileTris::new(chunks, tile) {
+        // Stages 5 and 6 fused for small triangles of depth-only passes.
+        #[cfg(target_arch = "x86_64")]
+        if fused_small {
+            let depth = targets.depth.as_ref().unwrap();
+            // SAFETY: the tile origin is inside the target.
+            let origin = unsafe { depth.ptr.add(oy as usize * depth.stride + ox as usize) };
             let zp = tri.z.at_origin(ox as i64, oy as i64);
             let zoff = tri.z_offset;
-
-            // Fast path: depth-only spans.
-            if fast_depth {
-                let depth = targets.depth.as_ref().unwrap();
-                let mut passed = 0;
-                for (ly, lo, hi) in cover.spans() {
-                    let zrow = (zp.c + zp.dy * ly as f32) + zoff;
-                    // SAFETY: the row start is inside this worker's tile.
-                    let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
-                    let w = depth_write;
-                    #[cfg(target_arch = "x86_64")]
-                    if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
-                        let le = state.depth.func == CompareFunc::LessEqual;
-                        passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);
-                        continue;
-                    }
-                    passed += match state.depth.func {
-                        CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
-                        CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b),
-                        CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
-                        CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b),
-                        f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
-                    };
-                }
+            let le = state.depth.func == CompareFunc::LessEqual;
+            let zrow = |ly: i32| (zp.c + zp.dy * ly as f32) + zoff;
+            if let Some((emitted, passed)) =
+                small_depth_fused(tri, rect, origin, depth.stride, zrow, zp.dx, depth_write, le, None)
+            {
+                stats.fragments_rasterized += emitted;
                 stats.fragments_passed += passed;
                 stats.early_z_killed += emitted - passed;
                 continue;
             }
+        }
+        // Stage 5: coverage mask of this triangle in this tile.
+        let emitted = raster_tile(tri, rect, &mut cover);
+        stats.fragments_rasterized += emitted;
+        if emitted == 0 {
+            continue;
+        }
+        let zp = tri.z.at_origin(ox as i64, oy as i64);
+        let zoff = tri.z_offset;
 
-            // Fast path: stencil counting spans.
-            if let Some(deltas) = fast_stencil[tri.front as usize] {
-                let stencil = targets.stencil.as_ref().unwrap();
-                let mut passed = 0;
-                for (ly, lo, hi) in cover.spans() {
-                    let zrow = (zp.c + zp.dy * ly as f32) + zoff;
-                    // SAFETY: the row starts are inside this worker's tile.
-                    let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
-                    passed += match targets.depth.as_ref().filter(|_| depth_test) {
-                        Some(depth) => {
-                            let drow = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
-                            match state.depth.func {
-                                CompareFunc::Less => {
-                                    stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a < b)
-                                }
-                                CompareFunc::LessEqual => {
-                                    stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a <= b)
-                                }
-                                f => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| f.test(a, b)),
-                            }
-                        }
-                        None => {
-                            // No depth test: every fragment passes.
-                            for x in lo..=hi {
-                                let p = unsafe { srow.add(x as usize) };
-                                unsafe { *p = (*p).wrapping_add(deltas.0) };
-                            }
-                            (hi - lo + 1) as u64
-                        }
-                    };
+        // Fast path: depth-only spans.
+        if fast_depth {
+            let depth = targets.depth.as_ref().unwrap();
+            let mut passed = 0;
+            for (ly, lo, hi) in cover.spans() {
+                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+                // SAFETY: the row start is inside this worker's tile.
+                let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
+                let w = depth_write;
+                #[cfg(target_arch = "x86_64")]
+                if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
+                    let le = state.depth.func == CompareFunc::LessEqual;
+                    passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);
+                    continue;
                 }
-                stats.fragments_passed += passed;
-                stats.early_z_killed += emitted - passed;
-                continue;
-            }
-
-            let (persp, var) = match attrs {
-                Some(a) if needs_shading => (
-                    [
-                        a.persp[0].at_origin(ox as i64, oy as i64),
-                        a.persp[1].at_origin(ox as i64, oy as i64),
-                        a.persp[2].at_origin(ox as i64, oy as i64),
-                    ],
-                    a.var,
-                ),
-                // Empty varyings: any value of V is the value.
-                _ => ([zp; 3], [V::default(); 3]),
-            };
-            // Four pixels at a time when nothing per pixel is serial (see `wide`).
-            // (A shaded draw keeps attributes unless it has no varyings, so `var` is right.)
-            if wide {
-                let t = WideTri {
-                    tri,
-                    persp,
-                    var: &var,
-                    zp,
+                passed += match state.depth.func {
+                    CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
+                    CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b),
+                    CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
+                    CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b),
+                    f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
                 };
-                for (ly, lo, hi) in cover.spans() {
-                    shade_row4(
-                        &t,
-                        (ox, oy),
-                        (ly, lo, hi),
-                        tw as u32,
-                        &wide_state,
-                        targets,
-                        program,
-                        stats,
-                    );
-                }
-                continue;
             }
-            let face = if tri.front { st.front } else { st.back };
-            // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
-            for (lyi, lo, hi) in cover.spans() {
-                let (lo, hi) = (lo as i32, hi as i32);
-                let y = oy + lyi;
-                let ly = lyi as f32;
-                let zrow = (zp.c + zp.dy * ly) + zoff;
-                for lxi in lo..=hi {
-                    let x = ox + lxi;
-                    let lx = lxi as f32;
-                    let z = fmt.quantize((zrow + zp.dx * lx).clamp(0.0, 1.0));
-                    // Applies a stencil op under the write mask.
-                    let write_stencil = |op: super::state::StencilOp, sval: u8| {
-                        let nv = op.apply(sval, st.reference);
-                        // SAFETY: (x, y) is inside this worker's tile.
-                        unsafe {
-                            targets
-                                .stencil
-                                .as_ref()
-                                .unwrap()
-                                .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
-                        };
-                    };
-                    let shade = |stats: &mut DrawStats| -> Option<Vec4> {
-                        stats.fragments_shaded += 1;
-                        let var = if V::EMPTY {
-                            var[0]
-                        } else {
-                            let w = 1.0 / persp[0].at(lx, ly);
-                            let b1 = persp[1].at(lx, ly) * w;
-                            let b2 = persp[2].at(lx, ly) * w;
-                            V::combine(&var[0], &var[1], &var[2], [1.0 - b1 - b2, b1, b2])
-                        };
-                        program.shade(&Fragment {
-                            x: x as u32,
-                            y: y as u32,
-                            z,
-                            var,
-                            front: tri.front,
-                            prim: tri.prim,
-                        })
-                    };
-                    // Late path: the program runs first and may discard.
-                    let mut color = None;
-                    if P::MAY_DISCARD {
-                        color = shade(stats);
-                        if color.is_none() {
-                            stats.fragments_discarded += 1;
-                            continue;
-                        }
-                    }
-                    // Stencil test.
-                    let mut sval = 0u8;
-                    if stencil_on {
-                        // SAFETY: (x, y) is inside this worker's tile.
-                        sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
-                        let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
-                        if !pass {
-                            stats.stencil_failed += 1;
-                            write_stencil(face.fail, sval);
-                            continue;
-                        }
-                    }
-                    // Depth test.
-                    if depth_test {
-                        let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
-                        if !state.depth.func.test(z, d) {
-                            if stencil_on {
-                                write_stencil(face.depth_fail, sval);
+            stats.fragments_passed += passed;
+            stats.early_z_killed += emitted - passed;
+            continue;
+        }
+
+        // Fast path: stencil counting spans.
+        if let Some(deltas) = fast_stencil[tri.front as usize] {
+            let stencil = targets.stencil.as_ref().unwrap();
+            let mut passed = 0;
+            for (ly, lo, hi) in cover.spans() {
+                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+                // SAFETY: the row starts are inside this worker's tile.
+                let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
+                passed += match targets.depth.as_ref().filter(|_| depth_test) {
+                    Some(depth) => {
+                        let drow = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
+                        match state.depth.func {
+                            CompareFunc::Less => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a < b),
+                            CompareFunc::LessEqual => {
+                                stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a <= b)
                             }
-                            if P::MAY_DISCARD {
-                                stats.depth_failed += 1;
-                            } else {
-                                stats.early_z_killed += 1;
-                            }
-                            continue;
+                            f => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| f.test(a, b)),
                         }
                     }
-                    if stencil_on {
-                        write_stencil(face.pass, sval);
+                    None => {
+                        // No depth test: every fragment passes.
+                        for x in lo..=hi {
+                            let p = unsafe { srow.add(x as usize) };
+                            unsafe { *p = (*p).wrapping_add(deltas.0) };
+                        }
+                        (hi - lo + 1) as u64
                     }
-                    if depth_write {
-                        unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };
-                    }
-                    stats.fragments_passed += 1;
-                    if !needs_shading {
-                        continue;
-                    }
-                    // Early path: the program runs after the tests.
-                    if !P::MAY_DISCARD {
-                        color = shade(stats);
-                    }
-                    let Some(src) = color else {
+                };
+            }
+            stats.fragments_passed += passed;
+            stats.early_z_killed += emitted - passed;
+            continue;
+        }
+
+        let (persp, var) = match attrs {
+            Some(a) if needs_shading => (
+                [
+                    a.persp[0].at_origin(ox as i64, oy as i64),
+                    a.persp[1].at_origin(ox as i64, oy as i64),
+                    a.persp[2].at_origin(ox as i64, oy as i64),
+                ],
+                a.var,
+            ),
+            // Empty varyings: any value of V is the value.
+            _ => ([zp; 3], [V::default(); 3]),
+        };
+        // Four pixels at a time when nothing per pixel is serial (see `wide`).
+        // (A shaded draw keeps attributes unless it has no varyings, so `var` is right.)
+        if wide {
+            let t = WideTri {
+                tri,
+                persp,
+                var: &var,
+                zp,
+            };
+            for (ly, lo, hi) in cover.spans() {
+                shade_row4(
+                    &t,
+                    (ox, oy),
+                    (ly, lo, hi),
+                    tw as u32,
+                    &wide_state,
+                    targets,
+                    program,
+                    stats,
+                );
+            }
+            continue;
+        }
+        let face = if tri.front { st.front } else { st.back };
+        // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
+        for (lyi, lo, hi) in cover.spans() {
+            let (lo, hi) = (lo as i32, hi as i32);
+            let y = oy + lyi;
+            let ly = lyi as f32;
+            let zrow = (zp.c + zp.dy * ly) + zoff;
+            for lxi in lo..=hi {
+                let x = ox + lxi;
+                let lx = lxi as f32;
+                let z = fmt.quantize((zrow + zp.dx * lx).clamp(0.0, 1.0));
+                // Applies a stencil op under the write mask.
+                let write_stencil = |op: super::state::StencilOp, sval: u8| {
+                    let nv = op.apply(sval, st.reference);
+                    // SAFETY: (x, y) is inside this worker's tile.
+                    unsafe {
+                        targets
+                            .stencil
+                            .as_ref()
+                            .unwrap()
+                            .set(x, y, (sval & !st.write_mask) | (nv & st.write_mask))
+                    };
+                };
+                let shade = |stats: &mut DrawStats| -> Option<Vec4> {
+                    stats.fragments_shaded += 1;
+                    let var = if V::EMPTY {
+                        var[0]
+                    } else {
+                        let w = 1.0 / persp[0].at(lx, ly);
+                        let b1 = persp[1].at(lx, ly) * w;
+                        let b2 = persp[2].at(lx, ly) * w;
+                        V::combine(&var[0], &var[1], &var[2], [1.0 - b1 - b2, b1, b2])
+                    };
+                    program.shade(&Fragment {
+                        x: x as u32,
+                        y: y as u32,
+                        z,
+                        var,
+                        front: tri.front,
+                        prim: tri.prim,
+                    })
+                };
+                // Late path: the program runs first and may discard.
+                let mut color = None;
+                if P::MAY_DISCARD {
+                    color = shade(stats);
+                    if color.is_none() {
                         stats.fragments_discarded += 1;
                         continue;
+                    }
+                }
+                // Stencil test.
+                let mut sval = 0u8;
+                if stencil_on {
+                    // SAFETY: (x, y) is inside this worker's tile.
+                    sval = unsafe { targets.stencil.as_ref().unwrap().get(x, y) };
+                    let pass = face.func.test(st.reference & st.read_mask, sval & st.read_mask);
+                    if !pass {
+                        stats.stencil_failed += 1;
+                        write_stencil(face.fail, sval);
+                        continue;
+                    }
+                }
+                // Depth test.
+                if depth_test {
+                    let d = unsafe { targets.depth.as_ref().unwrap().get(x, y) };
+                    if !state.depth.func.test(z, d) {
+                        if stencil_on {
+                            write_stencil(face.depth_fail, sval);
+                        }
+                        if P::MAY_DISCARD {
+                            stats.depth_failed += 1;
+                        } else {
+                            stats.early_z_killed += 1;
+                        }
+                        continue;
+                    }
+                }
+                if stencil_on {
+                    write_stencil(face.pass, sval);
+                }
+                if depth_write {
+                    unsafe { targets.depth.as_ref().unwrap().set(x, y, z) };
+                }
+                stats.fragments_passed += 1;
+                if !needs_shading {
+                    continue;
+                }
+                // Early path: the program runs after the tests.
+                if !P::MAY_DISCARD {
+                    color = shade(stats);
+                }
+                let Some(src) = color else {
+                    stats.fragments_discarded += 1;
+                    continue;
+                };
+                if let Some(ct) = targets.color.as_ref() {
+                    let out = if state.blend == super::state::BlendMode::Replace && full_mask {
+                        src
+                    } else {
+                        blend_masked(state.blend, mask, src, unsafe { ct.get(x, y) }.to_vec4())
                     };
-                    if let Some(ct) = targets.color.as_ref() {
-                        let out = if state.blend == super::state::BlendMode::Replace && full_mask {
-                            src
-                        } else {
-                            blend_masked(state.blend, mask, src, unsafe { ct.get(x, y) }.to_vec4())
-                        };
-                        unsafe { ct.set(x, y, C::from_vec4(out)) };
+                    unsafe { ct.set(x, y, C::from_vec4(out)) };
+                }
+                if targets.lists {
+                    if lists.nodes.len() >= targets.list_capacity {
+                        lists.overflow += 1;
+                        continue;
                     }
-                    if targets.lists {
-                        if lists.nodes.len() >= targets.list_capacity {
-                            lists.overflow += 1;
-                            continue;
-                        }
-                        let idx = lists.nodes.len() as u32;
-                        lists.nodes.push(ListNode {
-                            depth: z,
-                            value: src,
-                            prim: tri.prim,
-                            draw: 0,
-                            next: NONE,
-                        });
-                        let li = (y - oy) as usize * tw + (x - ox) as usize;
-                        if lists.head[li] == NONE {
-                            lists.head[li] = idx;
-                        } else {
-                            lists.nodes[lists.tail[li] as usize].next = idx;
-                        }
-                        lists.tail[li] = idx;
-                        stats.list_nodes += 1;
+                    let idx = lists.nodes.len() as u32;
+                    lists.nodes.push(ListNode {
+                        depth: z,
+                        value: src,
+                        prim: tri.prim,
+                        draw: 0,
+                        next: NONE,
+                    });
+                    let li = (y - oy) as usize * tw + (x - ox) as usize;
+                    if lists.head[li] == NONE {
+                        lists.head[li] = idx;
+                    } else {
+                        lists.nodes[lists.tail[li] as usize].next = idx;
                     }
+                    lists.tail[li] = idx;
+                    stats.list_nodes += 1;
                 }
             }
         }
