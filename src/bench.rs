@@ -223,10 +223,8 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
     #[inline(always)]
     fn prefetch4(&self, f: &Fragment4<(Vec3, Vec3, Vec3)>) {
         if self.mode == FrameMode::Pcf2 {
-            let [a, b, c] = f.verts;
-            let l = f.interpolate3(a.1, b.1, c.1);
-            let half = Vec4::splat(0.5);
-            CompareSampler::prefetch2x2_4(self.map, l.x * half + half, half - l.y * half);
+            let (u, v, _) = map_coords4(f);
+            CompareSampler::prefetch2x2_4(self.map, u, v);
         }
     }
 
@@ -235,14 +233,12 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
     fn shade4(&self, f: &Fragment4<(Vec3, Vec3, Vec3)>) -> Color4 {
         let [a, b, c] = f.verts;
         let n = f.interpolate3(a.0, b.0, c.0);
-        let l = f.interpolate3(a.1, b.1, c.1);
         let albedo = f.interpolate3(a.2, b.2, c.2);
         let ndl = n.normalize_or_zero().dot(self.to_light).max(Vec4::ZERO);
-        let half = Vec4::splat(0.5);
-        let (u, v) = (l.x * half + half, half - l.y * half);
+        let (u, v, z) = map_coords4(f);
         let shadow = match self.mode {
-            FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, l.z, 5),
-            _ => self.sampler.pcf2x2_4(self.map, u, v, l.z),
+            FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, z, 5),
+            _ => self.sampler.pcf2x2_4(self.map, u, v, z),
         };
         let k = Vec4::splat(0.15) + Vec4::splat(0.85) * ndl * shadow;
         let rgb = albedo.scale(k);
@@ -253,6 +249,17 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
             a: Vec4::ONE,
         }
     }
+}
+
+/// Shadow-map coordinates and reference depth of four lanes of the frame's camera pass: the
+/// light-space position (second varying) as `(x * 0.5 + 0.5, 0.5 - y * 0.5, z)`, as `shade`
+/// computes them.
+#[inline(always)]
+fn map_coords4(f: &Fragment4<(Vec3, Vec3, Vec3)>) -> (Vec4, Vec4, Vec4) {
+    let [a, b, c] = f.verts;
+    let l = f.interpolate3(a.1, b.1, c.1);
+    let half = Vec4::splat(0.5);
+    (l.x * half + half, half - l.y * half, l.z)
 }
 
 /// The render targets of one spheres frame, reused across repetitions.

@@ -4,9 +4,12 @@
 //! For a tile (and one batch of the draw), pass 1 runs coverage and the depth test of every
 //! triangle in submission order, as a depth-only pass does (the fused small-triangle path and
 //! four-pixel spans), and records in a tile-sized visibility buffer which triangle last wrote
-//! each pixel. Pass 2 walks the buffer in aligned groups of four pixels of a row and runs the
-//! program once per pixel that stays visible, four lanes at a time
-//! ([`FragmentProgram::shade4`]) for the lanes that show the same triangle.
+//! each pixel; while a passing triangle's data is in cache, its shading planes are re-based at
+//! the tile. Pass 2 walks the buffer in aligned groups of four pixels of a row and runs the
+//! program ([`FragmentProgram::shade4`]) once per pixel that stays visible: a group that shows
+//! one triangle is shaded as a run, a triangle's other pixels wait in its slot until four of
+//! them fill a group (or the tile ends). Programs that [`FragmentProgram::PREFETCHES`] get
+//! [`FragmentProgram::prefetch4`] a few groups before each group is shaded.
 //!
 //! The result equals shading immediately ([`Shading::Immediate`]) bit for bit when the final
 //! colour of a pixel is the colour of the last fragment that passed its depth test: blending
@@ -19,11 +22,11 @@
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
 use super::bin::{Chunk, TileTris, TILE};
-use super::fragment::{depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
+use super::fragment::{depth_span, depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
 use super::vertex::Varyings;
-use super::wide::{clamp01, fragment4, shade_fragment4, Fragment4, WideState, WideTri};
+use super::wide::{fragment4, shade_fragment4, Fragment4, WideState, WideTri};
 use super::DrawStats;
 use glam::Vec4;
 
@@ -38,12 +41,11 @@ const PIXELS: usize = (TILE * TILE) as usize;
 
 /// True when `state` and the targets let the draw be shaded deferred with the same result
 /// (see [`Shading::Deferred`]); `wide` says the four-pixel path already applies (a colour
-/// target, no stencil, no lists, no discard).
+/// target, no stencil, no lists, no discard). The path exists on x86-64 only (its pass 1 is
+/// the SSE4.1 depth path); elsewhere every draw shades immediately.
 #[inline]
 pub(crate) fn applies<C>(state: &RenderState, targets: &RawTargets<C>, wide: bool) -> bool {
-    cfg!(target_arch = "x86_64")
-        && wide
-        && state.shading == Shading::Deferred
+    wide && state.shading == Shading::Deferred
         && state.blend == BlendMode::Replace
         && targets.depth.is_some()
         && state.depth.format == DepthFormat::F32
@@ -99,26 +101,15 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                             // SAFETY: row `ly` of the tile, in the target and in the buffer.
                             let row = unsafe { origin.add(ly as usize * depth.stride) };
                             let idrow = unsafe { idp.add(ly as usize * TILE as usize) };
-                            if (hi | 3) < tw {
-                                passed += depth_span_x4(row, lo, hi, zrow(ly), zp.dx, write, le, Some((idrow, k)));
-                                continue;
-                            }
-                            // The tile's last, partial chunk of a row: one pixel at a time, with
-                            // the same formula.
-                            for x in lo..=hi {
-                                let z = (zrow(ly) + zp.dx * x as f32).clamp(0.0, 1.0);
-                                // SAFETY: x <= hi < tile width.
-                                unsafe {
-                                    let d = row.add(x as usize);
-                                    if if le { z <= *d } else { z < *d } {
-                                        if write {
-                                            *d = z;
-                                        }
-                                        *idrow.add(x as usize) = k;
-                                        passed += 1;
-                                    }
-                                }
-                            }
+                            let ids = Some((idrow, k));
+                            passed += if (hi | 3) < tw {
+                                depth_span_x4(row, lo, hi, zrow(ly), zp.dx, write, le, ids)
+                            } else if le {
+                                // The tile's last, partial chunk of a row: one pixel at a time.
+                                depth_span(row, lo, hi, zrow(ly), zp.dx, write, |a, b| a <= b, ids)
+                            } else {
+                                depth_span(row, lo, hi, zrow(ly), zp.dx, write, |a, b| a < b, ids)
+                            };
                         }
                     }
                     (emitted, passed)
@@ -170,11 +161,9 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                 let Slot { tri: t, pending } = &mut slots[k as usize];
                 let c = 4 * g as u32;
                 if lanes == 0xf {
-                    let lx = Vec4::splat(c as f32) + ramp;
-                    let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
-                    let z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
+                    let (lx, ly) = (Vec4::splat(c as f32) + ramp, Vec4::splat(lyf));
                     let xs = std::array::from_fn(|i| ox as u32 + c + i as u32);
-                    queue.push(fragment4(t, (xs, [y; 4]), (lx, Vec4::splat(lyf)), z, 0xf), stats);
+                    queue.push(fragment4(t, (xs, [y; 4]), (lx, ly), t.depth4(lx, ly), 0xf), stats);
                     continue;
                 }
                 let mut bits = lanes;
@@ -220,9 +209,7 @@ impl Pending {
         let lane = |i: usize| if i < self.n as usize { i } else { 0 };
         let lx = Vec4::from_array(std::array::from_fn(|i| self.x[lane(i)] as f32));
         let ly = Vec4::from_array(std::array::from_fn(|i| self.y[lane(i)] as f32));
-        // The depth formula of every path, lane by lane: ((c + dy * ly) + offset) + dx * lx.
-        let zrow = (Vec4::splat(t.zp.c) + Vec4::splat(t.zp.dy) * ly) + Vec4::splat(t.tri.z_offset);
-        let z = clamp01(zrow + Vec4::splat(t.zp.dx) * lx);
+        let z = t.depth4(lx, ly);
         let xs = std::array::from_fn(|i| (ox + self.x[lane(i)] as i32) as u32);
         let ys = std::array::from_fn(|i| (oy + self.y[lane(i)] as i32) as u32);
         fragment4(t, (xs, ys), (lx, ly), z, ((1u32 << self.n) - 1) as u8)

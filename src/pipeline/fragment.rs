@@ -377,10 +377,7 @@ pub(crate) fn depth_span_x4(
                 _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
             }
             if let Some((ip, k)) = ids {
-                let ip = ip.add(c as usize) as *mut __m128i;
-                let old = _mm_castsi128_ps(_mm_loadu_si128(ip));
-                let new = _mm_blendv_ps(old, _mm_castsi128_ps(_mm_set1_epi32(k as i32)), t);
-                _mm_storeu_si128(ip, _mm_castps_si128(new));
+                super::raster::store_ids4(ip.add(c as usize), k, t);
             }
             (_mm_movemask_ps(t) as u32).count_ones()
         };
@@ -404,9 +401,11 @@ pub(crate) fn depth_span_x4(
 }
 
 /// Depth-only span: the common shadow-map case (no stencil, no program, float depth).
-/// Returns the number of fragments that passed.
+/// Returns the number of fragments that passed. With `ids = Some((p, k))` (the deferred
+/// path's visibility buffer, as in [`depth_span_x4`]), `k` is written where a pixel passes.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn depth_span(
+pub(crate) fn depth_span(
     row: *mut f32,
     lo: u32,
     hi: u32,
@@ -414,6 +413,7 @@ fn depth_span(
     dzdx: f32,
     write: bool,
     test: impl Fn(f32, f32) -> bool,
+    ids: Option<(*mut u32, u32)>,
 ) -> u64 {
     // SAFETY: `row` points at this worker's tile row and lo <= hi < TILE.
     let span = unsafe { std::slice::from_raw_parts_mut(row.add(lo as usize), (hi - lo + 1) as usize) };
@@ -424,6 +424,10 @@ fn depth_span(
         let t = test(z, *d);
         passed += t as u32;
         *d = if t & write { z } else { *d };
+        if let (Some((ip, k)), true) = (ids, t) {
+            // SAFETY: the buffer's row has a slot for every pixel of the tile row.
+            unsafe { *ip.add(lo as usize + i) = k };
+        }
     }
     passed as u64
 }
@@ -569,11 +573,11 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     continue;
                 }
                 passed += match state.depth.func {
-                    CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b),
-                    CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b),
-                    CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b),
-                    CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b),
-                    f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b)),
+                    CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b, None),
+                    CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b, None),
+                    CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b, None),
+                    CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b, None),
+                    f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b), None),
                 };
             }
             stats.fragments_passed += passed;

@@ -240,10 +240,7 @@ pub(crate) fn small_depth_fused(
                     _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
                 }
                 if let Some((ip, k)) = ids {
-                    let ip = ip.add((y - oy) as usize * TILE as usize + lx0 as usize + 4 * c) as *mut __m128i;
-                    let old = _mm_castsi128_ps(_mm_loadu_si128(ip));
-                    let new = _mm_blendv_ps(old, _mm_castsi128_ps(_mm_set1_epi32(k as i32)), t);
-                    _mm_storeu_si128(ip, _mm_castps_si128(new));
+                    store_ids4(ip.add((y - oy) as usize * TILE as usize + lx0 as usize + 4 * c), k, t);
                 }
                 e0 = _mm_add_epi32(e0, step[0]);
                 e1 = _mm_add_epi32(e1, step[1]);
@@ -253,6 +250,21 @@ pub(crate) fn small_depth_fused(
         }
         Some((covered as u64, passed as u64))
     }
+}
+
+/// Writes id `k` to the lanes of `p[0..4]` (a visibility buffer) that `mask` (all-ones or
+/// all-zeros lanes) selects; the other lanes keep their ids.
+///
+/// # Safety
+/// `p .. p + 4` is readable and writable; SSE4.1 is in the build's target.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn store_ids4(p: *mut u32, k: u32, mask: std::arch::x86_64::__m128) {
+    use std::arch::x86_64::*;
+    let p = p as *mut __m128i;
+    let old = _mm_castsi128_ps(_mm_loadu_si128(p));
+    let new = _mm_blendv_ps(old, _mm_castsi128_ps(_mm_set1_epi32(k as i32)), mask);
+    _mm_storeu_si128(p, _mm_castps_si128(new));
 }
 
 /// Bits `a..=b` set.

@@ -290,6 +290,17 @@ pub(crate) struct WideTri<'a, V> {
     pub zp: TilePlane,
 }
 
+impl<V> WideTri<'_, V> {
+    /// Depth of the lanes at tile-local columns `lx` and rows `ly`, by the formula of every
+    /// path, lane by lane: `clamp(((c + dz/dy * ly) + offset) + dz/dx * lx, 0, 1)` (float depth;
+    /// other formats quantize after).
+    #[inline(always)]
+    pub fn depth4(&self, lx: Vec4, ly: Vec4) -> Vec4 {
+        let zrow = (Vec4::splat(self.zp.c) + Vec4::splat(self.zp.dy) * ly) + Vec4::splat(self.tri.z_offset);
+        clamp01(zrow + Vec4::splat(self.zp.dx) * lx)
+    }
+}
+
 /// What [`shade_row4`] needs of the render state, derived once per tile.
 pub(crate) struct WideState {
     func: CompareFunc,
@@ -335,7 +346,6 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let (ox, oy) = origin;
     let y = oy + ly;
     let lyf = ly as f32;
-    let zrow = (t.zp.c + t.zp.dy * lyf) + t.tri.z_offset;
     let depth = targets.depth.as_ref();
     let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
     let mut c = lo;
@@ -344,7 +354,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         let live = ((1u32 << n) - 1) as u8;
         let lx = Vec4::splat(c as f32) + ramp;
         let x0 = ox + c as i32;
-        let mut z = clamp01(Vec4::splat(zrow) + Vec4::splat(t.zp.dx) * lx);
+        let mut z = t.depth4(lx, Vec4::splat(lyf));
         if st.fmt != DepthFormat::F32 {
             z = Vec4::from_array(z.to_array().map(|v| st.fmt.quantize(v)));
         }
@@ -383,31 +393,12 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         stats.early_z_killed += n as u64 - np;
         if pass != 0 {
             stats.fragments_passed += np;
-            shade_lanes(t, (x0, y), lx, lyf, z, pass, st, targets, program, stats);
+            let xs = std::array::from_fn(|i| (x0 + i as i32) as u32);
+            let frag = fragment4(t, (xs, [y as u32; 4]), (lx, Vec4::splat(lyf)), z, pass);
+            shade_fragment4(&frag, st, targets, program, stats);
         }
         c += 4;
     }
-}
-
-/// Shades and stores the lanes `pass` (non-empty) of pixels `x0 .. x0 + 4` of row `y` of
-/// triangle `t` (see [`fragment4`]; `lx` the lanes' tile-local columns, `lyf` the row).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(crate) fn shade_lanes<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
-    t: &WideTri<V>,
-    (x0, y): (i32, i32),
-    lx: Vec4,
-    lyf: f32,
-    z: Vec4,
-    pass: u8,
-    st: &WideState,
-    targets: &RawTargets<C>,
-    program: &P,
-    stats: &mut DrawStats,
-) {
-    let xs = std::array::from_fn(|i| (x0 + i as i32) as u32);
-    let frag = fragment4(t, (xs, [y as u32; 4]), (lx, Vec4::splat(lyf)), z, pass);
-    shade_fragment4(&frag, st, targets, program, stats);
 }
 
 /// The lanes `pass` (non-empty) of triangle `t` at pixels (`x[i]`, `y[i]`) as a
