@@ -1145,11 +1145,14 @@ proptest! {
         for t in 0..n {
             let (cx, cy) = (rng.next_f32() * 2.6 - 1.3, rng.next_f32() * 2.6 - 1.3);
             let r = if big || t % 5 == 0 { 1.2 } else { 0.08 };
-            // Every fourth triangle repeats the previous one's depth (coplanar ties).
-            let z = if t % 4 == 3 { verts.last().map_or(0.5, |v: &(Vec4, Vec4)| v.0.z / v.0.w) } else { rng.next_f32() };
+            // Every fourth triangle is flat at the previous vertex's depth (ties); the others
+            // slope in depth.
+            let tie = t % 4 == 3;
+            let z = if tie { verts.last().map_or(0.5, |v: &(Vec4, Vec4)| v.0.z / v.0.w) } else { rng.next_f32() * 0.9 };
             for _ in 0..3 {
                 let w = 0.5 + 2.0 * rng.next_f32();
-                let p = Vec4::new(cx + r * (rng.next_f32() * 2.0 - 1.0), cy + r * (rng.next_f32() * 2.0 - 1.0), z, 1.0);
+                let zv = if tie { z } else { z + 0.1 * rng.next_f32() };
+                let p = Vec4::new(cx + r * (rng.next_f32() * 2.0 - 1.0), cy + r * (rng.next_f32() * 2.0 - 1.0), zv, 1.0);
                 let col = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), 1.0);
                 verts.push((Vec4::new(p.x * w, p.y * w, p.z * w, w), col));
             }
