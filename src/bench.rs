@@ -512,3 +512,70 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
         camera_path: vec![],
     }
 }
+
+/// Writes a workload for another renderer to run identically (the llvmpipe comparison,
+/// `tools/llvmpipe_bench.py`): `dir/vertices.f32` (little-endian `f32`, `floats_per_vertex`
+/// per vertex), `dir/indices.u32` (little-endian, three per triangle) and `dir/workload.json`
+/// (`meta`, a JSON object that names the layout, targets and matrices).
+pub fn export_workload(dir: &std::path::Path, vertices: &[f32], indices: &[u32], meta: &str) -> Result<(), String> {
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    write(
+        "vertices.f32",
+        &vertices.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>(),
+    )?;
+    write(
+        "indices.u32",
+        &indices.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>(),
+    )?;
+    write("workload.json", meta.as_bytes())
+}
+
+/// The spheres frame as an [`export_workload`] (position, normal, albedo per vertex; the
+/// matrices column-major, as OpenGL takes them).
+pub fn export_frame(
+    dir: &std::path::Path,
+    mesh: &BenchMesh,
+    setup: &FrameSetup,
+    mode: FrameMode,
+    map: u32,
+    (width, height): (u32, u32),
+) -> Result<(), String> {
+    let verts: Vec<f32> = mesh
+        .vertices
+        .iter()
+        .flat_map(|v| [v.pos.to_array(), v.normal.to_array(), v.albedo.to_array()].concat())
+        .collect();
+    let list = |v: &[f32]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
+    let meta = format!(
+        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[1.1,4.0],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[13,13,20,255]}}\n",
+        format!("{mode:?}").to_lowercase(),
+        list(&setup.light_vp.to_cols_array()),
+        list(&setup.camera_vp.to_cols_array()),
+        list(&setup.to_light.to_array()),
+    );
+    export_workload(dir, &verts, &mesh.indices, &meta)
+}
+
+/// The random-triangle workload as an [`export_workload`] (clip position and colour per
+/// vertex, `Vec4` each).
+pub fn export_raster(
+    dir: &std::path::Path,
+    verts: &[(Vec4, Vec4)],
+    indices: &[u32],
+    color: bool,
+    (width, height): (u32, u32),
+) -> Result<(), String> {
+    let floats: Vec<f32> = verts
+        .iter()
+        .flat_map(|(p, c)| [p.to_array(), c.to_array()].concat())
+        .collect();
+    let meta = format!(
+        "{{\"kind\":\"raster\",\"floats_per_vertex\":8,\"mode\":\"{}\",\"width\":{width},\"height\":{height}}}\n",
+        if color { "color" } else { "depth" }
+    );
+    export_workload(dir, &floats, indices, &meta)
+}

@@ -160,6 +160,10 @@ struct FrameArgs {
     /// deferred (hidden surface removal before shading) | immediate
     #[arg(long, default_value = "deferred")]
     shading: Shading,
+    /// Also write the workload (mesh, matrices) into this folder for another renderer
+    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
+    #[arg(long)]
+    export: Option<PathBuf>,
     #[command(flatten)]
     common: Common,
 }
@@ -190,6 +194,10 @@ struct RasterArgs {
     /// deferred (hidden surface removal before shading) | immediate
     #[arg(long, default_value = "deferred")]
     shading: Shading,
+    /// Also write the workload (triangles) into this folder for another renderer
+    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
+    #[arg(long)]
+    export: Option<PathBuf>,
     #[command(flatten)]
     common: Common,
 }
@@ -267,6 +275,10 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
         ..frame_setup(&mesh, a.width, a.height)
     };
     let mut t = FrameTargets::new(a.map, a.width, a.height).map_err(|e| e.to_string())?;
+    if let Some(dir) = &a.export {
+        export_frame(dir, &mesh, &setup, a.mode, a.map, (a.width, a.height))?;
+        println!("wrote the workload into {}", dir.display());
+    }
     let (stacks, slices) = sphere_tessellation(a.triangles);
     println!(
         "spheres frame: {} triangles (spheres {stacks} stacks x {slices} slices), map {}x{}, image {}x{}, mode {:?}, {} threads",
@@ -356,6 +368,10 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let (w, h) = (1920, 1080);
     let (verts, idx) = random_triangles(a.triangles, a.area, w, h, 1);
+    if let Some(dir) = &a.export {
+        export_raster(dir, &verts, &idx, color_mode, (w, h))?;
+        println!("wrote the workload into {}", dir.display());
+    }
     let mut color = Surface::new(w, h, [0u8; 4]).map_err(|e| e.to_string())?;
     let mut depth = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
     let state = RenderState {
