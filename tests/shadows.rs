@@ -644,3 +644,94 @@ fn cookies_cannot_self_shadow_and_shadow_backwards() {
     let e = t.visibility(&p, &f).err().unwrap();
     assert!(e.contains("'nope'") && e.contains("shelf"), "{e}");
 }
+
+/// `bench frame --export` and `bench raster --export` write the workload another renderer
+/// runs (tools/llvmpipe_bench.py): vertex and index files of the right sizes, and the layout,
+/// matrices and targets in workload.json; an unwritable folder is a clear error.
+#[test]
+fn bench_export_writes_the_workload() {
+    let dir = std::env::temp_dir().join(format!("penumbra-export-{}", std::process::id()));
+    let frame = dir.join("frame");
+    let (ok, text) = cli(&[
+        "bench",
+        "frame",
+        "--triangles",
+        "2000",
+        "--map",
+        "128",
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--reps",
+        "1",
+        "--threads",
+        "1",
+        "--export",
+        frame.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let mesh = penumbra::bench::spheres_scene(2000);
+    let len = |name: &str| std::fs::metadata(frame.join(name)).unwrap().len() as usize;
+    assert_eq!(len("vertices.f32"), mesh.vertices.len() * 9 * 4);
+    assert_eq!(len("indices.u32"), mesh.indices.len() * 4);
+    let json = std::fs::read_to_string(frame.join("workload.json")).unwrap();
+    for key in [
+        "\"kind\":\"frame\"",
+        "\"floats_per_vertex\":9",
+        "\"mode\":\"pcf2\"",
+        "\"map\":128",
+        "\"width\":96",
+        "\"height\":64",
+        "\"light_vp\":[",
+        "\"camera_vp\":[",
+        "\"to_light\":[",
+    ] {
+        assert!(json.contains(key), "{key} in {json}");
+    }
+    // The first vertex is the ground's first corner, as penumbra draws it.
+    let bytes = std::fs::read(frame.join("vertices.f32")).unwrap();
+    let x = f32::from_le_bytes(bytes[0..4].try_into().unwrap());
+    assert_eq!(x, mesh.vertices[0].pos.x);
+
+    let raster = dir.join("raster");
+    let (ok, text) = cli(&[
+        "bench",
+        "raster",
+        "--triangles",
+        "300",
+        "--mode",
+        "depth",
+        "--reps",
+        "1",
+        "--threads",
+        "1",
+        "--export",
+        raster.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert_eq!(
+        std::fs::metadata(raster.join("vertices.f32")).unwrap().len(),
+        300 * 3 * 8 * 4
+    );
+    assert!(std::fs::read_to_string(raster.join("workload.json"))
+        .unwrap()
+        .contains("\"mode\":\"depth\""));
+
+    // A folder that cannot be made: the error names the path.
+    let file = dir.join("plain-file");
+    std::fs::write(&file, b"x").unwrap();
+    let bad = file.join("sub");
+    let (ok, text) = cli(&[
+        "bench",
+        "raster",
+        "--triangles",
+        "10",
+        "--reps",
+        "1",
+        "--export",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("plain-file"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -38,17 +38,27 @@ def main():
     os.environ["LP_NUM_THREADS"] = str(a.threads)
     os.environ["GALLIUM_DRIVER"] = "llvmpipe"
     os.environ.setdefault("EGL_PLATFORM", "surfaceless")
-    import moderngl
-
-    with open(os.path.join(a.dir, "workload.json")) as f:
-        w = json.load(f)
-    with open(os.path.join(a.dir, "vertices.f32"), "rb") as f:
-        vbytes = f.read()
-    with open(os.path.join(a.dir, "indices.u32"), "rb") as f:
-        ibytes = f.read()
+    try:
+        import moderngl
+    except ImportError:
+        sys.exit("llvmpipe_bench: needs moderngl (pip install moderngl) and Mesa's EGL (libegl-mesa0, libgl1-mesa-dri)")
+    try:
+        with open(os.path.join(a.dir, "workload.json")) as f:
+            w = json.load(f)
+        with open(os.path.join(a.dir, "vertices.f32"), "rb") as f:
+            vbytes = f.read()
+        with open(os.path.join(a.dir, "indices.u32"), "rb") as f:
+            ibytes = f.read()
+    except (OSError, ValueError) as e:
+        sys.exit(f"llvmpipe_bench: {a.dir} is not a workload written by penumbra bench ... --export: {e}")
+    if w.get("kind") not in ("frame", "raster") or len(ibytes) % 12 or len(vbytes) % (4 * w["floats_per_vertex"]):
+        sys.exit(f"llvmpipe_bench: {a.dir}: unexpected workload layout {w}")
     tris = len(ibytes) // 12
 
-    ctx = moderngl.create_standalone_context(backend="egl", require=450)
+    try:
+        ctx = moderngl.create_standalone_context(backend="egl", require=450)
+    except Exception as e:  # moderngl raises plain Exception when EGL or the driver is missing
+        sys.exit(f"llvmpipe_bench: no OpenGL 4.5 context from Mesa's EGL ({e}); install libegl-mesa0 libgl1-mesa-dri")
     gl = ctypes.CDLL("libOpenGL.so.0")
     GL_UPPER_LEFT, GL_ZERO_TO_ONE = 0x8CA2, 0x935F
     gl.glClipControl(GL_UPPER_LEFT, GL_ZERO_TO_ONE)
