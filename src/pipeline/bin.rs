@@ -6,7 +6,7 @@
 //! the chunks in order, which is the whole draw in submission order.
 
 use super::clip::{ClipVertex, Clipper};
-use super::setup::{setup_triangle, setup_window, Rejected, SetupParams, SetupTri, TriAttrs, WinVertex};
+use super::setup::{setup_triangle, setup_window_parts, Rejected, SetupParams, SetupTri, TriAttrs, WinVertex};
 use super::vertex::Varyings;
 use super::DrawStats;
 
@@ -62,20 +62,68 @@ impl TileGrid {
     }
 }
 
-/// What the vertex stage precomputes per vertex for setup.
+/// What the vertex stage precomputes per vertex for setup: 40 bytes, so a triangle's three
+/// move as registers rather than through `memcpy` (an `Option` and a `bool` made them 48
+/// bytes each, and copying them cost 4 % of a camera pass).
 #[derive(Copy, Clone, Debug)]
 pub struct PreVertex {
-    /// Position finite and within [`super::clip::MAX_CLIP_COORD`].
-    pub finite: bool,
-    /// Clip outcode (0: inside every plane).
+    /// Clip outcode (bits of the planes the position is outside of), plus
+    /// [`PreVertex::NON_FINITE`] and [`PreVertex::NO_WINDOW`].
     pub code: u32,
-    /// Window position when inside every plane (and valid).
-    pub win: Option<WinVertex>,
+    /// Window position; meaningful only when `code == 0`.
+    pub win: WinVertex,
+}
+
+impl PreVertex {
+    /// Flag: the position is not finite or beyond [`super::clip::MAX_CLIP_COORD`] (no plane
+    /// bits are set then).
+    pub const NON_FINITE: u32 = 1 << 31;
+    /// Flag: inside every plane, but the window position was rejected (set-up runs again on
+    /// the clip vertices and reports why).
+    pub const NO_WINDOW: u32 = 1 << 30;
+    /// The clip-plane bits of `code`.
+    pub const PLANES: u32 = !(Self::NON_FINITE | Self::NO_WINDOW);
+
+    /// Set-up data of a clip position: `outcode` gives its plane bits, `window` its window
+    /// position (asked only inside every plane).
+    #[inline(always)]
+    pub fn new(
+        pos: glam::Vec4,
+        outcode: impl Fn(glam::Vec4) -> u32,
+        window: impl Fn(glam::Vec4) -> Result<WinVertex, Rejected>,
+    ) -> Self {
+        let none = WinVertex {
+            x: 0,
+            y: 0,
+            z: 0.0,
+            iw: 0.0,
+        };
+        if !(pos.is_finite() && pos.abs().max_element() <= super::clip::MAX_CLIP_COORD) {
+            return PreVertex {
+                code: Self::NON_FINITE,
+                win: none,
+            };
+        }
+        let code = outcode(pos);
+        if code != 0 {
+            return PreVertex { code, win: none };
+        }
+        match window(pos) {
+            Ok(win) => PreVertex { code: 0, win },
+            Err(_) => PreVertex {
+                code: Self::NO_WINDOW,
+                win: none,
+            },
+        }
+    }
 }
 
 /// Where set-up finds a triangle's vertices: the vertex stage's output arrays, or the vertex
 /// program run on the spot (for draws that share no vertices, see `Pipeline::draw`).
 pub trait VertexSource<V>: Sync {
+    /// The source runs the vertex program for each request (rather than reading stored
+    /// results): set-up then asks for positions and varyings together ([`VertexSource::both3`]).
+    const COMPUTES: bool = false;
     /// Clip outcodes, validity and window positions of three vertices.
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3];
     /// Clip-space positions and varyings of three vertices.
@@ -123,6 +171,7 @@ where
     R: Fn(&In) -> ClipVertex<V> + Sync,
     P: Fn(glam::Vec4) -> PreVertex + Sync,
 {
+    const COMPUTES: bool = true;
     #[inline(always)]
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3] {
         let f = |i: usize| (self.pre)((self.run)(&self.input[i]).pos);
@@ -261,8 +310,8 @@ pub fn rect_rejected(tri: &SetupTri, rect: [i32; 4]) -> bool {
 /// non-finite ones, clip, set up, bin.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-pub fn process_chunk<V: Varyings>(
-    src: &impl VertexSource<V>,
+pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
+    src: &S,
     indices: &[u32],
     first: usize,
     count: usize,
@@ -299,42 +348,59 @@ pub fn process_chunk<V: Varyings>(
             indices[3 * t + 1] as usize,
             indices[3 * t + 2] as usize,
         ];
-        // With varyings, set-up reads the clip vertices anyway: fetch them with the set-up
-        // data (one vertex-program run per vertex when computed on demand). Without, only a
-        // clipped triangle needs them.
-        let (p, fetched) = if V::EMPTY {
+        // A source that computes vertices runs the program once per vertex for both (with
+        // varyings, set-up reads the clip vertices anyway). Stored vertices are read when a
+        // triangle needs them, in place (a triangle's three are 150 to 200 bytes: moving them
+        // about cost a `memcpy` each time).
+        let (p, mut fetched) = if V::EMPTY || !S::COMPUTES {
             (src.pre3(ia), None)
         } else {
             let (p, c) = src.both3(ia);
             (p, Some(c))
         };
-        let clip = || fetched.unwrap_or_else(|| src.clip3(ia));
-        if !(p[0].finite && p[1].finite && p[2].finite) {
+        let any = p[0].code | p[1].code | p[2].code;
+        if any & PreVertex::NON_FINITE != 0 {
             stats.dropped_nonfinite += 1;
             continue;
         }
-        if p[0].code & p[1].code & p[2].code != 0 {
+        if p[0].code & p[1].code & p[2].code & PreVertex::PLANES != 0 {
             stats.culled_outside += 1;
             continue;
         }
-        let mask = p[0].code | p[1].code | p[2].code;
-        if mask == 0 {
-            let r = match (p[0].win, p[1].win, p[2].win) {
-                (Some(a), Some(b), Some(c)) => {
-                    let vars = if V::EMPTY {
-                        [V::default(); 3]
-                    } else {
-                        let [a, b, c] = clip();
-                        [a.var, b.var, c.var]
-                    };
-                    setup_window(params, [a, b, c], vars, t as u32)
-                }
-                _ => setup_triangle(params, clip(), t as u32),
-            };
-            push(r, &mut stats, (&mut tris, &mut attrs));
+        let mask = any & PreVertex::PLANES;
+        if mask == 0 && any != 0 {
+            // Inside every plane, but a window position was rejected: set-up says why.
+            let c = *fetched.get_or_insert_with(|| src.clip3(ia));
+            push(setup_triangle(params, c, t as u32), &mut stats, (&mut tris, &mut attrs));
             continue;
         }
-        let tri = clip();
+        if mask == 0 {
+            match setup_window_parts::<V>(params, [p[0].win, p[1].win, p[2].win], t as u32) {
+                Ok((mut tri, persp, order)) => {
+                    tri.attr = tris.len() as u32;
+                    tris.push(tri);
+                    if keep_attrs {
+                        let c = fetched.get_or_insert_with(|| src.clip3(ia));
+                        if attrs.len() == attrs.capacity() {
+                            attrs.reserve(1);
+                        }
+                        // SAFETY: capacity for one more is ensured above; the slot is written
+                        // whole (field by field, from the clip vertices in place) before the
+                        // length covers it.
+                        unsafe {
+                            attrs.as_mut_ptr().add(attrs.len()).write(TriAttrs {
+                                persp,
+                                var: [c[order[0]].var, c[order[1]].var, c[order[2]].var],
+                            });
+                            attrs.set_len(attrs.len() + 1);
+                        }
+                    }
+                }
+                Err(e) => push(Err(e), &mut stats, (&mut tris, &mut attrs)),
+            }
+            continue;
+        }
+        let tri = *fetched.get_or_insert_with(|| src.clip3(ia));
         stats.clipped += 1;
         clipper.clip_polygon(tri, mask, &mut poly, &mut tmp);
         if poly.is_empty() {

@@ -496,12 +496,7 @@ impl Pipeline {
                 ClipVertex { pos, var }
             };
             let pre = |pos: glam::Vec4| {
-                let finite = pos.is_finite() && pos.abs().max_element() <= clip::MAX_CLIP_COORD;
-                let code = if finite { clipper.outcode(pos) } else { 0 };
-                let win = (finite && code == 0)
-                    .then(|| setup::window_vertex(&params, pos).ok())
-                    .flatten();
-                bin::PreVertex { finite, code, win }
+                bin::PreVertex::new(pos, |p| clipper.outcode(p), |p| setup::window_vertex(&params, p))
             };
             // A draw with at least one vertex per index shares (on average) no vertices: set-up
             // then runs the vertex program itself, once per index (no more often than the

@@ -239,6 +239,27 @@ pub fn setup_window<V: Varyings>(
     vars: [V; 3],
     prim: u32,
 ) -> Result<(SetupTri, TriAttrs<V>), Rejected> {
+    let (tri, persp, order) = setup_window_parts::<V>(p, win, prim)?;
+    Ok((
+        tri,
+        TriAttrs {
+            persp,
+            var: order.map(|o| vars[o]),
+        },
+    ))
+}
+
+/// [`setup_window`] without assembling [`TriAttrs`]: the triangle, the perspective planes
+/// (default planes for empty varyings `V`) and the vertex order after the winding swap
+/// (`TriAttrs::var[i]` is the varyings of vertex `order[i]`). Set-up writes the attributes
+/// straight into its chunk with these (building them here and moving them there cost a
+/// `memcpy` per triangle).
+#[inline(always)]
+pub(crate) fn setup_window_parts<V: Varyings>(
+    p: &SetupParams,
+    win: [WinVertex; 3],
+    prim: u32,
+) -> Result<(SetupTri, [Plane; 3], [usize; 3]), Rejected> {
     let mut xs = [Fx8(win[0].x), Fx8(win[1].x), Fx8(win[2].x)];
     let mut ys = [Fx8(win[0].y), Fx8(win[1].y), Fx8(win[2].y)];
     let area = (xs[1].0 - xs[0].0) * (ys[2].0 - ys[0].0) - (xs[2].0 - xs[0].0) * (ys[1].0 - ys[0].0);
@@ -352,9 +373,7 @@ pub fn setup_window<V: Varyings>(
             small: xmax - xmin < SMALL_EXTENT * ONE && ymax - ymin < SMALL_EXTENT * ONE,
             attr: 0,
         },
-        TriAttrs {
-            persp,
-            var: [vars[order[0]], vars[order[1]], vars[order[2]]],
-        },
+        persp,
+        order,
     ))
 }
