@@ -128,6 +128,8 @@ pub trait VertexSource<V>: Sync {
     fn pre3(&self, ia: [usize; 3]) -> [PreVertex; 3];
     /// Clip-space positions and varyings of three vertices.
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3];
+    /// The varyings of vertex `i`.
+    fn var(&self, i: usize) -> V;
     /// Both of the above (a source that computes vertices computes each once).
     #[inline(always)]
     fn both3(&self, ia: [usize; 3]) -> ([PreVertex; 3], [ClipVertex<V>; 3]) {
@@ -151,6 +153,10 @@ impl<V: Varyings> VertexSource<V> for VertexArrays<'_, V> {
     #[inline(always)]
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
         [self.verts[ia[0]], self.verts[ia[1]], self.verts[ia[2]]]
+    }
+    #[inline(always)]
+    fn var(&self, i: usize) -> V {
+        self.verts[i].var
     }
 }
 
@@ -181,6 +187,10 @@ where
     fn clip3(&self, ia: [usize; 3]) -> [ClipVertex<V>; 3] {
         let f = |i: usize| (self.run)(&self.input[i]);
         [f(ia[0]), f(ia[1]), f(ia[2])]
+    }
+    #[inline(always)]
+    fn var(&self, i: usize) -> V {
+        (self.run)(&self.input[i]).var
     }
     #[inline(always)]
     fn both3(&self, ia: [usize; 3]) -> ([PreVertex; 3], [ClipVertex<V>; 3]) {
@@ -380,17 +390,17 @@ pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
                     tri.attr = tris.len() as u32;
                     tris.push(tri);
                     if keep_attrs {
-                        let c = fetched.get_or_insert_with(|| src.clip3(ia));
+                        // From the computed vertices, or each straight from the stored ones.
+                        let var = |k: usize| fetched.as_ref().map_or_else(|| src.var(ia[k]), |c| c[k].var);
                         if attrs.len() == attrs.capacity() {
                             attrs.reserve(1);
                         }
                         // SAFETY: capacity for one more is ensured above; the slot is written
-                        // whole (field by field, from the clip vertices in place) before the
-                        // length covers it.
+                        // whole (field by field) before the length covers it.
                         unsafe {
                             attrs.as_mut_ptr().add(attrs.len()).write(TriAttrs {
                                 persp,
-                                var: [c[order[0]].var, c[order[1]].var, c[order[2]].var],
+                                var: [var(order[0]), var(order[1]), var(order[2])],
                             });
                             attrs.set_len(attrs.len() + 1);
                         }
