@@ -454,39 +454,32 @@ pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
     }
     let n = pairs.len();
     let touched = offsets.windows(2).filter(|w| w[1] > w[0]).count();
+    // The tile lists as indices (a counting sort of the pairs: 4-byte writes, in cache).
     let mut cursor = offsets.clone();
+    let mut idx: Vec<u32> = vec![0; n];
+    for (t, i) in pairs {
+        idx[cursor[t as usize] as usize] = i;
+        cursor[t as usize] += 1;
+    }
     let (tris, binned, attrs) = if n >= COHERENT * touched {
-        let mut idx: Vec<u32> = vec![0; n];
-        for (t, i) in pairs {
-            idx[cursor[t as usize] as usize] = i;
-            cursor[t as usize] += 1;
-        }
         (tris, idx, attrs)
     } else {
-        // Copies in tile order, their shading attributes too (each copy points at its own).
-        let mut copies: Vec<SetupTri> = Vec::with_capacity(n);
-        let mut attr_copies: Vec<TriAttrs<V>> = Vec::with_capacity(if keep_attrs { n } else { 0 });
-        let slots = copies.spare_capacity_mut();
-        let attr_slots = attr_copies.spare_capacity_mut();
-        for (t, i) in pairs {
-            let k = cursor[t as usize] as usize;
-            let mut tri = tris[i as usize];
-            if keep_attrs {
-                attr_slots[k].write(attrs[tri.attr as usize]);
-                tri.attr = k as u32;
-            }
-            slots[k].write(tri);
-            cursor[t as usize] += 1;
-        }
-        // SAFETY: the counting sort wrote every slot 0..n exactly once (the tile counts sum
-        // to n and each tile's cursor runs from its offset to the next tile's), in both
-        // vectors (the attributes' only when they are kept).
-        unsafe {
-            copies.set_len(n);
-            if keep_attrs {
-                attr_copies.set_len(n);
-            }
-        }
+        // Copies in tile order, their shading attributes too (each copy points at its own),
+        // gathered in that order: the copies are written front to back (the chunk's set-up
+        // output they read is still in cache; scattering the writes instead missed on each).
+        let copies: Vec<SetupTri> = idx
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| SetupTri {
+                attr: if keep_attrs { k as u32 } else { tris[i as usize].attr },
+                ..tris[i as usize]
+            })
+            .collect();
+        let attr_copies: Vec<TriAttrs<V>> = if keep_attrs {
+            idx.iter().map(|&i| attrs[tris[i as usize].attr as usize]).collect()
+        } else {
+            Vec::new()
+        };
         (copies, (0..n as u32).collect(), attr_copies)
     };
     stats.bin_entries += binned.len() as u64;
