@@ -1289,3 +1289,72 @@ fn draws_larger_than_a_batch_equal_split_draws() {
         assert_eq!(whole.triangles_in, 140_000);
     }
 }
+
+/// A vertex at the clip-space origin (0, 0, 0, 0), where 1/w is infinite: its triangles go
+/// to the clipper and their pieces are dropped and counted, never drawn; the vertex stage's
+/// arrays (shared vertices) and vertices computed during set-up (one per index) agree on the
+/// image, depth and every counter, with and without varyings. Regression test for the
+/// compact per-vertex set-up record (flags folded into the outcode word, varyings read in
+/// place).
+#[test]
+fn a_vertex_at_the_clip_origin_is_dropped_alike_on_both_vertex_paths() {
+    use penumbra::bench::{ColoredClip, VaryingColor};
+    let p = pipeline(2);
+    // A colour per vertex, so that varyings taken from the wrong vertex show.
+    let v = [
+        (Vec4::new(-0.9, -0.9, 0.5, 1.0), Vec4::new(1.0, 0.0, 0.0, 1.0)),
+        (Vec4::new(0.9, -0.9, 0.5, 1.0), Vec4::new(0.0, 1.0, 0.0, 1.0)),
+        (Vec4::new(0.0, 0.9, 0.5, 1.0), Vec4::new(0.0, 0.0, 1.0, 1.0)),
+        (Vec4::ZERO, Vec4::ONE),
+    ];
+    let shared_idx = [0u32, 1, 2, 0, 1, 3, 3, 2, 1];
+    // Three triangles from four shared vertices: the stage's arrays.
+    let shared: Vec<(Vec4, Vec4)> = v.to_vec();
+    // The same triangles, one vertex per index: computed during set-up.
+    let own: Vec<(Vec4, Vec4)> = shared_idx.iter().map(|&i| v[i as usize]).collect();
+    let own_idx: Vec<u32> = (0..own.len() as u32).collect();
+    let run = |verts: &[(Vec4, Vec4)], idx: &[u32]| {
+        let mut c = Surface::new(40, 30, [0u8; 4]).unwrap();
+        let mut d = Surface::new(40, 30, 1.0f32).unwrap();
+        let s = p
+            .draw(
+                &mut Targets::color(&mut c).with_depth(&mut d),
+                &RenderState::default(),
+                verts,
+                idx,
+                &ColoredClip,
+                &VaryingColor,
+            )
+            .unwrap();
+        let mut dd = Surface::new(40, 30, 1.0f32).unwrap();
+        let sd = p
+            .draw(
+                &mut Targets::depth_only(&mut dd),
+                &RenderState::default(),
+                verts,
+                idx,
+                &ColoredClip,
+                &DepthOnly,
+            )
+            .unwrap();
+        (s, sd, c.data().to_vec(), d.data().to_vec(), dd.data().to_vec())
+    };
+    let a = run(&shared, &shared_idx);
+    let b = run(&own, &own_idx);
+    for s in [&a.0, &a.1] {
+        assert_eq!(s.triangles_in, 3);
+        assert_eq!(s.triangles_setup, 1, "{s:?}");
+        assert!(s.clipped == 2 && s.dropped_nonfinite == s.clip_triangles_out, "{s:?}");
+        assert!(s.fragments_rasterized > 100, "{s:?}");
+    }
+    assert_eq!(format!("{:?}", a.0), format!("{:?}", b.0));
+    assert_eq!(format!("{:?}", a.1), format!("{:?}", b.1));
+    assert_eq!((&a.2, &a.3, &a.4), (&b.2, &b.3, &b.4));
+    // The drawn triangle's colour is interpolated: red, green and blue corners.
+    let px = |x: usize, y: usize| a.2[y * 40 + x];
+    assert!(
+        px(3, 27)[0] > 200 && px(36, 27)[1] > 200 && px(20, 3)[2] > 150,
+        "{:?}",
+        (px(3, 27), px(36, 27), px(20, 3))
+    );
+}
