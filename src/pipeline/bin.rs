@@ -62,9 +62,8 @@ impl TileGrid {
     }
 }
 
-/// What the vertex stage precomputes per vertex for setup: 40 bytes, so a triangle's three
-/// move as registers rather than through `memcpy` (an `Option` and a `bool` made them 48
-/// bytes each, and copying them cost 4 % of a camera pass).
+/// What the vertex stage precomputes per vertex for setup: 40 bytes (an `Option` and a
+/// `bool` made it 48), written once per vertex and read three times per triangle.
 #[derive(Copy, Clone, Debug)]
 pub struct PreVertex {
     /// Clip outcode (bits of the planes the position is outside of), plus
