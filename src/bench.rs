@@ -300,6 +300,15 @@ pub struct FrameTimes {
     pub main_stages: StageTimes,
 }
 
+/// Polygon offset of the spheres frame's depth pass (slope 1.1, constant 4 units).
+pub const FRAME_POLYGON_OFFSET: PolygonOffset = PolygonOffset {
+    factor: 1.1,
+    units: 4.0,
+};
+
+/// Colour the spheres frame's camera pass clears to.
+pub const FRAME_CLEAR_COLOR: Rgba8 = [13, 13, 20, 255];
+
 /// Renders one spheres frame into `t`. Per-stage times of each pass are taken from the
 /// pipeline's accumulator ([`Pipeline::take_times`]) into the result.
 pub fn render_frame(
@@ -313,10 +322,7 @@ pub fn render_frame(
     // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
     let t0 = Instant::now();
     let state = RenderState {
-        offset: PolygonOffset {
-            factor: 1.1,
-            units: 4.0,
-        },
+        offset: FRAME_POLYGON_OFFSET,
         ..Default::default()
     };
     // The clear rides along with the draw (tile by tile, in cache).
@@ -347,7 +353,7 @@ pub fn render_frame(
     };
     out.main_stats = p.draw(
         &mut Targets::color(&mut t.color)
-            .clearing_color([13, 13, 20, 255])
+            .clearing_color(FRAME_CLEAR_COLOR)
             .with_depth(&mut t.depth)
             .clearing_depth(1.0),
         &RenderState {
@@ -514,9 +520,10 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
 }
 
 /// Writes a workload for another renderer to run identically (the llvmpipe comparison,
-/// `tools/llvmpipe_bench.py`): `dir/vertices.f32` (little-endian `f32`, `floats_per_vertex`
-/// per vertex), `dir/indices.u32` (little-endian, three per triangle) and `dir/workload.json`
-/// (`meta`, a JSON object that names the layout, targets and matrices).
+/// `tools/llvmpipe_bench.py`): `dir/vertices.f32` (little-endian `f32`, as many per vertex as
+/// `meta`'s `floats_per_vertex` says), `dir/indices.u32` (little-endian, three per triangle)
+/// and `dir/workload.json` (`meta`, a JSON object that names the layout, targets and
+/// matrices).
 pub fn export_workload(dir: &std::path::Path, vertices: &[f32], indices: &[u32], meta: &str) -> Result<(), String> {
     let write = |name: &str, bytes: &[u8]| {
         let path = dir.join(name);
@@ -550,9 +557,11 @@ pub fn export_frame(
         .flat_map(|v| [v.pos.to_array(), v.normal.to_array(), v.albedo.to_array()].concat())
         .collect();
     let list = |v: &[f32]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
+    let [r, g, b, a] = FRAME_CLEAR_COLOR;
     let meta = format!(
-        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[1.1,4.0],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[13,13,20,255]}}\n",
+        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[{}],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[{r},{g},{b},{a}]}}\n",
         format!("{mode:?}").to_lowercase(),
+        list(&[FRAME_POLYGON_OFFSET.factor, FRAME_POLYGON_OFFSET.units]),
         list(&setup.light_vp.to_cols_array()),
         list(&setup.camera_vp.to_cols_array()),
         list(&setup.to_light.to_array()),
