@@ -50,17 +50,7 @@ fn random(c: &mut Criterion) {
         let (verts, idx) = random_triangles(n, area, 1920, 1080, 1);
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::new("depth", area), &area, |b, _| {
-            b.iter(|| {
-                p.draw(
-                    &mut Targets::depth_only(&mut depth).clearing_depth(1.0),
-                    &RenderState::default(),
-                    &verts,
-                    &idx,
-                    &ColoredClip,
-                    &DepthOnly,
-                )
-                .unwrap()
-            })
+            b.iter(|| draw_random(&p, None, &mut depth, &RenderState::default(), &verts, &idx).unwrap())
         });
         for (name, shading) in [("color", Shading::Deferred), ("color_immediate", Shading::Immediate)] {
             let state = RenderState {
@@ -68,20 +58,7 @@ fn random(c: &mut Criterion) {
                 ..Default::default()
             };
             g.bench_with_input(BenchmarkId::new(name, area), &area, |b, _| {
-                b.iter(|| {
-                    p.draw(
-                        &mut Targets::color(&mut color)
-                            .clearing_color([0, 0, 0, 255])
-                            .with_depth(&mut depth)
-                            .clearing_depth(1.0),
-                        &state,
-                        &verts,
-                        &idx,
-                        &ColoredClip,
-                        &VaryingColor,
-                    )
-                    .unwrap()
-                })
+                b.iter(|| draw_random(&p, Some(&mut color), &mut depth, &state, &verts, &idx).unwrap())
             });
         }
     }

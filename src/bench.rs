@@ -519,6 +519,41 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
     }
 }
 
+/// Draws the random-triangle workload ([`random_triangles`]) as `bench raster` and the
+/// criterion benches time it: colour + depth when `color` is given (per-vertex colour), else
+/// depth only; both targets cleared with the draw (black, depth 1), as a render pass's
+/// load-op clear.
+pub fn draw_random(
+    p: &Pipeline,
+    color: Option<&mut Surface<Rgba8>>,
+    depth: &mut Surface<f32>,
+    state: &RenderState,
+    verts: &[(Vec4, Vec4)],
+    idx: &[u32],
+) -> Result<DrawStats, PipelineError> {
+    match color {
+        Some(color) => p.draw(
+            &mut Targets::color(color)
+                .clearing_color([0, 0, 0, 255])
+                .with_depth(depth)
+                .clearing_depth(1.0),
+            state,
+            verts,
+            idx,
+            &ColoredClip,
+            &VaryingColor,
+        ),
+        None => p.draw(
+            &mut Targets::depth_only(depth).clearing_depth(1.0),
+            state,
+            verts,
+            idx,
+            &ColoredClip,
+            &DepthOnly,
+        ),
+    }
+}
+
 /// Writes a workload for another renderer to run identically (the llvmpipe comparison,
 /// `tools/llvmpipe_bench.py`): `dir/vertices.f32` (little-endian `f32`, as many per vertex as
 /// `meta`'s `floats_per_vertex` says), `dir/indices.u32` (little-endian, three per triangle)

@@ -380,29 +380,7 @@ fn bench_raster(a: RasterArgs) -> Result<(), String> {
     };
     let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, String> {
         // The clears ride along with the draw (load-op clears, tile by tile, still timed).
-        let r = if color_mode {
-            p.draw(
-                &mut Targets::color(color)
-                    .clearing_color([0, 0, 0, 255])
-                    .with_depth(depth)
-                    .clearing_depth(1.0),
-                &state,
-                &verts,
-                &idx,
-                &ColoredClip,
-                &VaryingColor,
-            )
-        } else {
-            p.draw(
-                &mut Targets::depth_only(depth).clearing_depth(1.0),
-                &state,
-                &verts,
-                &idx,
-                &ColoredClip,
-                &DepthOnly,
-            )
-        };
-        r.map_err(|e| e.to_string())
+        draw_random(&p, color_mode.then_some(color), depth, &state, &verts, &idx).map_err(|e| e.to_string())
     };
     for _ in 0..2 {
         run(&mut color, &mut depth)?;
