@@ -254,15 +254,40 @@ impl<V> Chunk<V> {
     }
 }
 
-/// The triangles of one tile with their shading attributes, in submission order (chunk by
-/// chunk, each chunk's tile list), prefetching [`PREFETCH_TRIS`] ahead within a chunk.
-pub(crate) struct TileTris<'a, V> {
-    chunks: &'a [Chunk<V>],
-    tile: usize,
-    /// Current chunk and its tile list `binned[j..end]`.
+/// A position in one tile's walk: chunk `c` and its tile list `binned[j..end]`.
+#[derive(Copy, Clone)]
+struct Cursor {
     c: usize,
     j: usize,
     end: usize,
+}
+
+impl Cursor {
+    /// The first entry at or after this position (moving on to later chunks when the current
+    /// one's list is used up), or `None` past the last chunk.
+    #[inline(always)]
+    fn settle<V>(&mut self, chunks: &[Chunk<V>], tile: usize) -> Option<()> {
+        while self.j >= self.end {
+            self.c += 1;
+            let c = chunks.get(self.c)?;
+            (self.j, self.end) = (c.offsets[tile] as usize, c.offsets[tile + 1] as usize);
+        }
+        Some(())
+    }
+}
+
+/// The triangles of one tile with their shading attributes, in submission order (chunk by
+/// chunk, each chunk's tile list). A second cursor runs [`PREFETCH_TRIS`] entries ahead of
+/// the walk, across chunk boundaries, and prefetches the triangle it passes: scattered
+/// chunks hold only a few triangles per tile, so a look-ahead confined to one chunk would
+/// miss the cache at every chunk's first triangles.
+pub(crate) struct TileTris<'a, V> {
+    chunks: &'a [Chunk<V>],
+    tile: usize,
+    /// The next entry of the walk.
+    at: Cursor,
+    /// The next entry to prefetch (`None` once past the last chunk).
+    ahead: Option<Cursor>,
 }
 
 impl<'a, V> TileTris<'a, V> {
@@ -272,12 +297,30 @@ impl<'a, V> TileTris<'a, V> {
         let (j, end) = chunks
             .first()
             .map_or((0, 0), |c| (c.offsets[tile] as usize, c.offsets[tile + 1] as usize));
-        TileTris {
+        let at = Cursor { c: 0, j, end };
+        let mut walk = TileTris {
             chunks,
             tile,
-            c: 0,
-            j,
-            end,
+            at,
+            ahead: Some(at),
+        };
+        for _ in 0..PREFETCH_TRIS {
+            walk.prefetch_next();
+        }
+        walk
+    }
+
+    /// Prefetches the look-ahead cursor's entry and moves it on by one.
+    #[inline(always)]
+    fn prefetch_next(&mut self) {
+        if let Some(a) = self.ahead.as_mut() {
+            if a.settle(self.chunks, self.tile).is_some() {
+                let c = &self.chunks[a.c];
+                c.prefetch(c.binned[a.j] as usize);
+                a.j += 1;
+            } else {
+                self.ahead = None;
+            }
         }
     }
 }
@@ -286,20 +329,12 @@ impl<'a, V> Iterator for TileTris<'a, V> {
     type Item = (&'a SetupTri, Option<&'a TriAttrs<V>>);
     #[inline(always)]
     fn next(&mut self) -> Option<Self::Item> {
-        loop {
-            if self.j < self.end {
-                let c = &self.chunks[self.c];
-                if self.j + PREFETCH_TRIS < self.end {
-                    c.prefetch(c.binned[self.j + PREFETCH_TRIS] as usize);
-                }
-                let tri = &c.tris[c.binned[self.j] as usize];
-                self.j += 1;
-                return Some((tri, c.attrs.get(tri.attr as usize)));
-            }
-            self.c += 1;
-            let c = self.chunks.get(self.c)?;
-            (self.j, self.end) = (c.offsets[self.tile] as usize, c.offsets[self.tile + 1] as usize);
-        }
+        self.at.settle(self.chunks, self.tile)?;
+        self.prefetch_next();
+        let c = &self.chunks[self.at.c];
+        let tri = &c.tris[c.binned[self.at.j] as usize];
+        self.at.j += 1;
+        Some((tri, c.attrs.get(tri.attr as usize)))
     }
 }
 
