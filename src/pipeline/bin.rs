@@ -213,8 +213,8 @@ pub struct Chunk<V> {
     /// triangles; for scattered chunks (a few triangles per tile) copies grouped by tile, so
     /// each tile reads its triangles sequentially instead of missing the cache on every one.
     pub tris: Vec<SetupTri>,
-    /// Indices into `tris`, grouped by tile, each group in submission order (for scattered
-    /// chunks simply `0..n`).
+    /// Indices into `tris`, grouped by tile, each group in submission order; empty for
+    /// scattered chunks, whose copies are already in that order (entry `j` is `tris[j]`).
     pub binned: Vec<u32>,
     /// Counters of stages 2 to 4.
     pub stats: DrawStats,
@@ -224,6 +224,16 @@ pub struct Chunk<V> {
 pub(crate) const PREFETCH_TRIS: usize = 6;
 
 impl<V> Chunk<V> {
+    /// The set-up triangle of entry `j` of the tile lists (see [`Chunk::binned`]).
+    #[inline(always)]
+    fn entry(&self, j: usize) -> usize {
+        if self.binned.is_empty() {
+            j
+        } else {
+            self.binned[j] as usize
+        }
+    }
+
     /// Asks the memory system for set-up triangle `i` and its shading attributes (if the
     /// chunk keeps them), without waiting: a tile walks its triangles by index, and a batch's
     /// set-up data is far larger than the caches.
@@ -316,7 +326,7 @@ impl<'a, V> TileTris<'a, V> {
         if let Some(a) = self.ahead.as_mut() {
             if a.settle(self.chunks, self.tile).is_some() {
                 let c = &self.chunks[a.c];
-                c.prefetch(c.binned[a.j] as usize);
+                c.prefetch(c.entry(a.j));
                 a.j += 1;
             } else {
                 self.ahead = None;
@@ -332,7 +342,7 @@ impl<'a, V> Iterator for TileTris<'a, V> {
         self.at.settle(self.chunks, self.tile)?;
         self.prefetch_next();
         let c = &self.chunks[self.at.c];
-        let tri = &c.tris[c.binned[self.at.j] as usize];
+        let tri = &c.tris[c.entry(self.at.j)];
         self.at.j += 1;
         Some((tri, c.attrs.get(tri.attr as usize)))
     }
@@ -514,9 +524,9 @@ pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
         } else {
             Vec::new()
         };
-        (copies, (0..n as u32).collect(), attr_copies)
+        (copies, Vec::new(), attr_copies)
     };
-    stats.bin_entries += binned.len() as u64;
+    stats.bin_entries += n as u64;
     stats.triangles_setup += setup_count as u64;
     Chunk {
         attrs,
