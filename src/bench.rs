@@ -128,6 +128,8 @@ pub struct FrameSetup {
     pub to_light: Vec3,
     /// When the camera pass runs its program (default: [`Shading::Deferred`]).
     pub shading: Shading,
+    /// Face culling of the camera pass (default: [`FRAME_CAMERA_CULL`]).
+    pub camera_cull: CullMode,
 }
 
 /// The fixed camera and the light frustum fitted to the scene bounds (+0.1 in x/y, +1 in depth).
@@ -168,6 +170,7 @@ pub fn frame_setup(mesh: &BenchMesh, width: u32, height: u32) -> FrameSetup {
         camera_vp: camera,
         to_light,
         shading: Shading::Deferred,
+        camera_cull: FRAME_CAMERA_CULL,
     }
 }
 
@@ -306,6 +309,12 @@ pub const FRAME_POLYGON_OFFSET: PolygonOffset = PolygonOffset {
     units: 4.0,
 };
 
+/// Default face culling of the spheres frame's camera pass: back faces, which the closed
+/// spheres seen from outside always hide behind their front faces (the image is the same as
+/// without culling, a test checks it; the pass skips their set-up and depth tests). The light
+/// pass culls nothing, as issue 2 asks.
+pub const FRAME_CAMERA_CULL: CullMode = CullMode::Back;
+
 /// Colour the spheres frame's camera pass clears to.
 pub const FRAME_CLEAR_COLOR: Rgba8 = [13, 13, 20, 255];
 
@@ -358,6 +367,7 @@ pub fn render_frame(
             .clearing_depth(1.0),
         &RenderState {
             shading: setup.shading,
+            cull: setup.camera_cull,
             ..Default::default()
         },
         &mesh.vertices,
@@ -594,12 +604,13 @@ pub fn export_frame(
     let list = |v: &[f32]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
     let [r, g, b, a] = FRAME_CLEAR_COLOR;
     let meta = format!(
-        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[{}],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[{r},{g},{b},{a}]}}\n",
+        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[{}],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[{r},{g},{b},{a}],\"camera_cull\":\"{}\"}}\n",
         format!("{mode:?}").to_lowercase(),
         list(&[FRAME_POLYGON_OFFSET.factor, FRAME_POLYGON_OFFSET.units]),
         list(&setup.light_vp.to_cols_array()),
         list(&setup.camera_vp.to_cols_array()),
         list(&setup.to_light.to_array()),
+        setup.camera_cull.name(),
     );
     export_workload(dir, &verts, &mesh.indices, &meta)
 }

@@ -160,6 +160,9 @@ struct FrameArgs {
     /// deferred (hidden surface removal before shading) | immediate
     #[arg(long, default_value = "deferred")]
     shading: Shading,
+    /// Face culling of the camera pass: back | none | front (the light pass culls nothing)
+    #[arg(long, default_value = "back")]
+    cull: CullMode,
     /// Also write the workload (mesh, matrices) into this folder for another renderer
     /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
     #[arg(long)]
@@ -272,6 +275,7 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
     let mesh = spheres_scene(a.triangles);
     let setup = FrameSetup {
         shading: a.shading,
+        camera_cull: a.cull,
         ..frame_setup(&mesh, a.width, a.height)
     };
     let mut t = FrameTargets::new(a.map, a.width, a.height).map_err(|e| e.to_string())?;

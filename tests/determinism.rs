@@ -42,6 +42,31 @@ fn spheres_frame_golden_hashes() {
     );
 }
 
+/// The camera pass culls back faces by default (`FRAME_CAMERA_CULL`); the closed spheres
+/// hide every back face behind a front face, so the benchmark frame at its issue-2 size is
+/// the same image as without culling, while the culled pass rasterizes fewer fragments.
+#[test]
+fn spheres_frame_back_face_culling_changes_no_pixel() {
+    let p = Pipeline::new(2).unwrap();
+    let mesh = spheres_scene(100_000);
+    let mut images = Vec::new();
+    for cull in [CullMode::None, CullMode::Back] {
+        let setup = FrameSetup {
+            camera_cull: cull,
+            ..frame_setup(&mesh, 1920, 1080)
+        };
+        let mut t = FrameTargets::new(2048, 1920, 1080).unwrap();
+        let times = render_frame(&p, &mesh, &setup, FrameMode::Pcf2, &mut t).unwrap();
+        images.push((hash_rgba8(t.color.data()), times.main_stats));
+    }
+    let ((none, s_none), (back, s_back)) = (images[0], images[1]);
+    assert_eq!(none, back, "culling back faces changed the image");
+    assert_eq!(s_none.culled_backface, 0);
+    assert!(s_back.culled_backface > 40_000, "{s_back:?}");
+    assert!(s_back.fragments_rasterized < s_none.fragments_rasterized);
+    assert_eq!(s_back.fragments_shaded, s_none.fragments_shaded);
+}
+
 /// Update only for an intended change of output, and say why in the commit.
 // Last change: sphere seams and poles made bitwise exact (closed meshes for shadow volumes).
 const GOLDEN: (u64, u64) = (0x2eec35a4be1451ff, 0x8d70394d0a3f28c2);

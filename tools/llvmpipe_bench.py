@@ -141,13 +141,25 @@ def main():
         )
         cc = [c / 255.0 for c in w["clear_color"]]
 
+        # The camera pass culls what penumbra's does (`camera_cull`; older exports: none).
+        # penumbra's front faces are counter-clockwise in NDC, and so are GL's under
+        # glClipControl's upper-left origin (checked: the culled image equals penumbra's).
+        camera_cull = w.get("camera_cull", "none")
+
         def depth_pass():
+            ctx.disable(moderngl.CULL_FACE)
             shadow_fbo.use()
             shadow_fbo.clear(depth=1.0)
             ctx.polygon_offset = tuple(w["polygon_offset"])
             depth_vao.render(moderngl.TRIANGLES)
 
         def main_pass():
+            if camera_cull == "none":
+                ctx.disable(moderngl.CULL_FACE)
+            else:
+                ctx.front_face = "ccw"
+                ctx.cull_face = camera_cull
+                ctx.enable(moderngl.CULL_FACE)
             color_fbo.use()
             color_fbo.clear(*cc, depth=1.0)
             ctx.polygon_offset = (0.0, 0.0)

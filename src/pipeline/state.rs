@@ -14,6 +14,29 @@ pub enum CullMode {
     Front,
 }
 
+impl CullMode {
+    /// The mode's name as the CLI and exported workloads spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            CullMode::None => "none",
+            CullMode::Back => "back",
+            CullMode::Front => "front",
+        }
+    }
+}
+
+impl std::str::FromStr for CullMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(CullMode::None),
+            "back" => Ok(CullMode::Back),
+            "front" => Ok(CullMode::Front),
+            _ => Err(format!("unknown cull mode '{s}' (expected none, back or front)")),
+        }
+    }
+}
+
 /// Which winding is the front face, seen in NDC (y up) as GL and D3D define it.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
 pub enum FrontFace {
