@@ -161,7 +161,7 @@ struct FrameArgs {
     #[arg(long, default_value = "deferred")]
     shading: Shading,
     /// Face culling of the camera pass: back | none | front (the light pass culls nothing)
-    #[arg(long, default_value = "back")]
+    #[arg(long, default_value_t = FRAME_CAMERA_CULL)]
     cull: CullMode,
     /// Also write the workload (mesh, matrices) into this folder for another renderer
     /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).

@@ -25,6 +25,12 @@ impl CullMode {
     }
 }
 
+impl std::fmt::Display for CullMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl std::str::FromStr for CullMode {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -390,5 +396,15 @@ mod tests {
             assert_eq!(DepthFormat::F32.resolvable(z), 2f32.powi(e - 23), "z = {z}");
         }
         assert_eq!(DepthFormat::Unorm16.resolvable(0.5), 1.0 / 65536.0);
+    }
+
+    #[test]
+    fn cull_modes_parse_their_names_and_reject_others() {
+        for m in [CullMode::None, CullMode::Back, CullMode::Front] {
+            assert_eq!(m.name().parse::<CullMode>(), Ok(m));
+            assert_eq!(m.to_string(), m.name());
+        }
+        let e = "sideways".parse::<CullMode>().unwrap_err();
+        assert!(e.contains("sideways") && e.contains("none, back or front"), "{e}");
     }
 }
