@@ -153,10 +153,11 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         let row = &ids[ly as usize * TILE as usize..][..TILE as usize];
         for (g, v) in row.chunks_exact(4).enumerate().take(tw.div_ceil(4) as usize) {
             // Columns past the tile's width were never written: they stay empty.
-            let mut live = (0..4).fold(0u8, |m, i| m | ((v[i] != EMPTY) as u8) << i);
+            let v4 = load_ids4(v);
+            let mut live = !eq_mask4(v4, EMPTY) & 0xf;
             while live != 0 {
                 let k = v[live.trailing_zeros() as usize];
-                let lanes = (0..4).fold(0u8, |m, i| m | ((v[i] == k) as u8) << i) & live;
+                let lanes = eq_mask4(v4, k) & live;
                 live &= !lanes;
                 let Slot { tri: t, pending } = &mut slots[k as usize];
                 let c = 4 * g as u32;
@@ -188,6 +189,24 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     }
     queue.finish(stats);
     stats.fragments_hidden += passed_all - (stats.fragments_shaded - shaded_before);
+}
+
+/// Four ids of a visibility-buffer row (`v[0..4]`), as one vector.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn load_ids4(v: &[u32]) -> std::arch::x86_64::__m128i {
+    assert!(v.len() >= 4);
+    // SAFETY: four readable u32s (checked); SSE2 is part of x86-64.
+    unsafe { std::arch::x86_64::_mm_loadu_si128(v.as_ptr() as *const std::arch::x86_64::__m128i) }
+}
+
+/// Bit `i` set where lane `i` of `v` equals `k`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn eq_mask4(v: std::arch::x86_64::__m128i, k: u32) -> u8 {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2 is part of x86-64.
+    unsafe { _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(v, _mm_set1_epi32(k as i32)))) as u8 }
 }
 
 /// Up to three visible pixels of one triangle in a tile, waiting for a fourth.
