@@ -686,6 +686,7 @@ fn bench_export_writes_the_workload() {
         "\"light_vp\":[",
         "\"camera_vp\":[",
         "\"to_light\":[",
+        "\"camera_cull\":\"back\"",
     ] {
         assert!(json.contains(key), "{key} in {json}");
     }

@@ -143,7 +143,8 @@ def main():
 
         # The camera pass culls what penumbra's does (`camera_cull`; older exports: none).
         # penumbra's front faces are counter-clockwise in NDC, and so are GL's under
-        # glClipControl's upper-left origin (checked: the culled image equals penumbra's).
+        # glClipControl's upper-left origin (checked: the culled image matches penumbra's as
+        # closely as the unculled one, 0.03 % of pixels off by more than 8 of 255).
         camera_cull = w.get("camera_cull", "none")
 
         def depth_pass():
