@@ -224,6 +224,13 @@ pub struct Chunk<V> {
 pub(crate) const PREFETCH_TRIS: usize = 6;
 
 impl<V> Chunk<V> {
+    /// The entries of tile `tile`'s list (indices into [`Chunk::binned`], or into
+    /// [`Chunk::tris`] for scattered chunks).
+    #[inline(always)]
+    pub(crate) fn tile_entries(&self, tile: usize) -> std::ops::Range<usize> {
+        self.offsets[tile] as usize..self.offsets[tile + 1] as usize
+    }
+
     /// The set-up triangle of entry `j` of the tile lists (see [`Chunk::binned`]).
     #[inline(always)]
     fn entry(&self, j: usize) -> usize {
@@ -279,8 +286,8 @@ impl Cursor {
     fn settle<V>(&mut self, chunks: &[Chunk<V>], tile: usize) -> Option<()> {
         while self.j >= self.end {
             self.c += 1;
-            let c = chunks.get(self.c)?;
-            (self.j, self.end) = (c.offsets[tile] as usize, c.offsets[tile + 1] as usize);
+            let r = chunks.get(self.c)?.tile_entries(tile);
+            (self.j, self.end) = (r.start, r.end);
         }
         Some(())
     }
@@ -304,10 +311,12 @@ impl<'a, V> TileTris<'a, V> {
     /// The walk over tile `tile` of `chunks`.
     #[inline(always)]
     pub(crate) fn new(chunks: &'a [Chunk<V>], tile: usize) -> Self {
-        let (j, end) = chunks
-            .first()
-            .map_or((0, 0), |c| (c.offsets[tile] as usize, c.offsets[tile + 1] as usize));
-        let at = Cursor { c: 0, j, end };
+        let first = chunks.first().map_or(0..0, |c| c.tile_entries(tile));
+        let at = Cursor {
+            c: 0,
+            j: first.start,
+            end: first.end,
+        };
         let mut walk = TileTris {
             chunks,
             tile,

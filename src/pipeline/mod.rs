@@ -556,7 +556,7 @@ impl Pipeline {
                 let clears = (batch == 0).then_some((depth_clear, color_clear));
                 let clearing = clears.is_some_and(|(d, c)| d.is_some() || c.is_some());
                 let tiles: Vec<usize> = (0..grid.count())
-                    .filter(|&t| clearing || chunks.iter().any(|c| c.offsets[t + 1] > c.offsets[t]))
+                    .filter(|&t| clearing || chunks.iter().any(|c| !c.tile_entries(t).is_empty()))
                     .collect();
                 let results: Vec<(DrawStats, TileLists)> = tiles
                     .par_iter()
