@@ -5,11 +5,14 @@
 //! triangle in submission order, as a depth-only pass does (the fused small-triangle path and
 //! four-pixel spans), and records in a tile-sized visibility buffer which triangle last wrote
 //! each pixel; while a passing triangle's data is in cache, its shading planes are re-based at
-//! the tile. Pass 2 walks the buffer in aligned groups of four pixels of a row and runs the
-//! program ([`FragmentProgram::shade4`]) once per pixel that stays visible: a group that shows
-//! one triangle is shaded as a run, a triangle's other pixels wait in its slot until four of
-//! them fill a group (or the tile ends). Programs that [`FragmentProgram::PREFETCHES`] get
-//! [`FragmentProgram::prefetch4`] a few groups before each group is shaded.
+//! the tile. Pass 2 sorts the tile's pixels by the triangle they show (a counting sort, one
+//! branch-free step per pixel) and runs the program ([`FragmentProgram::shade4`]) once per
+//! pixel that stays visible, on each triangle's pixels four at a time in raster order (its
+//! last group's idle lanes repeat its first pixel). Programs that
+//! [`FragmentProgram::PREFETCHES`] get [`FragmentProgram::prefetch4`] a few groups before each
+//! group is shaded. (An earlier pass 2 walked the buffer in aligned fours and packed partial
+//! groups per triangle; its data-dependent branches, about three mispredicted per group on
+//! 50-pixel triangles, cost more than the shading.)
 //!
 //! The result equals shading immediately ([`Shading::Immediate`]) bit for bit when the final
 //! colour of a pixel is the colour of the last fragment that passed its depth test: blending
@@ -21,12 +24,12 @@
 //!
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
-use super::bin::{Chunk, TileTris, TILE};
+use super::bin::{Chunk, TileTris, TILE, TILE_SHIFT};
 use super::fragment::{depth_span, depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
 use super::vertex::Varyings;
-use super::wide::{fragment4, shade_fragment4, Fragment4, WideState, WideTri};
+use super::wide::{fragment4_at, shade_fragment4, Fragment4, Stores, WideState, WideTri};
 use super::DrawStats;
 use glam::Vec4;
 
@@ -35,6 +38,10 @@ const EMPTY: u32 = u32::MAX;
 
 /// How many groups of four ahead of shading [`FragmentProgram::prefetch4`] is called.
 const AHEAD: usize = 8;
+
+/// Visible pixels of a triangle in a tile from which its groups are stored as runs
+/// ([`Stores::Runs`]).
+const RUNS_FROM: u32 = 64;
 
 /// Pixels of the visibility buffer: one tile, [`TILE`] pixels per row.
 const PIXELS: usize = (TILE * TILE) as usize;
@@ -128,18 +135,34 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         };
         slots.push(Slot {
             tri: WideTri { tri, persp, var, zp },
-            pending: Pending::default(),
+            start: (passed_all - passed) as u32,
         });
     }
     if passed_all == 0 {
         return;
     }
 
-    // Pass 2: one program run per visible pixel. An aligned four of a row that shows one
-    // triangle is shaded as a run; other pixels wait in their triangle's slot until four of
-    // them fill a group (or the tile ends), so lanes are rarely idle.
+    // Pass 2: one program run per visible pixel, each triangle's visible pixels in groups of
+    // four. First the tile's pixels are sorted by triangle (a counting sort whose counts are
+    // pass 1's `passed`, an upper bound of what stays visible; empty pixels go to a last,
+    // discarded bucket), so that the shading loop has no branch per pixel.
     let shaded_before = stats.fragments_shaded;
-    let ramp = Vec4::new(0.0, 1.0, 2.0, 3.0);
+    let trash = slots.len();
+    let mut cursor: Vec<u32> = slots.iter().map(|s| s.start).collect();
+    cursor.push(passed_all as u32);
+    // Four spare entries: a triangle's last group reads whole fours. Entries that no pixel
+    // writes keep whatever they held (they are only read into idle lanes, which ignore them).
+    let mut order = ORDER.take();
+    order.resize(order.len().max(passed_all as usize + (tw * th as u32) as usize + 4), 0);
+    for ly in 0..th as usize {
+        let row = &ids[ly * TILE as usize..][..tw as usize];
+        for (lx, &k) in row.iter().enumerate() {
+            let k = (k as usize).min(trash);
+            let c = cursor[k];
+            order[c as usize] = (ly << TILE_SHIFT | lx) as u16;
+            cursor[k] = c + 1;
+        }
+    }
     let mut queue = Queue {
         ring: [None; AHEAD],
         n: 0,
@@ -147,98 +170,63 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         targets,
         program,
     };
-    for ly in 0..th {
-        let lyf = ly as f32;
-        let y = (oy + ly) as u32;
-        let row = &ids[ly as usize * TILE as usize..][..TILE as usize];
-        for (g, v) in row.chunks_exact(4).enumerate().take(tw.div_ceil(4) as usize) {
-            // Columns past the tile's width were never written: they stay empty.
-            let v4 = load_ids4(v);
-            let mut live = !eq_mask4(v4, EMPTY) & 0xf;
-            while live != 0 {
-                let k = v[live.trailing_zeros() as usize];
-                let lanes = eq_mask4(v4, k) & live;
-                live &= !lanes;
-                let Slot { tri: t, pending } = &mut slots[k as usize];
-                let c = 4 * g as u32;
-                if lanes == 0xf {
-                    let (lx, ly) = (Vec4::splat(c as f32) + ramp, Vec4::splat(lyf));
-                    let xs = std::array::from_fn(|i| ox as u32 + c + i as u32);
-                    queue.push(fragment4(t, (xs, [y; 4]), (lx, ly), t.depth4(lx, ly), 0xf), stats);
-                    continue;
-                }
-                let mut bits = lanes;
-                while bits != 0 {
-                    let i = bits.trailing_zeros();
-                    bits &= bits - 1;
-                    pending.x[pending.n as usize] = (c + i) as u8;
-                    pending.y[pending.n as usize] = ly as u8;
-                    pending.n += 1;
-                    if pending.n == 4 {
-                        queue.push(pending.fragment4(t, (ox, oy)), stats);
-                        pending.n = 0;
-                    }
-                }
-            }
-        }
-    }
-    for Slot { tri, pending } in &slots {
-        if pending.n > 0 {
-            queue.push(pending.fragment4(tri, (ox, oy)), stats);
+    for (slot, &end) in slots.iter().zip(&cursor) {
+        let t = &slot.tri;
+        // Many visible pixels: most groups are runs of a row, and one store each pays.
+        let stores = if end - slot.start >= RUNS_FROM {
+            Stores::Runs
+        } else {
+            Stores::Scatter
+        };
+        for g in (slot.start..end).step_by(4) {
+            let live = (end - g).min(4);
+            let (lx, ly, xs, ys) = group_pixels(&order[g as usize..][..4], live, (ox, oy));
+            let frag = fragment4_at(t, (xs, ys), (lx, ly), t.depth4(lx, ly), ((1u32 << live) - 1) as u8);
+            queue.push(frag, stores, stats);
         }
     }
     queue.finish(stats);
+    ORDER.set(order);
     stats.fragments_hidden += passed_all - (stats.fragments_shaded - shaded_before);
 }
 
-/// Four ids of a visibility-buffer row (`v[0..4]`), as one vector.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn load_ids4(v: &[u32]) -> std::arch::x86_64::__m128i {
-    assert!(v.len() >= 4);
-    // SAFETY: four readable u32s (checked); SSE2 is part of x86-64.
-    unsafe { std::arch::x86_64::_mm_loadu_si128(v.as_ptr() as *const std::arch::x86_64::__m128i) }
+thread_local! {
+    /// Pass 2's sorted pixel order, kept per worker from tile to tile.
+    static ORDER: std::cell::Cell<Vec<u16>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
-/// Bit `i` set where lane `i` of `v` equals `k`.
+/// The pixels of a group of four tile pixel indices (`row << TILE_SHIFT | column`), the lanes
+/// from `live` on repeating lane 0: tile-local columns and rows as floats, and target columns
+/// and rows (the tile's origin is `(ox, oy)`).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn eq_mask4(v: std::arch::x86_64::__m128i, k: u32) -> u8 {
+fn group_pixels(p: &[u16], live: u32, (ox, oy): (i32, i32)) -> (Vec4, Vec4, [u32; 4], [u32; 4]) {
     use std::arch::x86_64::*;
-    // SAFETY: SSE2 is part of x86-64.
-    unsafe { _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(v, _mm_set1_epi32(k as i32)))) as u8 }
-}
-
-/// Up to three visible pixels of one triangle in a tile, waiting for a fourth.
-#[derive(Copy, Clone, Default)]
-struct Pending {
-    /// Pixels held.
-    n: u8,
-    /// Tile-local columns.
-    x: [u8; 4],
-    /// Tile-local rows.
-    y: [u8; 4],
-}
-
-impl Pending {
-    /// The held pixels (lanes `0..n`) of `t` as a group; the tile's origin is `(ox, oy)`.
-    #[inline(always)]
-    fn fragment4<'a, V: Varyings>(&self, t: &WideTri<'a, V>, (ox, oy): (i32, i32)) -> Fragment4<'a, V> {
-        // Idle lanes repeat lane 0 (their values are replaced by lane 0's anyway).
-        let lane = |i: usize| if i < self.n as usize { i } else { 0 };
-        let lx = Vec4::from_array(std::array::from_fn(|i| self.x[lane(i)] as f32));
-        let ly = Vec4::from_array(std::array::from_fn(|i| self.y[lane(i)] as f32));
-        let z = t.depth4(lx, ly);
-        let xs = std::array::from_fn(|i| (ox + self.x[lane(i)] as i32) as u32);
-        let ys = std::array::from_fn(|i| (oy + self.y[lane(i)] as i32) as u32);
-        fragment4(t, (xs, ys), (lx, ly), z, ((1u32 << self.n) - 1) as u8)
+    assert!(p.len() >= 4);
+    // SAFETY: four readable u16s (checked); SSE2 is part of x86-64.
+    unsafe {
+        let v = _mm_unpacklo_epi16(_mm_loadl_epi64(p.as_ptr() as *const __m128i), _mm_setzero_si128());
+        // Lanes at or past `live` take lane 0.
+        let idle = _mm_cmpgt_epi32(_mm_setr_epi32(1, 2, 3, 4), _mm_set1_epi32(live as i32));
+        let v = _mm_or_si128(_mm_andnot_si128(idle, v), _mm_and_si128(idle, _mm_shuffle_epi32(v, 0)));
+        let lx = _mm_and_si128(v, _mm_set1_epi32(TILE - 1));
+        let ly = _mm_srli_epi32(v, TILE_SHIFT);
+        let xs = _mm_add_epi32(lx, _mm_set1_epi32(ox));
+        let ys = _mm_add_epi32(ly, _mm_set1_epi32(oy));
+        (
+            Vec4::from(_mm_cvtepi32_ps(lx)),
+            Vec4::from(_mm_cvtepi32_ps(ly)),
+            std::mem::transmute::<__m128i, [u32; 4]>(xs),
+            std::mem::transmute::<__m128i, [u32; 4]>(ys),
+        )
     }
 }
 
-/// A triangle of the tile: its planes re-based at the tile and its pending pixels.
+/// A triangle of the tile: its planes re-based at the tile, and where its visible pixels
+/// start in pass 2's sorted order.
 struct Slot<'a, V> {
     tri: WideTri<'a, V>,
-    pending: Pending,
+    start: u32,
 }
 
 /// Groups on their way to the program: for a program that [`FragmentProgram::PREFETCHES`],
@@ -246,7 +234,7 @@ struct Slot<'a, V> {
 /// when it is queued, so the program's memory loads have time to arrive; other programs shade
 /// it at once.
 struct Queue<'a, 'p, V, P, C> {
-    ring: [Option<Fragment4<'a, V>>; AHEAD],
+    ring: [Option<(Fragment4<'a, V>, Stores)>; AHEAD],
     n: usize,
     st: WideState,
     targets: &'p RawTargets<C>,
@@ -255,14 +243,14 @@ struct Queue<'a, 'p, V, P, C> {
 
 impl<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat> Queue<'a, '_, V, P, C> {
     #[inline(always)]
-    fn push(&mut self, frag: Fragment4<'a, V>, stats: &mut DrawStats) {
+    fn push(&mut self, frag: Fragment4<'a, V>, stores: Stores, stats: &mut DrawStats) {
         if !P::PREFETCHES {
-            shade_fragment4(&frag, &self.st, self.targets, self.program, stats);
+            shade_fragment4(&frag, stores, &self.st, self.targets, self.program, stats);
             return;
         }
         self.program.prefetch4(&frag);
-        if let Some(due) = self.ring[self.n % AHEAD].replace(frag) {
-            shade_fragment4(&due, &self.st, self.targets, self.program, stats);
+        if let Some((due, stores)) = self.ring[self.n % AHEAD].replace((frag, stores)) {
+            shade_fragment4(&due, stores, &self.st, self.targets, self.program, stats);
         }
         self.n += 1;
     }
@@ -271,8 +259,8 @@ impl<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat> Queue<'a, '_, V, P,
     #[inline(always)]
     fn finish(&mut self, stats: &mut DrawStats) {
         for i in self.n..self.n + AHEAD {
-            if let Some(due) = self.ring[i % AHEAD].take() {
-                shade_fragment4(&due, &self.st, self.targets, self.program, stats);
+            if let Some((due, stores)) = self.ring[i % AHEAD].take() {
+                shade_fragment4(&due, stores, &self.st, self.targets, self.program, stats);
             }
         }
     }

@@ -395,7 +395,7 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             stats.fragments_passed += np;
             let xs = std::array::from_fn(|i| (x0 + i as i32) as u32);
             let frag = fragment4(t, (xs, [y as u32; 4]), (lx, Vec4::splat(lyf)), z, pass);
-            shade_fragment4(&frag, st, targets, program, stats);
+            shade_fragment4(&frag, Stores::Masked, st, targets, program, stats);
         }
         c += 4;
     }
@@ -404,16 +404,35 @@ pub(crate) fn shade_row4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 /// The lanes `pass` (non-empty) of triangle `t` at pixels (`x[i]`, `y[i]`) as a
 /// [`Fragment4`]: `lx` and `ly` are the lanes' tile-local column and row (as floats), `z` the
 /// lanes' depth. Barycentrics come from the triangle's planes at each pixel, so a lane's values
-/// depend only on its pixel, never on which lanes share the group.
+/// depend only on its pixel, never on which lanes share the group. Off lanes get the first
+/// live lane's values.
 #[inline(always)]
 pub(crate) fn fragment4<'a, V: Varyings>(
+    t: &WideTri<'a, V>,
+    xy: ([u32; 4], [u32; 4]),
+    lxy: (Vec4, Vec4),
+    z: Vec4,
+    pass: u8,
+) -> Fragment4<'a, V> {
+    let mut f = fragment4_at(t, xy, lxy, z, pass);
+    let first = pass.trailing_zeros() as usize;
+    f.z = fill_off_lanes(f.z, pass, first);
+    if !V::EMPTY {
+        f.bary = f.bary.map(|b| fill_off_lanes(b, pass, first));
+    }
+    f
+}
+
+/// [`fragment4`] for lanes whose off lanes already repeat the first lane's pixel (so their
+/// values are the first lane's without a copy).
+#[inline(always)]
+pub(crate) fn fragment4_at<'a, V: Varyings>(
     t: &WideTri<'a, V>,
     (x, y): ([u32; 4], [u32; 4]),
     (lx, ly): (Vec4, Vec4),
     z: Vec4,
     pass: u8,
 ) -> Fragment4<'a, V> {
-    let first = pass.trailing_zeros() as usize;
     let bary = if V::EMPTY {
         [Vec4::ONE, Vec4::ZERO, Vec4::ZERO]
     } else {
@@ -423,14 +442,13 @@ pub(crate) fn fragment4<'a, V: Varyings>(
         let w = Vec4::ONE / at(&t.persp[0]);
         let b1 = at(&t.persp[1]) * w;
         let b2 = at(&t.persp[2]) * w;
-        let b0 = Vec4::ONE - b1 - b2;
-        [b0, b1, b2].map(|b| fill_off_lanes(b, pass, first))
+        [Vec4::ONE - b1 - b2, b1, b2]
     };
     Fragment4 {
         x,
         y,
         mask: pass,
-        z: fill_off_lanes(z, pass, first),
+        z,
         bary,
         verts: t.var,
         front: t.tri.front,
@@ -438,10 +456,25 @@ pub(crate) fn fragment4<'a, V: Varyings>(
     }
 }
 
+/// How [`shade_fragment4`] stores a group's colours with `Replace` blending.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Stores {
+    /// Off lanes are other pixels: only live lanes are stored (four consecutive live pixels
+    /// of a row in one store).
+    Masked,
+    /// Off lanes are the first lane's pixel again (as [`fragment4_at`] takes them): four
+    /// stores, no branch (an off lane's store comes before the first lane's).
+    Scatter,
+    /// As `Scatter`, but four consecutive pixels of a row go in one store: for groups that
+    /// mostly are such runs (large triangles), where the test predicts well.
+    Runs,
+}
+
 /// Runs the program on `frag`'s live lanes and blends and stores their colours.
 #[inline(always)]
 pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     frag: &Fragment4<V>,
+    stores: Stores,
     st: &WideState,
     targets: &RawTargets<C>,
     program: &P,
@@ -450,7 +483,7 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
     let pass = frag.mask;
     let (x0, y) = (frag.x[0] as i32, frag.y[0] as i32);
     // Four consecutive pixels of one row: one store.
-    let run = pass == 0xf && frag.y[3] == frag.y[0] && frag.x[3] == frag.x[0] + 3;
+    let run = stores != Stores::Scatter && pass == 0xf && frag.y[3] == frag.y[0] && frag.x[3] == frag.x[0] + 3;
     stats.fragments_shaded += pass.count_ones() as u64;
     let col = program.shade4(frag);
     let Some(ct) = targets.color.as_ref() else {
@@ -465,9 +498,13 @@ pub(crate) fn shade_fragment4<V: Varyings, P: FragmentProgram<V>, C: ColorFormat
                 std::ptr::copy_nonoverlapping(texels.as_ptr(), dst, 4);
             }
         } else {
-            for (i, &tx) in texels.iter().enumerate() {
-                if pass & (1 << i) != 0 {
-                    // SAFETY: live lanes are pixels of this worker's tile.
+            // Last lane first: an off lane of `Scatter` or `Runs` holds the first lane's pixel
+            // with a colour that may be anything (programs may skip off lanes); the first
+            // lane's own store comes after it.
+            for (i, &tx) in texels.iter().enumerate().rev() {
+                if stores != Stores::Masked || pass & (1 << i) != 0 {
+                    // SAFETY: lanes are pixels of this worker's tile (off lanes of `Scatter`
+                    // and `Runs` are the first lane's pixel).
                     unsafe { ct.set(frag.x[i] as i32, frag.y[i] as i32, tx) };
                 }
             }
