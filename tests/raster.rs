@@ -1190,6 +1190,77 @@ proptest! {
     }
 }
 
+/// A program whose four-lane path fills the lanes outside `mask` with a poison colour (as a
+/// program may leave them anything).
+struct PoisonsOffLanes;
+impl FragmentProgram<Vec4> for PoisonsOffLanes {
+    fn shade(&self, f: &Fragment<Vec4>) -> Option<Vec4> {
+        Some(f.var)
+    }
+    fn shade4(&self, f: &Fragment4<Vec4>) -> Color4 {
+        let poison = Vec4::new(1.0, 0.0, 1.0, 1.0);
+        Color4::from_lanes(std::array::from_fn(|i| {
+            if f.mask & (1 << i) != 0 {
+                f.lane(i).var
+            } else {
+                poison
+            }
+        }))
+    }
+}
+
+/// Regression: deferred shading's last group of a triangle repeats its first pixel in the idle
+/// lanes and stores all four lanes; an idle lane's colour (anything the program left there)
+/// once overwrote that pixel. Small triangles in heavy overdraw leave many partial groups.
+#[test]
+fn deferred_idle_lanes_never_overwrite_a_pixel() {
+    let mut rng = SplitMix(17);
+    let mut verts: Vec<(Vec4, Vec4)> = Vec::new();
+    for _ in 0..600 {
+        let (cx, cy) = (rng.next_f32() * 2.2 - 1.1, rng.next_f32() * 2.2 - 1.1);
+        let z = rng.next_f32();
+        let col = Vec4::new(rng.next_f32() * 0.5, rng.next_f32(), rng.next_f32() * 0.5, 1.0);
+        for _ in 0..3 {
+            let p = Vec4::new(
+                cx + 0.06 * (rng.next_f32() * 2.0 - 1.0),
+                cy + 0.06 * (rng.next_f32() * 2.0 - 1.0),
+                z,
+                1.0,
+            );
+            verts.push((p, col));
+        }
+    }
+    let idx: Vec<u32> = (0..verts.len() as u32).collect();
+    let p = pipeline(2);
+    let run = |shading: Shading| {
+        let mut c = Surface::new(150, 130, [0u8; 4]).unwrap();
+        let mut d = Surface::new(150, 130, 1.0f32).unwrap();
+        let st = RenderState {
+            shading,
+            ..Default::default()
+        };
+        let s = p
+            .draw(
+                &mut Targets::color(&mut c).with_depth(&mut d),
+                &st,
+                &verts,
+                &idx,
+                &penumbra::bench::ColoredClip,
+                &PoisonsOffLanes,
+            )
+            .unwrap();
+        (c, s)
+    };
+    let (deferred, s) = run(Shading::Deferred);
+    let (immediate, _) = run(Shading::Immediate);
+    assert!(s.fragments_hidden > 0, "the scene has overdraw");
+    assert!(
+        !deferred.data().contains(&[255, 0, 255, 255]),
+        "an idle lane's colour was stored"
+    );
+    assert!(deferred.data() == immediate.data());
+}
+
 /// The deferred path shades each visible pixel once: two full-screen layers drawn back to
 /// front shade one layer's pixels, not two, and the counters say so.
 #[test]
