@@ -147,22 +147,13 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
     // pass 1's `passed`, an upper bound of what stays visible; empty pixels go to a last,
     // discarded bucket), so that the shading loop has no branch per pixel.
     let shaded_before = stats.fragments_shaded;
-    let trash = slots.len();
     let mut cursor: Vec<u32> = slots.iter().map(|s| s.start).collect();
     cursor.push(passed_all as u32);
     // Four spare entries: a triangle's last group reads whole fours. Entries that no pixel
     // writes keep whatever they held (they are only read into idle lanes, which ignore them).
     let mut order = ORDER.take();
     order.resize(order.len().max(passed_all as usize + (tw * th as u32) as usize + 4), 0);
-    for ly in 0..th as usize {
-        let row = &ids[ly * TILE as usize..][..tw as usize];
-        for (lx, &k) in row.iter().enumerate() {
-            let k = (k as usize).min(trash);
-            let c = cursor[k];
-            order[c as usize] = (ly << TILE_SHIFT | lx) as u16;
-            cursor[k] = c + 1;
-        }
-    }
+    sort_by_triangle(&ids, (tw as usize, th as usize), &mut cursor, &mut order);
     let mut queue = Queue {
         ring: [None; AHEAD],
         n: 0,
@@ -193,6 +184,23 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
 thread_local! {
     /// Pass 2's sorted pixel order, kept per worker from tile to tile.
     static ORDER: std::cell::Cell<Vec<u16>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Pass 2's counting sort: each pixel index (`row << TILE_SHIFT | column`) of the `tw` x `th`
+/// tile whose visibility buffer is `ids` goes to `order[cursor[k]]` for the triangle `k` it
+/// shows (empty pixels: the last cursor's bucket), and that cursor moves on. Its own function,
+/// so that the loop keeps its arrays in registers.
+#[inline(never)]
+fn sort_by_triangle(ids: &[u32; PIXELS], (tw, th): (usize, usize), cursor: &mut [u32], order: &mut [u16]) {
+    let trash = cursor.len() - 1;
+    for (ly, row) in ids.chunks_exact(TILE as usize).take(th).enumerate() {
+        for (lx, &k) in row[..tw].iter().enumerate() {
+            let k = (k as usize).min(trash);
+            let c = cursor[k];
+            order[c as usize] = (ly << TILE_SHIFT | lx) as u16;
+            cursor[k] = c + 1;
+        }
+    }
 }
 
 /// The pixels of a group of four tile pixel indices (`row << TILE_SHIFT | column`), the lanes
