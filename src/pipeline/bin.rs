@@ -14,8 +14,11 @@ use super::DrawStats;
 pub const TILE: i32 = 64;
 /// log2 of [`TILE`].
 pub const TILE_SHIFT: i32 = 6;
-/// Triangles per binning chunk (fixed, so results never depend on the thread count).
-pub const CHUNK: usize = 1024;
+/// Triangles per binning chunk (fixed, so results never depend on the thread count). A tile
+/// walks every chunk of its batch, and moving to the next chunk after a few of its triangles
+/// is a branch no predictor guesses: 4096 instead of 1024 took a fifth of the mispredicted
+/// branches of 100k random triangles away and cut set-up and binning by about 10 %.
+pub const CHUNK: usize = 4096;
 
 /// The tile grid of a target.
 #[derive(Copy, Clone, Debug)]

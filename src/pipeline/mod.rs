@@ -61,10 +61,10 @@ use std::fmt;
 
 /// Chunks set up and binned before their tiles are rasterized (bounds memory per draw: about
 /// 40 MB of set-up triangles at most). Hidden surface removal before shading works within a
-/// batch, so a draw of up to 131k triangles is one batch: with 64 chunks the 100k-triangle
-/// spheres frame took two, shaded 1.37 M instead of 1.22 M fragments and its camera pass
-/// took 14 % longer (random triangles: 11 %).
-const CHUNKS_PER_BATCH: usize = 128;
+/// batch, so a draw of up to 131k triangles is one batch: with batches of 65k triangles the
+/// 100k-triangle spheres frame took two, shaded 1.37 M instead of 1.22 M fragments and its
+/// camera pass took 14 % longer (random triangles: 11 %).
+const CHUNKS_PER_BATCH: usize = 32;
 
 /// Everything that can go wrong in the pipeline, as a value (never a panic).
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -321,10 +321,10 @@ pub(crate) fn setup_window_parts<V: Varyings>(
         let shift = (a.abs() + b.abs()) * HALF;
         match p.raster {
             RasterMode::Standard => {
-                let top_left = a > 0 || (a == 0 && b > 0);
-                if !top_left {
-                    c -= 1;
-                }
+                // Non-short-circuit `&` and `|`: no branch on the edge's direction (which no
+                // predictor guesses for random triangles).
+                let top_left = (a > 0) | ((a == 0) & (b > 0));
+                c -= (!top_left) as i64;
             }
             RasterMode::Overestimate => c += shift,
             RasterMode::Underestimate => c -= shift,
