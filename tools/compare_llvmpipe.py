@@ -3,9 +3,10 @@
 
 For each workload it exports the triangles from penumbra (`--export`), then runs penumbra and
 `tools/llvmpipe_bench.py` alternately (`--rounds` times each, so both see the same machine
-load), and prints the minimum and median of each renderer's per-run medians and their ratio.
+load), and prints the minimum and median of each renderer's per-run medians, their ratio, and
+the median (and range) of the ratios of neighbouring runs.
 
-    python3 tools/compare_llvmpipe.py [--threads 2] [--rounds 3] [--bin target/release/penumbra]
+    python3 tools/compare_llvmpipe.py [--threads 2] [--rounds 3] [--only pcf2] [--bin target/release/penumbra]
 
 Needs what tools/llvmpipe_bench.py needs (Mesa's EGL and moderngl).
 """
@@ -40,10 +41,13 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--reps", type=int, default=10)
     ap.add_argument("--bin", default=os.path.join(HERE, "..", "target", "release", "penumbra"))
+    ap.add_argument("--only", default="", help="run only the workloads whose name contains this")
     a = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, args, key in WORKLOADS:
+            if a.only not in name:
+                continue
             d = os.path.join(tmp, str(len(rows)))
             common = ["--threads", str(a.threads), "--reps", str(a.reps), "--json"]
             first = run_json([a.bin, *args, *common, "--export", d])
@@ -58,8 +62,12 @@ def main():
                     ours.append(run_json([a.bin, *args, *common])[key])
             rows.append((name, ours, theirs, extra, first))
             o, t = statistics.median(ours), statistics.median(theirs)
+            # Run i of each renderer are neighbours in time, so their ratio sees one machine
+            # phase: the median of these ratios drifts less than the ratio of the medians.
+            pairs = sorted(x / y for x, y in zip(ours, theirs))
             print(f"{name:28} penumbra {o:8.2f} ms (min {min(ours):.2f})   llvmpipe {t:8.2f} ms (min {min(theirs):.2f})"
-                  f"   penumbra/llvmpipe {o / t:.2f}", flush=True)
+                  f"   penumbra/llvmpipe {o / t:.2f}   paired {statistics.median(pairs):.2f}"
+                  f" ({pairs[0]:.2f}-{pairs[-1]:.2f})", flush=True)
     return 0
 
 
