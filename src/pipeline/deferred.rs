@@ -9,8 +9,8 @@
 //! branch-free step per pixel) and runs the program ([`FragmentProgram::shade4`]) once per
 //! pixel that stays visible, on each triangle's pixels four at a time in raster order (its
 //! last group's idle lanes repeat its first pixel). Programs that
-//! [`FragmentProgram::PREFETCHES`] get [`FragmentProgram::prefetch4`] a few groups before each
-//! group is shaded. (An earlier pass 2 walked the buffer in aligned fours and packed partial
+//! [`FragmentProgram::PREFETCHES`] get [`FragmentProgram::prefetch4`] a few groups before
+//! every other group of a triangle is shaded. (An earlier pass 2 walked the buffer in aligned fours and packed partial
 //! groups per triangle; its data-dependent branches, about three mispredicted per group on
 //! 50-pixel triangles, cost more than the shading.)
 //!
@@ -173,7 +173,9 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
             let live = (end - g).min(4);
             let (lx, ly, xs, ys) = group_pixels(&order[g as usize..][..4], live, (ox, oy));
             let frag = fragment4_at(t, (xs, ys), (lx, ly), t.depth4(lx, ly), ((1u32 << live) - 1) as u8);
-            queue.push(frag, stores, stats);
+            // Every other group of a triangle is prefetched: the next one's pixels are its
+            // neighbours, whose texels are mostly on the same cache lines.
+            queue.push(frag, stores, (g - slot.start) & 4 == 0, stats);
         }
     }
     queue.finish(stats);
@@ -239,8 +241,8 @@ struct Slot<'a, V> {
 
 /// Groups on their way to the program: for a program that [`FragmentProgram::PREFETCHES`],
 /// each is shaded [`AHEAD`] groups after it is queued, and [`FragmentProgram::prefetch4`] runs
-/// when it is queued, so the program's memory loads have time to arrive; other programs shade
-/// it at once.
+/// when it is queued (if asked to), so the program's memory loads have time to arrive; other
+/// programs shade it at once.
 struct Queue<'a, 'p, V, P, C> {
     ring: [Option<(Fragment4<'a, V>, Stores)>; AHEAD],
     n: usize,
@@ -251,12 +253,14 @@ struct Queue<'a, 'p, V, P, C> {
 
 impl<'a, V: Varyings, P: FragmentProgram<V>, C: ColorFormat> Queue<'a, '_, V, P, C> {
     #[inline(always)]
-    fn push(&mut self, frag: Fragment4<'a, V>, stores: Stores, stats: &mut DrawStats) {
+    fn push(&mut self, frag: Fragment4<'a, V>, stores: Stores, prefetch: bool, stats: &mut DrawStats) {
         if !P::PREFETCHES {
             shade_fragment4(&frag, stores, &self.st, self.targets, self.program, stats);
             return;
         }
-        self.program.prefetch4(&frag);
+        if prefetch {
+            self.program.prefetch4(&frag);
+        }
         if let Some((due, stores)) = self.ring[self.n % AHEAD].replace((frag, stores)) {
             shade_fragment4(&due, stores, &self.st, self.targets, self.program, stats);
         }

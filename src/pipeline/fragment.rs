@@ -173,7 +173,9 @@ pub trait FragmentProgram<V>: Sync {
     /// program may start the memory loads it will need (texel prefetches, as
     /// [`CompareSampler::prefetch2x2_4`]), so that cache misses of large textures overlap
     /// instead of stalling one group after another. It must not change any result. Called
-    /// only when [`FragmentProgram::PREFETCHES`] is true; the default does nothing.
+    /// only when [`FragmentProgram::PREFETCHES`] is true, and for every other group of a
+    /// triangle (a group's pixels neighbour the next group's, whose texels mostly share its
+    /// cache lines); the default does nothing.
     ///
     /// [`Shading::Deferred`]: super::state::Shading::Deferred
     /// [`CompareSampler::prefetch2x2_4`]: super::sampler::CompareSampler::prefetch2x2_4
