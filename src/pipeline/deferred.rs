@@ -10,9 +10,9 @@
 //! pixel that stays visible, on each triangle's pixels four at a time in raster order (its
 //! last group's idle lanes repeat its first pixel). Programs that
 //! [`FragmentProgram::PREFETCHES`] get [`FragmentProgram::prefetch4`] a few groups before
-//! every other group of a triangle is shaded. (An earlier pass 2 walked the buffer in aligned fours and packed partial
-//! groups per triangle; its data-dependent branches, about three mispredicted per group on
-//! 50-pixel triangles, cost more than the shading.)
+//! every other group of a triangle is shaded. (An earlier pass 2 walked the buffer in aligned
+//! fours and packed partial groups per triangle; its data-dependent branches, about three
+//! mispredicted per group on 50-pixel triangles, cost more than the shading.)
 //!
 //! The result equals shading immediately ([`Shading::Immediate`]) bit for bit when the final
 //! colour of a pixel is the colour of the last fragment that passed its depth test: blending
