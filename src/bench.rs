@@ -108,12 +108,12 @@ pub enum FrameMode {
 impl std::str::FromStr for FrameMode {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "depth" => Ok(FrameMode::Depth),
-            "pcf2" => Ok(FrameMode::Pcf2),
-            "pcf5" => Ok(FrameMode::Pcf5),
-            _ => Err(format!("unknown frame mode '{s}' (expected depth, pcf2 or pcf5)")),
-        }
+        let modes = [
+            ("depth", FrameMode::Depth),
+            ("pcf2", FrameMode::Pcf2),
+            ("pcf5", FrameMode::Pcf5),
+        ];
+        crate::pipeline::state::parse_choice(s, "frame mode", &modes)
     }
 }
 

@@ -34,13 +34,24 @@ impl std::fmt::Display for CullMode {
 impl std::str::FromStr for CullMode {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "none" => Ok(CullMode::None),
-            "back" => Ok(CullMode::Back),
-            "front" => Ok(CullMode::Front),
-            _ => Err(format!("unknown cull mode '{s}' (expected none, back or front)")),
-        }
+        let modes = [CullMode::None, CullMode::Back, CullMode::Front];
+        parse_choice(s, "cull mode", &modes.map(|m| (m.name(), m)))
     }
+}
+
+/// The value named `s` among `choices` (name, value), or an error that names `what` and lists
+/// the choices ("unknown cull mode 'x' (expected none, back or front)").
+pub fn parse_choice<T: Copy>(s: &str, what: &str, choices: &[(&str, T)]) -> Result<T, String> {
+    if let Some(&(_, v)) = choices.iter().find(|(name, _)| *name == s) {
+        return Ok(v);
+    }
+    let names: Vec<&str> = choices.iter().map(|(name, _)| *name).collect();
+    let expected = match names.split_last() {
+        Some((last, [])) => last.to_string(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    Err(format!("unknown {what} '{s}' (expected {expected})"))
 }
 
 /// Which winding is the front face, seen in NDC (y up) as GL and D3D define it.
@@ -353,11 +364,11 @@ pub enum Shading {
 impl std::str::FromStr for Shading {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "deferred" => Ok(Shading::Deferred),
-            "immediate" => Ok(Shading::Immediate),
-            _ => Err(format!("unknown shading '{s}' (expected deferred or immediate)")),
-        }
+        parse_choice(
+            s,
+            "shading",
+            &[("deferred", Shading::Deferred), ("immediate", Shading::Immediate)],
+        )
     }
 }
 
@@ -406,5 +417,18 @@ mod tests {
         }
         let e = "sideways".parse::<CullMode>().unwrap_err();
         assert!(e.contains("sideways") && e.contains("none, back or front"), "{e}");
+    }
+
+    #[test]
+    fn choices_parse_their_names_and_errors_list_them() {
+        assert_eq!("immediate".parse::<Shading>(), Ok(Shading::Immediate));
+        assert_eq!(
+            "lazy".parse::<Shading>().unwrap_err(),
+            "unknown shading 'lazy' (expected deferred or immediate)"
+        );
+        assert_eq!(
+            parse_choice("b", "letter", &[("a", 1)]).unwrap_err(),
+            "unknown letter 'b' (expected a)"
+        );
     }
 }
