@@ -1,0 +1,190 @@
+//! Golden hashes of every technique's visibility (each sweep option set) on fixtures that
+//! exercise every light kind: a change to any is a change to what a technique computes.
+//! The hashes were recorded before the techniques moved into their family folders, so the
+//! test also proves that the move changed no output.
+
+use penumbra::frame;
+use penumbra::hash::hash_f32;
+use penumbra::pipeline::Pipeline;
+use penumbra::scene::file::load;
+use penumbra::shadow;
+use std::path::Path;
+
+const SCENES: &[&str] = &["contact", "point_casters", "planar", "cookie", "long_view"];
+
+fn hashes() -> Vec<String> {
+    let p = Pipeline::new(2).unwrap();
+    let mut out = Vec::new();
+    for scene in SCENES {
+        let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
+        let f = frame::frame(&p, &s, 0, 0).unwrap();
+        for t in shadow::registry() {
+            if t.name == "reference" {
+                continue;
+            }
+            for set in t.sweep.iter() {
+                let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+                let mut tech = shadow::create(t.name, &sets).unwrap();
+                let v = tech.visibility(&p, &f).unwrap();
+                let label = sets
+                    .iter()
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(";");
+                out.push(format!("{scene} {} [{label}] {:016x}", t.name, hash_f32(&v)));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn technique_outputs_match_their_golden_hashes() {
+    let got = hashes();
+    if std::env::var_os("PENUMBRA_PRINT_GOLDEN").is_some() {
+        println!("{}", got.join("\n"));
+    }
+    assert!(!GOLDEN.trim().is_empty(), "no golden hashes recorded");
+    let want: Vec<&str> = GOLDEN.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    let mut bad = Vec::new();
+    for w in &want {
+        let key = &w[..w.rfind(' ').unwrap()];
+        match got
+            .iter()
+            .find(|g| g.starts_with(key) && g[key.len()..].starts_with(' '))
+        {
+            Some(g) if g == w => {}
+            Some(g) => bad.push(format!("changed: {g} (was {w})")),
+            None => bad.push(format!("missing: {w}")),
+        }
+    }
+    assert!(bad.is_empty(), "{}\nall:\n{}", bad.join("\n"), got.join("\n"));
+}
+
+const GOLDEN: &str = "
+contact shadow-map [size=256] 1c0ef221403e0758
+contact shadow-map [size=512] 264f8a0a621b5ed8
+contact shadow-map [size=1024] 076f1858599bb525
+contact shadow-map [size=2048] 75bae200d6633fe5
+contact shadow-map [size=4096] ba8673bc99cad7b5
+contact shadow-map [format=u16] 3547d67b6aa8a825
+contact shadow-map [format=u24] 75bae200d6633fe5
+contact shadow-map [units=0;slope=0] b6353def132e6555
+contact shadow-map [units=100000] 3547d67b6aa8a825
+contact shadow-map [units=0;slope=0;normal=1.5] fb3eb94250dde205
+contact shadow-map [units=0;slope=0;receiver=true] 3e3e816634509828
+contact shadow-map [layer=second;units=0;slope=0] 5aa4c74f41db3385
+contact shadow-map [layer=midpoint;units=0;slope=0] 4ebe8eaf1d131935
+contact shadow-map [layer=id] 651c0162c8c9a915
+contact shadow-map [fit=receivers] 75bae200d6633fe5
+contact shadow-map [fit=receivers;snap=true] 75bae200d6633fe5
+contact shadow-map [filter=pcf2] 907ef9f8dba68601
+contact shadow-volume [] 2fd73c8de3d90925
+contact shadow-volume [mode=zfail] 2fd73c8de3d90925
+contact shadow-volume [mode=zfail-infinite] 2fd73c8de3d90925
+contact shadow-volume [mode=zpass] 2fd73c8de3d90925
+contact planar [] 320c333d5ce43035
+contact planar [stencil=off;darkness=0.5] 372dd351e7c89995
+contact cookie [] aa1baa004244fa95
+contact cookie [filter=bilinear] c93d6c01041b34c0
+point_casters shadow-map [size=256] 4237a06666f59f15
+point_casters shadow-map [size=512] 4963da0d1b015b75
+point_casters shadow-map [size=1024] eb4285b6e9e8b4c5
+point_casters shadow-map [size=2048] 39af367eaad6dfd5
+point_casters shadow-map [size=4096] eb3d53ec1b7cb125
+point_casters shadow-map [format=u16] d3160f5380812d25
+point_casters shadow-map [format=u24] 39af367eaad6dfd5
+point_casters shadow-map [units=0;slope=0] 892d8110d46dd045
+point_casters shadow-map [units=100000] 2005f4ade2e3e925
+point_casters shadow-map [units=0;slope=0;normal=1.5] 988ceaaa376515b5
+point_casters shadow-map [units=0;slope=0;receiver=true] d3144980d5799ed5
+point_casters shadow-map [layer=second;units=0;slope=0] 500b9fb4e77009d5
+point_casters shadow-map [layer=midpoint;units=0;slope=0] e4da828f378cdb35
+point_casters shadow-map [layer=id] b7140fea95c13ac8
+point_casters shadow-map [fit=receivers] 39af367eaad6dfd5
+point_casters shadow-map [fit=receivers;snap=true] 39af367eaad6dfd5
+point_casters shadow-map [filter=pcf2] 5cf7740f5c778bb6
+point_casters shadow-volume [] 49cc2c02f488c815
+point_casters shadow-volume [mode=zfail] 49cc2c02f488c815
+point_casters shadow-volume [mode=zfail-infinite] fa835dbb83b2f868
+point_casters shadow-volume [mode=zpass] 49cc2c02f488c815
+point_casters planar [] 86fe0dd698d6de78
+point_casters planar [stencil=off;darkness=0.5] e4f682dfebe61022
+point_casters cookie [] 09bd284926ebd478
+point_casters cookie [filter=bilinear] ded4554a99be3cb5
+planar shadow-map [size=256] ab8dd7edf6ab2875
+planar shadow-map [size=512] 53067c7945199088
+planar shadow-map [size=1024] d6e87c4048aeae68
+planar shadow-map [size=2048] 7d894ff8ea3b9b15
+planar shadow-map [size=4096] 9184b3db883b3e15
+planar shadow-map [format=u16] 7cc019d357502cc5
+planar shadow-map [format=u24] 7d894ff8ea3b9b15
+planar shadow-map [units=0;slope=0] 8cef36f63f32e4c8
+planar shadow-map [units=100000] e3d67641ce8b98a5
+planar shadow-map [units=0;slope=0;normal=1.5] 3f870d4974876f05
+planar shadow-map [units=0;slope=0;receiver=true] 398e9a5190bef098
+planar shadow-map [layer=second;units=0;slope=0] 52439751eefbd678
+planar shadow-map [layer=midpoint;units=0;slope=0] bc6f8150d6bc5a58
+planar shadow-map [layer=id] 1bfe5019d8f87995
+planar shadow-map [fit=receivers] 7d894ff8ea3b9b15
+planar shadow-map [fit=receivers;snap=true] 7d894ff8ea3b9b15
+planar shadow-map [filter=pcf2] 23320e1ef49a833f
+planar shadow-volume [] 881fa311863269c5
+planar shadow-volume [mode=zfail] 881fa311863269c5
+planar shadow-volume [mode=zfail-infinite] 2273997bb7ea0cf5
+planar shadow-volume [mode=zpass] 881fa311863269c5
+planar planar [] 935ee71a0211e3d8
+planar planar [stencil=off;darkness=0.5] d7d1a79663bdbf45
+planar cookie [] b60477ecdbd2c815
+planar cookie [filter=bilinear] d911fc5a0ae3990a
+cookie shadow-map [size=256] 4010de312a0892e8
+cookie shadow-map [size=512] 28363364b0baaf95
+cookie shadow-map [size=1024] f1ec318a3fe4fce8
+cookie shadow-map [size=2048] 3550b2d723a08648
+cookie shadow-map [size=4096] 51b9ab028f78aa38
+cookie shadow-map [format=u16] 3550b2d723a08648
+cookie shadow-map [format=u24] 3550b2d723a08648
+cookie shadow-map [units=0;slope=0] 6083908b1160cdd8
+cookie shadow-map [units=100000] 4c7d348089c73ec8
+cookie shadow-map [units=0;slope=0;normal=1.5] 8cf68f5fe9004535
+cookie shadow-map [units=0;slope=0;receiver=true] 1a183e4ec9c83ef8
+cookie shadow-map [layer=second;units=0;slope=0] 2204cc161ac33fb8
+cookie shadow-map [layer=midpoint;units=0;slope=0] 8ece0131a1b26865
+cookie shadow-map [layer=id] 79b25910a67152c5
+cookie shadow-map [fit=receivers] c6bf8d6418c3dd88
+cookie shadow-map [fit=receivers;snap=true] e090023ecd149ca8
+cookie shadow-map [filter=pcf2] 4c5336fb78a5ead6
+cookie shadow-volume [] 98dcae3592fe9025
+cookie shadow-volume [mode=zfail] 98dcae3592fe9025
+cookie shadow-volume [mode=zfail-infinite] 28d0f8b2db2ce268
+cookie shadow-volume [mode=zpass] 98dcae3592fe9025
+cookie planar [] ca99ebfbd3792425
+cookie planar [stencil=off;darkness=0.5] ca99ebfbd3792425
+cookie cookie [] 34382f8b54217b35
+cookie cookie [filter=bilinear] b6b0542fa6ee02a6
+long_view shadow-map [size=256] 101c28efd5ca7618
+long_view shadow-map [size=512] 31e8d66c38255b25
+long_view shadow-map [size=1024] 467baf28f97c71d8
+long_view shadow-map [size=2048] 625a43ee896ee645
+long_view shadow-map [size=4096] 7b5a196827746208
+long_view shadow-map [format=u16] 625a43ee896ee645
+long_view shadow-map [format=u24] 625a43ee896ee645
+long_view shadow-map [units=0;slope=0] 9c17c3e85d9b1cd5
+long_view shadow-map [units=100000] f468ebde5b1f90c8
+long_view shadow-map [units=0;slope=0;normal=1.5] 5ab18de447cb1698
+long_view shadow-map [units=0;slope=0;receiver=true] ceb59c4bb5144338
+long_view shadow-map [layer=second;units=0;slope=0] 3a39e6bbdc41da98
+long_view shadow-map [layer=midpoint;units=0;slope=0] 9043403405a5a858
+long_view shadow-map [layer=id] 8171e47fac7e1985
+long_view shadow-map [fit=receivers] 5423531193960ef5
+long_view shadow-map [fit=receivers;snap=true] 705a3582c6188be8
+long_view shadow-map [filter=pcf2] 60a49f05eaadf84d
+long_view shadow-volume [] c470dd4e31f291b8
+long_view shadow-volume [mode=zfail] c470dd4e31f291b8
+long_view shadow-volume [mode=zfail-infinite] a023432d53f6f625
+long_view shadow-volume [mode=zpass] c470dd4e31f291b8
+long_view planar [] e0e5043d9ede3b95
+long_view planar [stencil=off;darkness=0.5] 9b6e36a5c0a76fa5
+long_view cookie [] 8cc1804dacf62135
+long_view cookie [filter=bilinear] bc92601305405580
+";
