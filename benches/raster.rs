@@ -68,7 +68,7 @@ fn random(c: &mut Criterion) {
 /// Shadow techniques on the spheres scene (100k triangles, 1920x1080): shadow volumes whole
 /// and their silhouette extraction alone, and the shadow map.
 fn techniques(c: &mut Criterion) {
-    use penumbra::shadow::{self, silhouette};
+    use penumbra::shadow::{self, volume::silhouette};
     let p = Pipeline::new(threads()).unwrap();
     let mut g = c.benchmark_group(format!("spheres_techniques_{}t", p.threads()));
     g.sample_size(10);

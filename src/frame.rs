@@ -4,10 +4,13 @@
 //! Two draws per object share the same geometry and depth formula: the first writes
 //! position and object id with a `Less` depth test, the second writes normals where the
 //! depth is `Equal` (bit-identical depths, so exactly the visible surface).
+//!
+//! Shading: `ambient + v * (Lambert + Blinn-Phong)` with `v` per colour channel.
 
 use crate::pipeline::*;
 use crate::reference::SamplePoint;
 use crate::scene::{Camera, Light, Scene};
+use crate::visibility::Visibility;
 use glam::{Vec3, Vec4};
 
 /// Marks "no object" in [`GBuffer::object`].
@@ -184,9 +187,10 @@ pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> 
     })
 }
 
-/// Final image: `ambient + v * (Lambert + Blinn-Phong)` from the light's centre, in sRGB.
+/// Final image: `ambient + v * (Lambert + Blinn-Phong)` from the light's centre, in sRGB,
+/// where `v` is the visibility per channel (light through coloured glass is tinted).
 /// Background pixels get a dark sky colour.
-pub fn shade(frame: &Frame, visibility: &[f32]) -> Surface<Rgba8> {
+pub fn shade(frame: &Frame, visibility: &Visibility) -> Surface<Rgba8> {
     let (w, h) = (frame.width(), frame.height());
     let mut out = Surface::new(w, h, [18, 20, 28, 255]).expect("frame size is valid");
     for y in 0..h {
@@ -203,8 +207,8 @@ pub fn shade(frame: &Frame, visibility: &[f32]) -> Surface<Rgba8> {
             } else {
                 0.0
             };
-            let vis = visibility[(y * w + x) as usize];
-            let vis = if vis.is_finite() { vis } else { 1.0 };
+            let vis = visibility.rgb((y * w + x) as usize);
+            let vis = if vis.is_finite() { vis } else { Vec3::ONE };
             let c = albedo * 0.12 + (albedo * ndl + Vec3::splat(spec)) * vis * frame.light.intensity;
             let srgb = |c: f32| {
                 let c = c.clamp(0.0, 1.0);

@@ -23,3 +23,23 @@ pub fn hash_f32(data: &[f32]) -> u64 {
 pub fn hash_rgba8(data: &[[u8; 4]]) -> u64 {
     data.iter().fold(FNV_OFFSET, |h, v| fnv1a(h, v))
 }
+
+/// A small deterministic generator (SplitMix64) for benchmark and test inputs.
+#[derive(Clone, Debug)]
+pub struct SplitMix(pub u64);
+
+impl SplitMix {
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}

@@ -33,5 +33,7 @@ pub mod metrics;
 pub mod pipeline;
 pub mod reference;
 pub mod report;
+pub mod run;
 pub mod scene;
 pub mod shadow;
+pub mod visibility;

@@ -2,6 +2,8 @@
 //! pixels of a mask (covered by geometry and facing the light). Knows nothing of the pipeline or
 //! of techniques.
 
+use crate::visibility::Visibility;
+
 /// Errors of one image.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Errors {
@@ -20,8 +22,56 @@ pub struct Errors {
 }
 
 /// Compares `v` with `reference` over `mask`. Non-finite values of `v` count as maximal
-/// error (1), so a technique cannot hide failures behind NaN.
-pub fn compare(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
+/// error (1), so a technique cannot hide failures behind NaN. Where either image has colour,
+/// RMSE and MAE run over every channel of every pixel (a scalar counts in each channel), and
+/// wrong % and the penumbra mask use luminance.
+pub fn compare(v: &Visibility, reference: &Visibility, mask: &[bool]) -> Errors {
+    match (v, reference) {
+        (Visibility::Scalar(a), Visibility::Scalar(b)) => compare_scalar(a, b, mask),
+        _ => compare_rgb(v, reference, mask),
+    }
+}
+
+fn compare_rgb(v: &Visibility, reference: &Visibility, mask: &[bool]) -> Errors {
+    let (mut se, mut ae, mut wrong, mut n, mut pse, mut pn) = (0.0f64, 0.0f64, 0u64, 0u64, 0.0f64, 0u64);
+    for (i, &m) in mask.iter().enumerate().take(v.len().min(reference.len())) {
+        let (a, r) = (v.rgb(i), reference.rgb(i));
+        if !m || !r.is_finite() {
+            continue;
+        }
+        let d = if a.is_finite() {
+            (a - r).abs().as_dvec3()
+        } else {
+            glam::DVec3::ONE
+        };
+        se += d.length_squared();
+        ae += d.x + d.y + d.z;
+        n += 1;
+        let (la, lr) = (v.value(i), reference.value(i));
+        let dl = if la.is_finite() { (la - lr).abs() } else { 1.0 };
+        if dl > 0.5 {
+            wrong += 1;
+        }
+        if lr > 0.0 && lr < 1.0 {
+            pse += d.length_squared();
+            pn += 1;
+        }
+    }
+    if n == 0 {
+        return Errors::default();
+    }
+    Errors {
+        rmse: (se / (3 * n) as f64).sqrt(),
+        mae: ae / (3 * n) as f64,
+        wrong_pct: 100.0 * wrong as f64 / n as f64,
+        penumbra_rmse: if pn > 0 { (pse / (3 * pn) as f64).sqrt() } else { 0.0 },
+        pixels: n,
+        penumbra_pixels: pn,
+    }
+}
+
+/// [`compare`] of two scalar images.
+pub fn compare_scalar(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
     let (mut se, mut ae, mut wrong, mut n, mut pse, mut pn) = (0.0f64, 0.0f64, 0u64, 0u64, 0.0f64, 0u64);
     for ((&a, &r), &m) in v.iter().zip(reference).zip(mask) {
         if !m || !r.is_finite() {
@@ -59,20 +109,21 @@ pub fn compare(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
 /// Flicker along a camera path: the mean over consecutive frames and masked pixels of
 /// `max(0, |v_t - v_{t-1}| - |r_t - r_{t-1}|)`: change of the technique beyond the change of
 /// the truth at the same pixel.
-pub fn flicker(frames: &[(Vec<f32>, Vec<f32>, Vec<bool>)]) -> f64 {
+pub fn flicker(frames: &[(Visibility, Visibility, Vec<bool>)]) -> f64 {
     let (mut sum, mut n) = (0.0f64, 0u64);
     for w in frames.windows(2) {
         let ((v0, r0, m0), (v1, r1, m1)) = (&w[0], &w[1]);
         for i in 0..v1.len().min(v0.len()) {
-            if !(m0[i] && m1[i] && r0[i].is_finite() && r1[i].is_finite()) {
+            let (a0, a1, b0, b1) = (v0.value(i), v1.value(i), r0.value(i), r1.value(i));
+            if !(m0[i] && m1[i] && b0.is_finite() && b1.is_finite()) {
                 continue;
             }
-            let dv = if v0[i].is_finite() && v1[i].is_finite() {
-                (v1[i] - v0[i]).abs() as f64
+            let dv = if a0.is_finite() && a1.is_finite() {
+                (a1 - a0).abs() as f64
             } else {
                 1.0
             };
-            let dr = (r1[i] - r0[i]).abs() as f64;
+            let dr = (b1 - b0).abs() as f64;
             sum += (dv - dr).max(0.0);
             n += 1;
         }
@@ -98,7 +149,7 @@ mod tests {
         let r = [0.0, 1.0, 0.5, 1.0, f32::NAN];
         let v = [0.0, 0.0, 0.75, f32::NAN, 1.0];
         let m = [true, true, true, true, true];
-        let e = compare(&v, &r, &m);
+        let e = compare_scalar(&v, &r, &m);
         assert_eq!(e.pixels, 4);
         assert_eq!(e.penumbra_pixels, 1);
         assert!((e.mae - (0.0 + 1.0 + 0.25 + 1.0) / 4.0).abs() < 1e-12);
@@ -108,12 +159,35 @@ mod tests {
     }
 
     #[test]
+    fn colour_metrics_run_over_channels_and_wrong_uses_luminance() {
+        use glam::Vec3;
+        let r = Visibility::Rgb(vec![Vec3::new(1.0, 0.0, 0.0), Vec3::ONE]);
+        // A grey technique: 1 everywhere (pixel 0 is off by 1 in two channels).
+        let v = Visibility::Scalar(vec![1.0, 1.0]);
+        let e = compare(&v, &r, &[true, true]);
+        assert_eq!(e.pixels, 2);
+        assert!((e.rmse - (2.0f64 / 6.0).sqrt()).abs() < 1e-9);
+        assert!((e.mae - 2.0 / 6.0).abs() < 1e-9);
+        // Luminance of (1, 0, 0) is 0.2126: off by 0.79 > 0.5, one wrong pixel of two.
+        assert!((e.wrong_pct - 50.0).abs() < 1e-9);
+        assert_eq!(e.penumbra_pixels, 1);
+        // Scalar against scalar is the scalar comparison.
+        let a = Visibility::Scalar(vec![0.25, 1.0]);
+        let b = Visibility::Scalar(vec![0.0, 1.0]);
+        assert_eq!(
+            compare(&a, &b, &[true, true]),
+            compare_scalar(&[0.25, 1.0], &[0.0, 1.0], &[true, true])
+        );
+    }
+
+    #[test]
     fn flicker_ignores_changes_of_the_truth() {
         let m = vec![true; 2];
+        let s = |v: Vec<f32>| Visibility::Scalar(v);
         let f = [
-            (vec![0.0, 1.0], vec![0.0, 1.0], m.clone()),
-            (vec![1.0, 1.0], vec![1.0, 1.0], m.clone()),
-            (vec![0.0, 1.0], vec![1.0, 1.0], m),
+            (s(vec![0.0, 1.0]), s(vec![0.0, 1.0]), m.clone()),
+            (s(vec![1.0, 1.0]), s(vec![1.0, 1.0]), m.clone()),
+            (s(vec![0.0, 1.0]), s(vec![1.0, 1.0]), m),
         ];
         // Frame 1->2: both change pixel 0 (no flicker); frame 2->3: only v changes (1 of 2 pixels).
         assert!((flicker(&f) - 0.25).abs() < 1e-12);

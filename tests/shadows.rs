@@ -2,9 +2,9 @@
 //! registry's and the CLI's handling of bad input.
 
 use penumbra::frame;
-use penumbra::metrics::compare;
+use penumbra::metrics::{compare, compare_scalar};
 use penumbra::pipeline::Pipeline;
-use penumbra::report;
+use penumbra::run;
 use penumbra::scene::file::load;
 use penumbra::shadow;
 use std::path::Path;
@@ -15,8 +15,8 @@ fn errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metr
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let text = std::fs::read_to_string(format!("fixtures/scenes/{scene}.toml")).unwrap();
-    let key = report::reference_key(&text, &f, 0, &Default::default());
-    let (r, _, _) = report::reference(&p, &f, key, None).unwrap();
+    let key = run::reference_key(&text, &f, 0, &Default::default());
+    let (r, _, _) = run::reference(&p, &f, key, None).unwrap();
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
     let mut t = shadow::create(technique, &sets).unwrap();
     let v = t.visibility(&p, &f).unwrap();
@@ -267,7 +267,7 @@ fn flicker(scene: &str, sets: &[(&str, &str)]) -> f64 {
     let s = load(Path::new(&path)).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    report::render(&p, &s, &text, "shadow-map", &sets, 0, None, None)
+    run::render(&p, &s, &text, "shadow-map", &sets, 0, None)
         .unwrap()
         .result
         .flicker
@@ -362,7 +362,7 @@ fn point_light_inside_a_caster_shadows_everything_outside() {
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let mut t = shadow::create("shadow-map", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
-    let (r, _, _) = report::reference(&p, &f, 0, None).unwrap();
+    let (r, _, _) = run::reference(&p, &f, 0, None).unwrap();
     let mask = f.metric_mask();
     let e = compare(&v, &r, &mask);
     assert!(
@@ -371,14 +371,19 @@ fn point_light_inside_a_caster_shadows_everything_outside() {
         e.wrong_pct,
         e.pixels
     );
-    assert!(v.iter().zip(&mask).filter(|(_, m)| **m).all(|(&x, _)| x == 0.0));
+    assert!(v
+        .to_scalar()
+        .iter()
+        .zip(&mask)
+        .filter(|(_, m)| **m)
+        .all(|(&x, _)| x == 0.0));
 }
 
 /// Errors against the *hard* reference (visibility of the light's centre), the ground truth of
 /// exact hard-shadow techniques.
 fn hard_errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metrics::Errors {
     let (v, r, mask, _) = run_hard(scene, technique, sets);
-    compare(&v, &r, &mask)
+    compare_scalar(&v, &r, &mask)
 }
 
 #[test]
@@ -499,7 +504,7 @@ fn auto_mode_picks_z_fail_only_when_the_near_plane_may_be_shadowed() {
     for (scene, zpass) in [("eye_in_volume", false), ("long_view", true)] {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        assert_eq!(shadow::volume::zpass_is_safe(&f), zpass, "{scene}");
+        assert_eq!(shadow::volume::shadow_volume::zpass_is_safe(&f), zpass, "{scene}");
         let mut t = shadow::create("shadow-volume", &[]).unwrap();
         t.visibility(&p, &f).unwrap();
         let name = t.stages(&p, &f).unwrap()[0].name().to_string();
@@ -543,7 +548,12 @@ fn run_hard(scene: &str, technique: &str, sets: &[(&str, &str)]) -> (Vec<f32>, V
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
     let mut t = shadow::create(technique, &sets).unwrap();
     let v = t.visibility(&p, &f).unwrap();
-    (v, rv, f.metric_mask(), f.gbuffer.object.data().to_vec())
+    (
+        v.to_scalar(),
+        rv.to_scalar(),
+        f.metric_mask(),
+        f.gbuffer.object.data().to_vec(),
+    )
 }
 
 fn object_index(scene: &str, name: &str) -> u32 {
@@ -558,7 +568,7 @@ fn planar_shadows_match_the_reference_on_their_plane() {
         let g = object_index(scene, "ground");
         let (v, r, mask, obj) = run_hard(scene, "planar", &[]);
         let on_ground: Vec<bool> = mask.iter().zip(&obj).map(|(m, o)| *m && *o == g).collect();
-        let e = compare(&v, &r, &on_ground);
+        let e = compare_scalar(&v, &r, &on_ground);
         assert!(e.wrong_pct <= 0.05, "{scene}: {} % wrong on the ground", e.wrong_pct);
         assert!(on_ground.iter().filter(|m| **m).count() > 1000);
     }
@@ -616,7 +626,7 @@ fn wrong_on(scene: &str, technique: &str, sets: &[(&str, &str)], name: &str) -> 
     let id = object_index(scene, name);
     let (v, r, mask, obj) = run_hard(scene, technique, sets);
     let only: Vec<bool> = mask.iter().zip(&obj).map(|(m, o)| *m && *o == id).collect();
-    compare(&v, &r, &only).wrong_pct
+    compare_scalar(&v, &r, &only).wrong_pct
 }
 
 #[test]

@@ -4,7 +4,6 @@
 //! test also proves that the move changed no output.
 
 use penumbra::frame;
-use penumbra::hash::hash_f32;
 use penumbra::pipeline::Pipeline;
 use penumbra::scene::file::load;
 use penumbra::shadow;
@@ -31,7 +30,7 @@ fn hashes() -> Vec<String> {
                     .map(|(k, v)| format!("{k}={v}"))
                     .collect::<Vec<_>>()
                     .join(";");
-                out.push(format!("{scene} {} [{label}] {:016x}", t.name, hash_f32(&v)));
+                out.push(format!("{scene} {} [{label}] {:016x}", t.name, v.hash()));
             }
         }
     }

@@ -422,7 +422,7 @@ mod tests {
 
     #[test]
     fn four_lane_pcf_equals_one_lane_bit_for_bit() {
-        let mut rng = crate::bench::SplitMix(11);
+        let mut rng = crate::hash::SplitMix(11);
         let data = (0..37 * 23).map(|_| rng.next_f32()).collect();
         let s = Surface::from_vec(37, 23, data).unwrap();
         let special = [
@@ -436,7 +436,7 @@ mod tests {
             1.0,
             0.5 / 37.0,
         ];
-        let coord = |rng: &mut crate::bench::SplitMix| {
+        let coord = |rng: &mut crate::hash::SplitMix| {
             if rng.next_u64().is_multiple_of(6) {
                 special[(rng.next_u64() % special.len() as u64) as usize]
             } else {

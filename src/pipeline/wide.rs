@@ -550,7 +550,7 @@ mod tests {
             1.0,
             255.5 / 255.0,
         ];
-        let mut rng = crate::bench::SplitMix(3);
+        let mut rng = crate::hash::SplitMix(3);
         v.extend((0..200).map(|_| rng.next_f32() * 4.0 - 2.0));
         v
     }

@@ -292,7 +292,7 @@ impl WatertightRay {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::SplitMix;
+    use crate::hash::SplitMix;
 
     #[test]
     fn matches_brute_force_on_random_triangles() {

@@ -8,11 +8,15 @@
 //!   from the point, by stratified jittered sampling, adaptively: a pilot of 8 x 8 strata and 32
 //!   rim points; if every pilot ray agrees the pixel is umbra or fully lit, otherwise
 //!   `area_samples` fresh stratified samples. Jitter comes from a hash of
-//!   (pixel, sample, seed), so the result is deterministic.
+//!   (pixel, sample, seed), so the result is deterministic;
+//! - colour: where a scene has materials with a coloured `transmittance`, every ray carries
+//!   one transmittance per channel (the product of the crossed surfaces' colours) and the
+//!   result is a [`Visibility::Rgb`]; otherwise one value ([`Visibility::Scalar`]).
 
 pub mod bvh;
 
 use crate::scene::{AreaShape, Light, LightKind, Scene};
+use crate::visibility::Visibility;
 use bvh::{Bvh, Tri};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -54,7 +58,34 @@ pub struct SamplePoint {
 pub struct Reference {
     bvh: Bvh,
     transmit: Vec<f32>,
+    transmit_rgb: Vec<Vec3>,
+    coloured: bool,
     rays: std::sync::atomic::AtomicU64,
+}
+
+/// What a shadow ray carries: one transmittance (`f32`) or one per channel (`Vec3`).
+trait Channels: Copy + PartialEq + std::ops::Add<Output = Self> + std::ops::Div<f32, Output = Self> + Send + Sync {
+    const ZERO: Self;
+    const ONE: Self;
+    fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> Self;
+}
+
+impl Channels for f32 {
+    const ZERO: f32 = 0.0;
+    const ONE: f32 = 1.0;
+    #[inline]
+    fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> f32 {
+        r.transmittance(o, d, tmax)
+    }
+}
+
+impl Channels for Vec3 {
+    const ZERO: Vec3 = Vec3::ZERO;
+    const ONE: Vec3 = Vec3::ONE;
+    #[inline]
+    fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> Vec3 {
+        r.transmittance_rgb(o, d, tmax)
+    }
 }
 
 /// Moves a ray origin off its surface along the normal by a few ULPs of the position
@@ -130,9 +161,17 @@ impl Reference {
             .iter()
             .map(|o| 1.0 - scene.materials[o.material].opacity)
             .collect();
+        let transmit_rgb: Vec<Vec3> = scene
+            .objects
+            .iter()
+            .map(|o| scene.materials[o.material].transmittance_rgb())
+            .collect();
+        let coloured = transmit_rgb.iter().any(|t| t.x != t.y || t.y != t.z);
         Reference {
             bvh: Bvh::build(tris),
             transmit,
+            transmit_rgb,
+            coloured,
             rays: Default::default(),
         }
     }
@@ -162,24 +201,46 @@ impl Reference {
         tr.max(0.0)
     }
 
+    /// Transmittance per channel along `o + t d`, `t` in `(0, tmax)`: the product of the
+    /// crossed surfaces' transmittance colours (an opaque surface ends the ray at zero).
+    pub fn transmittance_rgb(&self, o: Vec3, d: Vec3, tmax: f32) -> Vec3 {
+        RAYS.with(|c| c.set(c.get() + 1));
+        let mut tr = Vec3::ONE;
+        self.bvh.traverse(o, d, tmax, |tag, _| {
+            tr *= self.transmit_rgb[tag as usize];
+            tr.max_element() <= 0.0
+        });
+        tr.max(Vec3::ZERO)
+    }
+
+    /// Whether some material transmits a colour (different per channel): visibility is then
+    /// computed per channel.
+    pub fn is_coloured(&self) -> bool {
+        self.coloured
+    }
+
     /// Hard visibility of the light's centre from `s`.
     pub fn hard(&self, s: &SamplePoint, light: &Light) -> f32 {
+        self.hard_c(s, light)
+    }
+
+    fn hard_c<C: Channels>(&self, s: &SamplePoint, light: &Light) -> C {
         let o = offset_origin(s.position, s.normal);
         match light.kind {
-            LightKind::Directional => self.transmittance(o, -light.direction, f32::INFINITY),
+            LightKind::Directional => C::trace(self, o, -light.direction, f32::INFINITY),
             _ => {
                 let to = light.position - o;
                 let d = to.length();
                 if d <= 0.0 {
-                    return 1.0;
+                    return C::ONE;
                 }
-                self.transmittance(o, to / d, d)
+                C::trace(self, o, to / d, d)
             }
         }
     }
 
     /// Visibility of the light sample at strata coordinate `u` in [0, 1)^2.
-    fn area_sample(&self, o: Vec3, light: &Light, shape: AreaShape, u: Vec2) -> f32 {
+    fn area_sample<C: Channels>(&self, o: Vec3, light: &Light, shape: AreaShape, u: Vec2) -> C {
         let (t1, t2) = light.tangents();
         let target = match shape {
             AreaShape::Disk { radius } => {
@@ -194,7 +255,7 @@ impl Reference {
                 let to = light.position - o;
                 let dist = to.length();
                 if dist <= radius {
-                    return 1.0;
+                    return C::ONE;
                 }
                 let w = to / dist;
                 let cos_max = (1.0 - (radius / dist).powi(2)).max(0.0).sqrt();
@@ -208,26 +269,35 @@ impl Reference {
                 // Distance to the near side of the sphere along d.
                 let tca = to.dot(d);
                 let thc = (radius * radius - (dist * dist - tca * tca)).max(0.0).sqrt();
-                return self.transmittance(o, d, (tca - thc).max(0.0));
+                return C::trace(self, o, d, (tca - thc).max(0.0));
             }
         };
         let to = target - o;
         let d = to.length();
         if d <= 0.0 {
-            return 1.0;
+            return C::ONE;
         }
-        self.transmittance(o, to / d, d)
+        C::trace(self, o, to / d, d)
     }
 
     /// Area visibility (stratified, adaptive; see the module docs). `pixel` seeds the jitter.
     pub fn area(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> f32 {
+        self.area_c(s, light, pixel, opts)
+    }
+
+    /// [`Reference::area`] per colour channel.
+    pub fn area_rgb(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> Vec3 {
+        self.area_c(s, light, pixel, opts)
+    }
+
+    fn area_c<C: Channels>(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> C {
         let shape = match light.kind {
             LightKind::Area(shape) if opts.area => shape,
-            _ => return self.hard(s, light),
+            _ => return self.hard_c(s, light),
         };
         let o = offset_origin(s.position, s.normal);
-        let strata = |n: u32, salt: u64| -> f32 {
-            let mut sum = 0.0;
+        let strata = |n: u32, salt: u64| -> C {
+            let mut sum = C::ZERO;
             for j in 0..n {
                 for i in 0..n {
                     let h = hash3(pixel, (salt << 32) | (j * n + i) as u64, opts.seed);
@@ -235,7 +305,7 @@ impl Reference {
                         (i as f32 + unit(h)) / n as f32,
                         (j as f32 + unit(h.rotate_left(24))) / n as f32,
                     );
-                    sum += self.area_sample(o, light, shape, u.min(Vec2::splat(0.999_999_9)));
+                    sum = sum + self.area_sample::<C>(o, light, shape, u.min(Vec2::splat(0.999_999_9)));
                 }
             }
             sum / (n * n) as f32
@@ -244,7 +314,7 @@ impl Reference {
         // cuts off even 1 % of a disk cuts a 45-degree arc of its rim, so the rim points catch
         // the slivers the strata can miss.
         let pilot = strata(8, 1);
-        if pilot == 0.0 || pilot == 1.0 {
+        if pilot == C::ZERO || pilot == C::ONE {
             let rim_agrees = (0..32).all(|k| {
                 let t = (k as f32 + 0.5) / 8.0;
                 let u = match (shape, k / 8) {
@@ -254,7 +324,7 @@ impl Reference {
                     (_, 2) => Vec2::new(3.0 - t, 0.999_999),
                     _ => Vec2::new(0.0, 4.0 - t),
                 };
-                self.area_sample(o, light, shape, u) == pilot
+                self.area_sample::<C>(o, light, shape, u) == pilot
             });
             if rim_agrees {
                 return pilot;
@@ -265,20 +335,36 @@ impl Reference {
     }
 
     /// Visibility of every point (`None`: no geometry, left as NaN), rows in parallel on the
-    /// current rayon pool; `width` points per row, pixel index = row * width + column.
+    /// current rayon pool; `width` points per row, pixel index = row * width + column. Per
+    /// channel when the scene has coloured transmittance ([`Reference::is_coloured`]).
     pub fn visibility(
         &self,
         points: &[Option<SamplePoint>],
         width: usize,
         light: &Light,
         opts: &ReferenceOptions,
-    ) -> Vec<f32> {
-        let mut out = vec![f32::NAN; points.len()];
+    ) -> Visibility {
+        if self.coloured {
+            Visibility::Rgb(self.visibility_c(points, width, light, opts, Vec3::NAN))
+        } else {
+            Visibility::Scalar(self.visibility_c(points, width, light, opts, f32::NAN))
+        }
+    }
+
+    fn visibility_c<C: Channels>(
+        &self,
+        points: &[Option<SamplePoint>],
+        width: usize,
+        light: &Light,
+        opts: &ReferenceOptions,
+        none: C,
+    ) -> Vec<C> {
+        let mut out = vec![none; points.len()];
         out.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, o)| {
             for (x, v) in o.iter_mut().enumerate() {
                 let i = row * width + x;
                 if let Some(s) = &points[i] {
-                    *v = self.area(s, light, i as u64, opts);
+                    *v = self.area_c(s, light, i as u64, opts);
                 }
             }
             self.flush_rays();

@@ -14,7 +14,7 @@
 //!
 //! [[material]]
 //! name = "ground"
-//! albedo = [0.8, 0.8, 0.8] # also: opacity = 1, two_sided = false
+//! albedo = [0.8, 0.8, 0.8] # also: opacity = 1, two_sided = false, transmittance = [r, g, b]
 //!
 //! [[object]]
 //! mesh = "plane"          # plane | box | sphere | cylinder | heightfield | path/to/file.obj
@@ -83,6 +83,7 @@ struct RawMaterial {
     name: String,
     albedo: Option<[f32; 3]>,
     opacity: Option<f32>,
+    transmittance: Option<[f32; 3]>,
     two_sided: Option<bool>,
 }
 
@@ -228,6 +229,13 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
         if !(0.0..=1.0).contains(&opacity) {
             return ctx.err(s, &what, "opacity", format!("{opacity} is outside [0, 1]"));
         }
+        let transmittance = match m.transmittance {
+            None => None,
+            Some(t) => match finite3(t).filter(|t| t.min_element() >= 0.0 && t.max_element() <= 1.0) {
+                Some(t) => Some(t),
+                None => return ctx.err(s, &what, "transmittance", "each channel must be in [0, 1]"),
+            },
+        };
         if materials.iter().any(|x| x.name == m.name) {
             return ctx.err(s, &what, "name", "used by an earlier material");
         }
@@ -235,6 +243,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
             name: m.name.clone(),
             albedo,
             opacity,
+            transmittance,
             two_sided: m.two_sided.unwrap_or(false),
         });
     }

@@ -151,7 +151,7 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
 /// amplitude `amplitude` (deterministic for a seed), normals from central differences.
 pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {
     let n = n.max(1);
-    let mut rng = crate::bench::SplitMix(seed);
+    let mut rng = crate::hash::SplitMix(seed);
     let waves: Vec<(Vec2, f32, f32)> = (0..6)
         .map(|i| {
             let a = rng.next_f32() * TAU;

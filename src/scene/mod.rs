@@ -5,6 +5,7 @@
 
 pub mod file;
 pub mod mesh;
+pub mod spheres;
 
 use glam::{Mat4, Vec3};
 
@@ -67,8 +68,24 @@ pub struct Material {
     pub albedo: Vec3,
     /// Opacity in [0, 1] (1 = opaque); below 1 the object transmits light.
     pub opacity: f32,
+    /// The colour of the light it transmits, per channel in [0, 1] (stained glass). Default:
+    /// none, which means `1 - opacity` in every channel.
+    pub transmittance: Option<Vec3>,
     /// Lit from both sides (thin sheets).
     pub two_sided: bool,
+}
+
+impl Material {
+    /// The fraction of light it transmits per channel: [`Material::transmittance`], or
+    /// `1 - opacity` in every channel.
+    pub fn transmittance_rgb(&self) -> Vec3 {
+        self.transmittance.unwrap_or(Vec3::splat(1.0 - self.opacity))
+    }
+
+    /// Whether the material lets any light through (in some channel).
+    pub fn is_transparent(&self) -> bool {
+        self.transmittance_rgb().max_element() > 0.0
+    }
 }
 
 impl Default for Material {
@@ -77,6 +94,7 @@ impl Default for Material {
             name: "default".into(),
             albedo: Vec3::splat(0.8),
             opacity: 1.0,
+            transmittance: None,
             two_sided: false,
         }
     }

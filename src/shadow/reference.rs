@@ -1,47 +1,81 @@
 //! The reference registered as a technique (`reference`): the ray-traced ground truth, so it
 //! sits on the chart as the point every technique is measured against (error 0, its own cost).
 
-use super::*;
+use crate::frame::Frame;
+use crate::pipeline::{Pipeline, Surface};
 use crate::reference::{Reference, ReferenceOptions};
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
-const OPTIONS: &[OptionInfo] = &[
-    OptionInfo {
-        key: "area",
-        default: "true",
-        doc: "sample the area of area lights (false: hard visibility from the centre)",
-    },
-    OptionInfo {
-        key: "samples",
-        default: "1024",
-        doc: "samples per penumbra pixel (n x n strata)",
-    },
-];
+/// Options of the reference technique.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Sample the area of area lights (false: hard visibility from the centre). Default: true.
+    pub area: bool,
+    /// Samples per penumbra pixel (n x n strata). Default: 1024.
+    pub samples: u32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            area: true,
+            samples: 1024,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "reference",
+        fields: vec![
+            Field::new(
+                "area",
+                "sample the area of area lights (false: hard visibility from the centre)",
+                |o: &mut Options| &mut o.area,
+            ),
+            Field::range(
+                "samples",
+                "samples per penumbra pixel (n x n strata)",
+                1,
+                1 << 16,
+                |o: &mut Options| &mut o.samples,
+            ),
+        ],
+    }
+}
 
 /// Registry entry.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "reference",
         summary: "BVH ray tracer: exact hard visibility; area lights by stratified sampling (ground truth)",
-        options: OPTIONS,
+        options: declaration().infos(),
         sweep: &[&[]],
-        create: |s| {
-            let area = s.choice("area", &["true", "false"])? == "true";
-            let samples = s.num("samples", 1u32, 1 << 16)?;
-            Ok(Box::new(RefTechnique {
-                opts: ReferenceOptions {
-                    area,
-                    area_samples: samples,
-                    ..Default::default()
-                },
-                last: None,
-            }))
-        },
+        create: |pairs| Ok(Box::new(RefTechnique::new(declaration().parse(pairs)?)?)),
     }
 }
 
-struct RefTechnique {
+/// The ray tracer as a technique.
+pub struct RefTechnique {
     opts: ReferenceOptions,
-    last: Option<Surface<f32>>,
+    last: Option<Visibility>,
+}
+
+impl RefTechnique {
+    /// The reference with `opts`.
+    pub fn new(opts: Options) -> Result<RefTechnique, String> {
+        declaration().check(&opts)?;
+        Ok(RefTechnique {
+            opts: ReferenceOptions {
+                area: opts.area,
+                area_samples: opts.samples,
+                ..Default::default()
+            },
+            last: None,
+        })
+    }
 }
 
 impl ShadowTechnique for RefTechnique {
@@ -49,24 +83,42 @@ impl ShadowTechnique for RefTechnique {
         "reference"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let r = Reference::new(frame.scene);
         let pts = frame.points();
         let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &self.opts));
-        self.last = Surface::from_vec(frame.width(), frame.height(), v.clone()).ok();
+        self.last = Some(v.clone());
         Ok(v)
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let Some(v) = &self.last else { return Vec::new() };
+        let i = (y * frame.width() + x) as usize;
+        vec![
+            Step::new(
+                "ray tracing",
+                "hard: one ray to the light's centre; area lights: stratified samples over the light (adaptive: 8x8 pilot and 32 rim rays, then the full count where they disagree)",
+            )
+            .flag("area", self.opts.area)
+            .int("samples", self.opts.area_samples)
+            .vec3("per channel", v.rgb(i)),
+            inspect::result(v.value(i)),
+        ]
+    }
+
+    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
         self.last
             .iter()
-            .map(|s| Stage::Scalar {
-                name: "visibility".into(),
-                data: s.clone(),
-                lo: 0.0,
-                hi: 1.0,
+            .map(|v| {
+                Surface::from_vec(frame.width(), frame.height(), v.to_scalar())
+                    .map(|data| Stage::Scalar {
+                        name: "visibility".into(),
+                        data,
+                        lo: 0.0,
+                        hi: 1.0,
+                    })
+                    .map_err(|e| e.to_string())
             })
-            .map(Ok)
             .collect()
     }
 }

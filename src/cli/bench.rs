@@ -1,266 +1,13 @@
-//! The `penumbra` command line.
+//! `penumbra bench ...`: the spheres frame, random triangles, the reference's rays and a
+//! technique on the spheres scene, with per-stage times, counters and a JSON line.
 
-use clap::{Args, Parser, Subcommand};
+use super::{FrameArgs, RasterArgs, RaysArgs, TechniqueArgs};
 use penumbra::bench::*;
 use penumbra::hash::{hash_f32, hash_rgba8};
 use penumbra::image_io::{grey, write_png};
 use penumbra::pipeline::*;
 use std::fmt::Write as _;
-use std::path::PathBuf;
-use std::process::ExitCode;
 use std::time::Instant;
-
-mod cli_cmds;
-
-#[derive(Parser)]
-#[command(
-    name = "penumbra",
-    version,
-    about = "A deterministic CPU rasterizer and shadow-algorithm lab"
-)]
-struct Cli {
-    #[command(subcommand)]
-    cmd: Option<Cmd>,
-}
-
-#[derive(Subcommand)]
-enum Cmd {
-    /// Render a scene with a technique: final image, visibility, error against the reference, timings.
-    Render(RenderArgs),
-    /// Write every intermediate stage of a technique (PNG, false colour) and the G-buffer and visibility (PFM).
-    Dump(RenderArgs),
-    /// Compute (or read from the cache) the ray-traced ground truth of a scene.
-    Reference(SceneArgs),
-    /// Every technique (and each option set it declares) on every scene: CSV, charts, report.
-    Sweep(SweepArgs),
-    /// Write a scene in world space as OBJ plus a JSON of camera and lights.
-    Export(SceneArgs),
-    /// List techniques with their options and defaults, and the built-in scenes.
-    List,
-    /// Benchmarks: the shadow-mapped spheres frame, or random triangles.
-    Bench {
-        #[command(subcommand)]
-        which: BenchCmd,
-    },
-}
-
-#[derive(Args)]
-struct SceneArgs {
-    /// Scene file (TOML).
-    scene: PathBuf,
-    /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Output folder.
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
-}
-
-#[derive(Args)]
-struct RenderArgs {
-    /// Scene file (TOML).
-    scene: PathBuf,
-    /// Technique name (see `penumbra list`).
-    #[arg(long, default_value = "shadow-map")]
-    technique: String,
-    /// Technique option, key=value (repeatable).
-    #[arg(long = "set")]
-    sets: Vec<String>,
-    /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 3)]
-    reps: usize,
-    /// Output folder.
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
-}
-
-#[derive(Args)]
-struct SweepArgs {
-    /// Scene files (default: every file in fixtures/scenes).
-    scenes: Vec<PathBuf>,
-    /// all, or a comma-separated list of technique names.
-    #[arg(long, default_value = "all")]
-    techniques: String,
-    /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Timed repetitions after one warm-up.
-    #[arg(long, default_value_t = 3)]
-    reps: usize,
-    /// Output folder.
-    #[arg(long, default_value = "out/sweep")]
-    out: PathBuf,
-}
-
-#[derive(Subcommand)]
-enum BenchCmd {
-    /// The spheres frame: light depth pass + 1920x1080 camera pass with PCF.
-    Frame(FrameArgs),
-    /// Random triangles of about AREA pixels each at 1920x1080.
-    Raster(RasterArgs),
-    /// Shadow rays per second of the reference ray tracer on the spheres scene (one ray per
-    /// pixel of the 1920x1080 camera view towards the light).
-    Rays(RaysArgs),
-    /// A shadow technique on the spheres scene (ground + 64 spheres, 1920x1080 camera):
-    /// median time per pass, counters, triangles/s.
-    Technique(TechniqueArgs),
-}
-
-#[derive(Args)]
-struct TechniqueArgs {
-    /// Technique name (see `penumbra list`).
-    #[arg(long, default_value = "shadow-volume")]
-    technique: String,
-    /// Technique options as key=value (repeatable).
-    #[arg(long = "set")]
-    sets: Vec<String>,
-    /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000)]
-    triangles: usize,
-    #[command(flatten)]
-    common: Common,
-}
-
-#[derive(Args)]
-struct Common {
-    /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Timed repetitions after the warm-up (the median is reported).
-    #[arg(long, default_value_t = 10)]
-    reps: usize,
-    /// Print one JSON object on the last line.
-    #[arg(long)]
-    json: bool,
-}
-
-#[derive(Args)]
-struct FrameArgs {
-    /// Target triangle count of the scene.
-    #[arg(long, default_value_t = 100_000)]
-    triangles: usize,
-    /// depth | pcf2 | pcf5
-    #[arg(long, default_value = "pcf2")]
-    mode: FrameMode,
-    /// Shadow-map size S (S x S).
-    #[arg(long, default_value_t = 2048)]
-    map: u32,
-    /// Image width.
-    #[arg(long, default_value_t = 1920)]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 1080)]
-    height: u32,
-    /// Write the image (and the shadow map) as PNG into this folder.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// deferred (hidden surface removal before shading) | immediate
-    #[arg(long, default_value = "deferred")]
-    shading: Shading,
-    /// Face culling of the camera pass: back | none | front (the light pass culls nothing)
-    #[arg(long, default_value_t = FRAME_CAMERA_CULL)]
-    cull: CullMode,
-    /// Also write the workload (mesh, matrices) into this folder for another renderer
-    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
-    #[arg(long)]
-    export: Option<PathBuf>,
-    #[command(flatten)]
-    common: Common,
-}
-
-#[derive(Args)]
-struct RaysArgs {
-    /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000)]
-    triangles: usize,
-    /// Rays per repetition.
-    #[arg(long, default_value_t = 4_000_000)]
-    rays: usize,
-    #[command(flatten)]
-    common: Common,
-}
-
-#[derive(Args)]
-struct RasterArgs {
-    /// Number of triangles.
-    #[arg(long, default_value_t = 100_000)]
-    triangles: usize,
-    /// Approximate area of each triangle in pixels.
-    #[arg(long, default_value_t = 50.0)]
-    area: f32,
-    /// depth | color
-    #[arg(long, default_value = "color")]
-    mode: String,
-    /// deferred (hidden surface removal before shading) | immediate
-    #[arg(long, default_value = "deferred")]
-    shading: Shading,
-    /// Also write the workload (triangles) into this folder for another renderer
-    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
-    #[arg(long)]
-    export: Option<PathBuf>,
-    #[command(flatten)]
-    common: Common,
-}
-
-fn main() -> ExitCode {
-    penumbra::alloc::keep_freed_memory();
-    // Output piped into `head` and closed early: exit quietly like other command-line tools,
-    // instead of panicking on the failed write.
-    #[cfg(target_os = "linux")]
-    // SAFETY: restoring the default disposition of a signal at start-up.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
-    let cli = Cli::parse();
-    let result = match cli.cmd {
-        None => {
-            println!(
-                "penumbra: no command given; running the default sweep over fixtures/scenes (see `penumbra --help`)."
-            );
-            cli_cmds::sweep(cli_cmds::SweepOpts {
-                scenes: vec![],
-                techniques: "all".into(),
-                threads: 0,
-                reps: 3,
-                out: PathBuf::from("out/sweep"),
-            })
-        }
-        Some(Cmd::Render(a)) => cli_cmds::render(&a.scene, &a.technique, &a.sets, a.threads, a.reps, &a.out),
-        Some(Cmd::Dump(a)) => cli_cmds::dump(&a.scene, &a.technique, &a.sets, a.threads, &a.out),
-        Some(Cmd::Reference(a)) => cli_cmds::reference(&a.scene, a.threads, &a.out),
-        Some(Cmd::Sweep(a)) => cli_cmds::sweep(cli_cmds::SweepOpts {
-            scenes: a.scenes,
-            techniques: a.techniques,
-            threads: a.threads,
-            reps: a.reps,
-            out: a.out,
-        }),
-        Some(Cmd::Export(a)) => cli_cmds::export(&a.scene, &a.out),
-        Some(Cmd::List) => cli_cmds::list(),
-        Some(Cmd::Bench {
-            which: BenchCmd::Frame(a),
-        }) => bench_frame(a),
-        Some(Cmd::Bench {
-            which: BenchCmd::Raster(a),
-        }) => bench_raster(a),
-        Some(Cmd::Bench {
-            which: BenchCmd::Rays(a),
-        }) => bench_rays(a),
-        Some(Cmd::Bench {
-            which: BenchCmd::Technique(a),
-        }) => bench_technique(a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("penumbra: error: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
 
 fn check_triangles(t: usize) -> Result<(), String> {
     if !(2..=50_000_000).contains(&t) {
@@ -269,7 +16,7 @@ fn check_triangles(t: usize) -> Result<(), String> {
     Ok(())
 }
 
-fn bench_frame(a: FrameArgs) -> Result<(), String> {
+pub fn frame(a: FrameArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let mesh = spheres_scene(a.triangles);
@@ -359,7 +106,7 @@ fn bench_frame(a: FrameArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn bench_raster(a: RasterArgs) -> Result<(), String> {
+pub fn raster(a: RasterArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
     if !(a.area.is_finite() && a.area > 0.0 && a.area <= 1e7) {
         return Err(format!("--area {} is out of range (0, 1e7]", a.area));
@@ -444,7 +191,7 @@ fn print_stage_times(st: &StageTimes) {
     );
 }
 
-fn bench_rays(a: RaysArgs) -> Result<(), String> {
+pub fn rays(a: RaysArgs) -> Result<(), String> {
     use penumbra::reference::{offset_origin, Reference};
     check_triangles(a.triangles)?;
     if !(1000..=1_000_000_000).contains(&a.rays) {
@@ -511,7 +258,7 @@ fn bench_rays(a: RaysArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn bench_technique(a: TechniqueArgs) -> Result<(), String> {
+pub fn technique(a: TechniqueArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
     let sets = penumbra::shadow::parse_sets(&a.sets)?;
     let mut t = penumbra::shadow::create(&a.technique, &sets)?;
@@ -527,10 +274,9 @@ fn bench_technique(a: TechniqueArgs) -> Result<(), String> {
         f.height(),
         p.threads()
     );
-    t.visibility(&p, &f)?;
+    let mut v = t.visibility(&p, &f)?;
     let mut total = Vec::new();
     let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
-    let mut v = Vec::new();
     for _ in 0..a.common.reps.max(1) {
         let t0 = Instant::now();
         v = t.visibility(&p, &f)?;
@@ -543,7 +289,7 @@ fn bench_technique(a: TechniqueArgs) -> Result<(), String> {
         }
     }
     let ms = penumbra::metrics::median(total);
-    let hash = hash_f32(&v);
+    let hash = v.hash();
     println!("total     {ms:.3} ms (median of {})", a.common.reps.max(1));
     let mut json = format!(
         "{{\"technique\":\"{}\",\"threads\":{},\"triangles\":{tris},\"ms\":{ms:.4},\"mtri_per_s\":{:.3}",

@@ -22,47 +22,75 @@
 //! reports it per frame, and camera paths chart it.
 
 use super::silhouette::{self, Adjacency, MeshReport, Volume};
-use super::*;
+use crate::choice_enum;
+use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::LightKind;
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::light::{homogeneous_position, scene_depth};
+use crate::shadow::overview::{backdrop, draw_world_segment};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 use std::time::Instant;
 
-const OPTIONS: &[OptionInfo] = &[OptionInfo {
-    key: "mode",
-    default: "auto",
-    doc: "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zfail-infinite (capped, infinite far plane projection and its own depth pre-pass), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
-}];
+choice_enum! {
+    /// How the stencil counts volumes.
+    pub enum Mode {
+        /// z-pass unless a caster may put the near plane in shadow, z-fail otherwise.
+        Auto = "auto",
+        /// Capped z-fail with the pipeline's depth clamp (Carmack's reverse).
+        Zfail = "zfail",
+        /// Capped z-fail with an infinite far plane projection and its own depth pre-pass.
+        ZfailInfinite = "zfail-infinite",
+        /// z-pass (Heidmann), the stencil starting at the eye's count.
+        Zpass = "zpass",
+        /// z-pass starting at 0 (wrong whenever the eye is inside a volume).
+        ZpassNaive = "zpass-naive",
+        /// z-fail without depth clamp (wrong where the far plane cuts a volume).
+        ZfailNoclamp = "zfail-noclamp",
+    }
+}
 
-const MODES: &[&str] = &[
-    "auto",
-    "zfail",
-    "zfail-infinite",
-    "zpass",
-    "zpass-naive",
-    "zfail-noclamp",
-];
+/// Options of stencil shadow volumes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// How the stencil counts volumes. Default: auto.
+    pub mode: Mode,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { mode: Mode::Auto }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "shadow-volume",
+        fields: vec![Field::new(
+            "mode",
+            "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zfail-infinite (capped, infinite far plane projection and its own depth pre-pass), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
+            |o: &mut Options| &mut o.mode,
+        )],
+    }
+}
 
 /// Registry entry.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "shadow-volume",
         summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
-        options: OPTIONS,
+        options: declaration().infos(),
         sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],
-        create: |s| {
-            let mode = s.choice("mode", MODES)?;
-            Ok(Box::new(ShadowVolume {
-                mode,
-                ..Default::default()
-            }))
-        },
+        create: |pairs| Ok(Box::new(ShadowVolume::new(declaration().parse(pairs)?)?)),
     }
 }
 
+/// Stencil shadow volumes (see the module docs).
 #[derive(Default)]
-struct ShadowVolume {
+pub struct ShadowVolume {
     mode: &'static str,
     /// The last run's stencil.
     stencil: Option<Surface<u8>>,
@@ -76,6 +104,22 @@ struct ShadowVolume {
     /// Stencil fragments (volume fill) of the last run.
     fill: u64,
     times: Vec<(&'static str, f64)>,
+}
+
+impl ShadowVolume {
+    /// Shadow volumes with `opts`.
+    pub fn new(opts: Options) -> Result<ShadowVolume, String> {
+        declaration().check(&opts)?;
+        Ok(ShadowVolume {
+            mode: opts.mode.as_str(),
+            ..Default::default()
+        })
+    }
+
+    /// Whether the last run counted z-pass (auto mode chooses).
+    pub fn chose_zpass(&self) -> bool {
+        self.chose_zpass
+    }
 }
 
 /// Whether z-pass is safe: no caster can put any point of the camera's near-plane rectangle
@@ -115,9 +159,9 @@ impl ShadowTechnique for ShadowVolume {
         "shadow-volume"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = Instant::now();
-        let light = light_position(frame);
+        let light = homogeneous_position(&frame.light);
         self.irregular.clear();
         // Objects in parallel, collected in scene order (the same volumes for any thread count).
         let built: Vec<(MeshReport, Volume)> = p.install(|| {
@@ -218,7 +262,7 @@ impl ShadowTechnique for ShadowVolume {
                 .map_err(|e| e.to_string())?;
             self.fill += st.fragments_rasterized;
         }
-        let out = frame
+        let out: Vec<f32> = frame
             .points()
             .iter()
             .zip(stencil.data())
@@ -238,7 +282,53 @@ impl ShadowTechnique for ShadowVolume {
             ("eye count", (t2 - t1).as_secs_f64() * 1e3),
             ("stencil pass", t2.elapsed().as_secs_f64() * 1e3),
         ];
-        Ok(out)
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut steps = Vec::new();
+        let Some(stencil) = &self.stencil else { return steps };
+        let Some(s) = frame.point(x, y) else { return steps };
+        let light = homogeneous_position(&frame.light);
+        steps.push(
+            Step::new(
+                "counting",
+                if self.chose_zpass {
+                    "z-pass: the stencil starts at the eye's count; front faces in front of the point add 1, back faces subtract 1"
+                } else {
+                    "z-fail: back faces behind the point add 1, front faces behind it subtract 1 (the caps close each volume)"
+                },
+            )
+            .text("mode", self.mode)
+            .flag("z-pass", self.chose_zpass)
+            .int("eye count", self.eye),
+        );
+        // Which volumes contain the point: a segment test from the point to the light
+        // against each volume's caps (independent of the stencil pass).
+        let p = s.position + s.normal * 1e-4;
+        let inside: Vec<String> = self
+            .volumes
+            .iter()
+            .zip(&frame.scene.objects)
+            .filter(|(v, _)| silhouette::eye_count(std::slice::from_ref(*v), p, light) > 0)
+            .map(|(_, o)| o.name.clone())
+            .collect();
+        steps.push(
+            Step::new(
+                "volumes containing the point",
+                "objects whose shadow volume holds the point, by a segment test towards the light (a check of the count)",
+            )
+            .int("count", inside.len())
+            .text("objects", inside.join(", ")),
+        );
+        let count = stencil.at(x, y);
+        steps.push(
+            Step::new("stencil", "the count after the pass (wrapping 8-bit); 0 is lit")
+                .int("stencil", count)
+                .int("as signed", count as i8),
+        );
+        steps.push(inspect::result(if count == 0 { 1.0 } else { 0.0 }));
+        steps
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -22,64 +22,105 @@
 //! beyond the plane's edge) and `clip=off` (naive division by w: anti-shadows from casters
 //! beyond the light).
 
-use super::*;
+use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::Mesh;
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::light::homogeneous_position;
+use crate::shadow::{object_named, Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
-const OPTIONS: &[OptionInfo] = &[
-    OptionInfo {
-        key: "receiver",
-        default: "auto",
-        doc: "the receiving object's name, or auto: every planar object receives",
-    },
-    OptionInfo {
-        key: "darkness",
-        default: "1",
-        doc: "how much a shadow darkens, in [0, 1]: visibility in shadow is 1 - darkness (below 1, double blending shows)",
-    },
-    OptionInfo {
-        key: "stencil",
-        default: "on",
-        doc: "on: darken each receiver pixel once and only on the receiver; off: depth test only (double blending, overhang)",
-    },
-    OptionInfo {
-        key: "clip",
-        default: "on",
-        doc: "on: clip casters to the slab between plane and light; off: project every vertex and divide by w (anti-shadows)",
-    },
-];
+/// Options of planar projected shadows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The receiving object's name, or `auto`: every planar object receives. Default: auto.
+    pub receiver: String,
+    /// How much a shadow darkens, in [0, 1]: visibility in shadow is `1 - darkness` (below 1,
+    /// double blending shows without the stencil). Default: 1.
+    pub darkness: f32,
+    /// Darken each receiver pixel once and only on the receiver (false: depth test only,
+    /// double blending and overhang). Default: true (`on`).
+    pub stencil: bool,
+    /// Clip casters to the slab between plane and light (false: project every vertex and
+    /// divide by w, anti-shadows). Default: true (`on`).
+    pub clip: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            receiver: "auto".into(),
+            darkness: 1.0,
+            stencil: true,
+            clip: true,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "planar",
+        fields: vec![
+            Field::new(
+                "receiver",
+                "the receiving object's name, or auto: every planar object receives",
+                |o: &mut Options| &mut o.receiver,
+            ),
+            Field::range(
+                "darkness",
+                "how much a shadow darkens: visibility in shadow is 1 - darkness (below 1, double blending shows)",
+                0.0,
+                1.0,
+                |o: &mut Options| &mut o.darkness,
+            ),
+            Field::new(
+                "stencil",
+                "on: darken each receiver pixel once and only on the receiver; off: depth test only (double blending, overhang)",
+                |o: &mut Options| &mut o.stencil,
+            ),
+            Field::new(
+                "clip",
+                "on: clip casters to the slab between plane and light; off: project every vertex and divide by w (anti-shadows)",
+                |o: &mut Options| &mut o.clip,
+            ),
+        ],
+    }
+}
 
 /// Registry entry.
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "planar",
         summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
-        options: OPTIONS,
+        options: declaration().infos(),
         sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
-        create: |s| {
-            Ok(Box::new(Planar {
-                receiver: s.get("receiver").to_string(),
-                darkness: s.num("darkness", 0.0, 1.0)?,
-                stencil: s.choice("stencil", &["on", "off"])? == "on",
-                clip: s.choice("clip", &["on", "off"])? == "on",
-                ..Default::default()
-            }))
-        },
+        create: |pairs| Ok(Box::new(Planar::new(declaration().parse(pairs)?)?)),
     }
 }
 
-#[derive(Default)]
-struct Planar {
-    receiver: String,
-    darkness: f32,
-    stencil: bool,
-    clip: bool,
+/// Planar projected shadows (see the module docs).
+pub struct Planar {
+    opts: Options,
     /// Last run: the receivers' stencil masks (object index, mask) and the result.
     masks: Vec<(usize, Surface<u8>)>,
     shadow: Option<Surface<f32>>,
     times: Vec<(&'static str, f64)>,
     fragments: u64,
+}
+
+impl Planar {
+    /// Planar shadows with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Planar, String> {
+        declaration().check(&opts)?;
+        Ok(Planar {
+            opts,
+            masks: Vec::new(),
+            shadow: None,
+            times: Vec::new(),
+            fragments: 0,
+        })
+    }
 }
 
 /// The plane `(n, d)` of a mesh whose vertices all lie on one plane (within 1e-5 of its
@@ -147,7 +188,7 @@ impl Planar {
             let pos = |i: u32| o.mesh.positions[i as usize].as_dvec3();
             for t in o.mesh.indices.chunks_exact(3) {
                 let tri = [pos(t[0]), pos(t[1]), pos(t[2])];
-                if self.clip {
+                if self.opts.clip {
                     // Keep 0 <= dist <= dl (1 - 1e-6): on the plane's light side, short of
                     // the light's own plane, where the projection would reach infinity.
                     clip_polygon(&tri, dist, &mut poly);
@@ -167,7 +208,7 @@ impl Planar {
                     let h = m * q.as_vec3().extend(1.0);
                     // clip=off: the naive divide, which turns points beyond the light into
                     // points on the plane on the wrong side (anti-shadows).
-                    verts.push(if self.clip { h } else { h / h.w });
+                    verts.push(if self.opts.clip { h } else { h / h.w });
                 }
                 for k in 1..poly.len() as u32 - 1 {
                     idx.extend_from_slice(&[base, base + k, base + k + 1]);
@@ -183,22 +224,22 @@ impl ShadowTechnique for Planar {
         "planar"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Vec<f32>, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
         let scene = frame.scene;
-        let receivers: Vec<usize> = if self.receiver == "auto" {
+        let receivers: Vec<usize> = if self.opts.receiver == "auto" {
             (0..scene.objects.len()).collect()
         } else {
-            let i = object_named(frame, "planar", "receiver", &self.receiver)?;
+            let i = object_named(frame, "planar", "receiver", &self.opts.receiver)?;
             if plane_of(&scene.objects[i].mesh).is_none() {
                 return Err(format!(
                     "technique 'planar': option receiver={}: that object is not planar",
-                    self.receiver
+                    self.opts.receiver
                 ));
             }
             vec![i]
         };
-        let light = light_position(frame);
+        let light = homogeneous_position(&frame.light);
         let vp = frame.camera.view_projection();
         let (w, h) = (frame.width(), frame.height());
         let mut shadow = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
@@ -258,7 +299,7 @@ impl ShadowTechnique for Planar {
                 pass: StencilOp::Zero,
                 ..Default::default()
             };
-            let state = if self.stencil {
+            let state = if self.opts.stencil {
                 RenderState {
                     depth: DepthState {
                         func: CompareFunc::Always,
@@ -292,8 +333,8 @@ impl ShadowTechnique for Planar {
                     ..Default::default()
                 }
             };
-            let keep = 1.0 - self.darkness;
-            let mut targets = if self.stencil {
+            let keep = 1.0 - self.opts.darkness;
+            let mut targets = if self.opts.stencil {
                 Targets::color(&mut shadow).with_stencil(&mut mask)
             } else {
                 Targets::color(&mut shadow).with_depth(&mut depth)
@@ -311,7 +352,7 @@ impl ShadowTechnique for Planar {
             self.fragments += st.fragments_rasterized;
             self.masks.push((r, mask));
         }
-        let out = frame
+        let out: Vec<f32> = frame
             .points()
             .iter()
             .zip(shadow.data())
@@ -322,7 +363,47 @@ impl ShadowTechnique for Planar {
             ("flatten casters", setup),
             ("stencil passes", t0.elapsed().as_secs_f64() * 1e3 - setup),
         ];
-        Ok(out)
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut steps = Vec::new();
+        let Some(shadow) = &self.shadow else { return steps };
+        let Some(s) = frame.point(x, y) else { return steps };
+        let obj = frame.gbuffer.object.at(x, y) as usize;
+        let plane = plane_of(&frame.scene.objects[obj].mesh);
+        let mut st = Step::new(
+            "receiver",
+            "only planar objects receive: the casters are flattened onto each plane (RTR eq. 7.1/7.2)",
+        )
+        .text("object", frame.scene.objects[obj].name.clone())
+        .flag("planar", plane.is_some());
+        if let Some((n, d)) = plane {
+            st = st
+                .vec3("plane normal", n)
+                .num("plane offset", d)
+                .num("point's distance to the plane", n.dot(s.position) + d);
+        }
+        steps.push(st);
+        if let Some((_, m)) = self.masks.iter().find(|(r, _)| *r == obj) {
+            let left = m.at(x, y);
+            steps.push(
+                Step::new(
+                    "stencil",
+                    "pass 1 marks the receiver's visible pixels with 1; a flattened caster darkens a marked pixel and zeroes it (once)",
+                )
+                .int("stencil after the shadow pass", left)
+                .flag("darkened", self.opts.stencil && left == 0),
+            );
+        }
+        steps.push(
+            Step::new("shadow buffer", "the product of the darkening at this pixel (1: none)")
+                .num("value", shadow.at(x, y))
+                .num("darkness", self.opts.darkness),
+        );
+        let v = shadow.at(x, y);
+        steps.push(inspect::result(v));
+        steps
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {
@@ -341,10 +422,7 @@ impl ShadowTechnique for Planar {
             .masks
             .iter()
             .map(|(r, m)| Stage::Scalar {
-                name: format!(
-                    "receiver_stencil_{}",
-                    crate::report::file_safe(&frame.scene.objects[*r].name)
-                ),
+                name: format!("receiver_stencil_{}", frame.scene.objects[*r].name),
                 data: m.map(|x| x as f32),
                 lo: 0.0,
                 hi: 1.0,

@@ -1,0 +1,287 @@
+//! The `penumbra` command line.
+
+use clap::{Args, Parser, Subcommand};
+use penumbra::bench::{FrameMode, FRAME_CAMERA_CULL};
+use penumbra::pipeline::{CullMode, Shading};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+mod bench;
+mod export;
+mod scene;
+mod sweep;
+
+#[derive(Parser)]
+#[command(
+    name = "penumbra",
+    version,
+    about = "A deterministic CPU rasterizer and shadow-algorithm lab"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render a scene with a technique: final image, visibility, error against the reference, timings.
+    Render(RenderArgs),
+    /// Write every intermediate stage of a technique (PNG, false colour) and the G-buffer and visibility (PFM).
+    Dump(RenderArgs),
+    /// Explain one pixel step by step: the surface point, what the technique read, compared and
+    /// filtered there, and the reference's value.
+    Inspect(InspectArgs),
+    /// Compute (or read from the cache) the ray-traced ground truth of a scene.
+    Reference(SceneArgs),
+    /// Every technique (and each option set it declares) on every scene: CSV, charts, report.
+    Sweep(SweepArgs),
+    /// Write a scene in world space as OBJ plus a JSON of camera and lights.
+    Export(SceneArgs),
+    /// List techniques with their options and defaults, and the built-in scenes.
+    List,
+    /// Benchmarks: the shadow-mapped spheres frame, or random triangles.
+    Bench {
+        #[command(subcommand)]
+        which: BenchCmd,
+    },
+}
+
+#[derive(Args)]
+struct SceneArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Technique name (see `penumbra list`).
+    #[arg(long, default_value = "shadow-map")]
+    technique: String,
+    /// Technique option, key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(Args)]
+struct InspectArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Technique name (see `penumbra list`).
+    #[arg(long, default_value = "shadow-map")]
+    technique: String,
+    /// Technique option, key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// The pixel, X,Y (column, row from the top-left).
+    #[arg(long)]
+    pixel: String,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Print the steps as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// Scene files (default: every file in fixtures/scenes).
+    scenes: Vec<PathBuf>,
+    /// all, or a comma-separated list of technique names.
+    #[arg(long, default_value = "all")]
+    techniques: String,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after one warm-up.
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out/sweep")]
+    out: PathBuf,
+}
+
+#[derive(Subcommand)]
+enum BenchCmd {
+    /// The spheres frame: light depth pass + 1920x1080 camera pass with PCF.
+    Frame(FrameArgs),
+    /// Random triangles of about AREA pixels each at 1920x1080.
+    Raster(RasterArgs),
+    /// Shadow rays per second of the reference ray tracer on the spheres scene (one ray per
+    /// pixel of the 1920x1080 camera view towards the light).
+    Rays(RaysArgs),
+    /// A shadow technique on the spheres scene (ground + 64 spheres, 1920x1080 camera):
+    /// median time per pass, counters, triangles/s.
+    Technique(TechniqueArgs),
+}
+
+#[derive(Args)]
+struct TechniqueArgs {
+    /// Technique name (see `penumbra list`).
+    #[arg(long, default_value = "shadow-volume")]
+    technique: String,
+    /// Technique options as key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// Target triangle count of the spheres scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct Common {
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed repetitions after the warm-up (the median is reported).
+    #[arg(long, default_value_t = 10)]
+    reps: usize,
+    /// Print one JSON object on the last line.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct FrameArgs {
+    /// Target triangle count of the scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// depth | pcf2 | pcf5
+    #[arg(long, default_value = "pcf2")]
+    mode: FrameMode,
+    /// Shadow-map size S (S x S).
+    #[arg(long, default_value_t = 2048)]
+    map: u32,
+    /// Image width.
+    #[arg(long, default_value_t = 1920)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 1080)]
+    height: u32,
+    /// Write the image (and the shadow map) as PNG into this folder.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// deferred (hidden surface removal before shading) | immediate
+    #[arg(long, default_value = "deferred")]
+    shading: Shading,
+    /// Face culling of the camera pass: back | none | front (the light pass culls nothing)
+    #[arg(long, default_value_t = FRAME_CAMERA_CULL)]
+    cull: CullMode,
+    /// Also write the workload (mesh, matrices) into this folder for another renderer
+    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
+    #[arg(long)]
+    export: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct RaysArgs {
+    /// Target triangle count of the spheres scene.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// Rays per repetition.
+    #[arg(long, default_value_t = 4_000_000)]
+    rays: usize,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct RasterArgs {
+    /// Number of triangles.
+    #[arg(long, default_value_t = 100_000)]
+    triangles: usize,
+    /// Approximate area of each triangle in pixels.
+    #[arg(long, default_value_t = 50.0)]
+    area: f32,
+    /// depth | color
+    #[arg(long, default_value = "color")]
+    mode: String,
+    /// deferred (hidden surface removal before shading) | immediate
+    #[arg(long, default_value = "deferred")]
+    shading: Shading,
+    /// Also write the workload (triangles) into this folder for another renderer
+    /// (`tools/llvmpipe_bench.py` runs it on Mesa's llvmpipe).
+    #[arg(long)]
+    export: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+fn main() -> ExitCode {
+    penumbra::alloc::keep_freed_memory();
+    // Output piped into `head` and closed early: exit quietly like other command-line tools,
+    // instead of panicking on the failed write.
+    #[cfg(target_os = "linux")]
+    // SAFETY: restoring the default disposition of a signal at start-up.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    let cli = Cli::parse();
+    let result = match cli.cmd {
+        None => {
+            println!(
+                "penumbra: no command given; running the default sweep over fixtures/scenes (see `penumbra --help`)."
+            );
+            sweep::sweep(sweep::SweepOpts {
+                scenes: vec![],
+                techniques: "all".into(),
+                threads: 0,
+                reps: 3,
+                out: PathBuf::from("out/sweep"),
+            })
+        }
+        Some(Cmd::Render(a)) => scene::render(&a.scene, &a.technique, &a.sets, a.threads, a.reps, &a.out),
+        Some(Cmd::Dump(a)) => scene::dump(&a.scene, &a.technique, &a.sets, a.threads, &a.out),
+        Some(Cmd::Inspect(a)) => scene::inspect(&a.scene, &a.technique, &a.sets, &a.pixel, a.threads, a.json),
+        Some(Cmd::Reference(a)) => scene::reference(&a.scene, a.threads, &a.out),
+        Some(Cmd::Sweep(a)) => sweep::sweep(sweep::SweepOpts {
+            scenes: a.scenes,
+            techniques: a.techniques,
+            threads: a.threads,
+            reps: a.reps,
+            out: a.out,
+        }),
+        Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),
+        Some(Cmd::List) => export::list(),
+        Some(Cmd::Bench {
+            which: BenchCmd::Frame(a),
+        }) => bench::frame(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Raster(a),
+        }) => bench::raster(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Rays(a),
+        }) => bench::rays(a),
+        Some(Cmd::Bench {
+            which: BenchCmd::Technique(a),
+        }) => bench::technique(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("penumbra: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,318 @@
+//! The scene commands of the CLI: render, dump, inspect, reference. (Only the CLI and the
+//! report know about files on disk beyond scene loading and image writing.)
+
+use penumbra::frame;
+use penumbra::image_io::write_png;
+use penumbra::pipeline::{Pipeline, Rgba8, Surface};
+use penumbra::reference::{Reference, ReferenceOptions};
+use penumbra::report::{self, DirCache};
+use penumbra::run;
+use penumbra::scene::{file, Scene};
+use penumbra::shadow::{self, Stage, Step};
+use std::path::Path;
+
+/// The built-in scenes folder.
+pub const FIXTURES: &str = "fixtures/scenes";
+
+pub fn load(path: &Path) -> Result<(Scene, String), String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
+    Ok((file::parse(&text, path)?, text))
+}
+
+pub fn pipeline(threads: usize) -> Result<Pipeline, String> {
+    Pipeline::new(threads).map_err(|e| e.to_string())
+}
+
+pub fn cache(out: &Path) -> DirCache {
+    DirCache(out.join("cache"))
+}
+
+/// `penumbra render`.
+pub fn render(
+    scene: &Path,
+    technique: &str,
+    sets: &[String],
+    threads: usize,
+    reps: usize,
+    out: &Path,
+) -> Result<(), String> {
+    let sets = shadow::parse_sets(sets)?;
+    shadow::create(technique, &sets)?;
+    let (s, text) = load(scene)?;
+    let p = pipeline(threads)?;
+    let r = run::render(&p, &s, &text, technique, &sets, reps, Some(&cache(out)))?;
+    let files = report::files::write_run(out, &r)?;
+    let e = &r.result.errors;
+    println!(
+        "scene {} ({} triangles, {}x{}), technique {}, {} threads",
+        s.name,
+        s.triangles(),
+        s.camera.width,
+        s.camera.height,
+        r.result.label(),
+        p.threads()
+    );
+    println!("time      {:.3} ms (median of {reps})", r.result.ms);
+    println!(
+        "rmse      {:.5}\nmae       {:.5}\nwrong     {:.3} %\npenumbra  {:.5} (rmse over {} pixels)",
+        e.rmse, e.mae, e.wrong_pct, e.penumbra_rmse, e.penumbra_pixels
+    );
+    if !s.camera_path.is_empty() {
+        println!("flicker   {:.5} over {} frames", r.result.flicker, s.camera_path.len());
+    }
+    if r.reference_rays > 0 {
+        println!(
+            "reference {:.2} s, {} rays, {:.1} Mrays/s",
+            r.reference_secs,
+            r.reference_rays,
+            r.reference_rays as f64 / r.reference_secs / 1e6
+        );
+    }
+    for (pass, ms) in &r.pass_times {
+        println!("  {pass:<12} {ms:.3} ms (last run)");
+    }
+    for (name, v) in &r.counters {
+        println!("  {name:<18} {v}");
+    }
+    for note in &r.notes {
+        println!("note: {note}");
+    }
+    let st = p.take_times();
+    println!(
+        "pipeline stages (all draws): vertex {:.2} ms, clip+setup+bin {:.2} ms, raster+fragment {:.2} ms",
+        st.vertex * 1e3,
+        st.setup_bin * 1e3,
+        st.raster_fragment * 1e3
+    );
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// Writes a float image as PFM (grey, rows bottom-up as the format requires).
+fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), String> {
+    let mut bytes = format!("{}\n{w} {h}\n-1.0\n", if channels == 3 { "PF" } else { "Pf" }).into_bytes();
+    for y in (0..h as usize).rev() {
+        for v in &data[y * w as usize * channels..(y + 1) * w as usize * channels] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// False colour (blue -> green -> yellow -> red) of a scalar in [lo, hi]; NaN grey.
+fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
+    let k = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
+    s.map(|v| {
+        if !v.is_finite() {
+            return [80, 80, 80, 255];
+        }
+        let t = ((v - lo) * k).clamp(0.0, 1.0);
+        let c = [
+            (1.5 - (4.0 * t - 3.0).abs()),
+            (1.5 - (4.0 * t - 2.0).abs()),
+            (1.5 - (4.0 * t - 1.0).abs()),
+        ];
+        let b = |x: f32| (x.clamp(0.0, 1.0) * 255.0) as u8;
+        [b(c[0]), b(c[1]), b(c[2]), 255]
+    })
+}
+
+/// `penumbra dump`.
+pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out: &Path) -> Result<(), String> {
+    let sets = shadow::parse_sets(sets)?;
+    let mut t = shadow::create(technique, &sets)?;
+    let (s, _) = load(scene)?;
+    let p = pipeline(threads)?;
+    let f = frame::frame(&p, &s, 0, 0)?;
+    let v = t.visibility(&p, &f)?;
+    let dir = out.join(format!("{}_{}", s.name, technique));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let (w, h) = (f.width(), f.height());
+    let mut written = Vec::new();
+    for note in t.notes() {
+        eprintln!("note: {note}");
+    }
+    for st in t.stages(&p, &f)? {
+        let name = report::file_safe(st.name());
+        let path = dir.join(format!("{name}.png"));
+        match &st {
+            Stage::Scalar { data, lo, hi, .. } => {
+                write_png(&path, &false_color(data, *lo, *hi))?;
+                let pf = dir.join(format!("{name}.pfm"));
+                write_pfm(&pf, data.width(), data.height(), 1, data.data())?;
+                written.push(pf);
+            }
+            Stage::Color { data, .. } => write_png(&path, data)?,
+        }
+        written.push(path);
+    }
+    let gb = &f.gbuffer;
+    let pos: Vec<f32> = gb.position.data().iter().flat_map(|v| v.to_array()).collect();
+    let nrm: Vec<f32> = gb.normal.data().iter().flat_map(|v| v.to_array()).collect();
+    let vis = v.to_flat();
+    for (name, ch, data) in [
+        ("position", 3, &pos),
+        ("normal", 3, &nrm),
+        ("visibility", if v.is_rgb() { 3 } else { 1 }, &vis),
+        ("depth", 1, &gb.depth.data().to_vec()),
+    ] {
+        let path = dir.join(format!("{name}.pfm"));
+        write_pfm(&path, w, h, ch, data)?;
+        written.push(path);
+    }
+    write_png(&dir.join("visibility.png"), &report::visibility_image(&v, w, h))?;
+    write_png(
+        &dir.join("normal.png"),
+        &gb.normal.map(|n| {
+            [
+                ((n.x * 0.5 + 0.5) * 255.0) as u8,
+                ((n.y * 0.5 + 0.5) * 255.0) as u8,
+                ((n.z * 0.5 + 0.5) * 255.0) as u8,
+                255,
+            ]
+        }),
+    )?;
+    println!(
+        "wrote {} stage files and the G-buffer into {}",
+        written.len(),
+        dir.display()
+    );
+    Ok(())
+}
+
+/// `penumbra reference`.
+pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), String> {
+    let (s, text) = load(scene)?;
+    let p = pipeline(threads)?;
+    let f = frame::frame(&p, &s, 0, 0)?;
+    let key = run::reference_key(&text, &f, 0, &ReferenceOptions::default());
+    let (v, secs, rays) = run::reference(&p, &f, key, Some(&cache(out)))?;
+    if rays > 0 {
+        println!(
+            "reference of {}: {:.2} s, {rays} rays, {:.1} Mrays/s, {} threads",
+            s.name,
+            secs,
+            rays as f64 / secs / 1e6,
+            p.threads()
+        );
+    } else {
+        println!("reference of {}: read from the cache (key {key:016x})", s.name);
+    }
+    let path = out.join(format!("{}_reference.png", s.name));
+    write_png(&path, &report::visibility_image(&v, f.width(), f.height()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Parses `X,Y`.
+pub fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("--pixel '{s}' is not X,Y (two whole numbers, e.g. 120,80)");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    Ok((
+        x.trim().parse().map_err(|_| bad())?,
+        y.trim().parse().map_err(|_| bad())?,
+    ))
+}
+
+/// `penumbra inspect`: one pixel, step by step: the surface point, the technique's steps,
+/// and the reference's hard and area visibility there.
+pub fn inspect(
+    scene: &Path,
+    technique: &str,
+    sets: &[String],
+    pixel: &str,
+    threads: usize,
+    json: bool,
+) -> Result<(), String> {
+    let sets = shadow::parse_sets(sets)?;
+    let mut t = shadow::create(technique, &sets)?;
+    let (x, y) = parse_pixel(pixel)?;
+    let (s, _) = load(scene)?;
+    let p = pipeline(threads)?;
+    let f = frame::frame(&p, &s, 0, 0)?;
+    if x >= f.width() || y >= f.height() {
+        return Err(format!(
+            "--pixel {x},{y} is outside the {}x{} image of scene '{}'",
+            f.width(),
+            f.height(),
+            s.name
+        ));
+    }
+    let v = t.visibility(&p, &f)?;
+    let i = (y * f.width() + x) as usize;
+    let mut steps = Vec::new();
+    match f.point(x, y) {
+        None => steps.push(Step::new(
+            "pixel",
+            "no geometry covers this pixel: outside every metric",
+        )),
+        Some(pt) => {
+            let obj = f.gbuffer.object.at(x, y) as usize;
+            let l = f.light.to_light(pt.position);
+            steps.push(
+                Step::new("surface", "the G-buffer's point at the pixel centre")
+                    .text("object", s.objects[obj].name.clone())
+                    .vec3("position", pt.position)
+                    .vec3("normal", pt.normal)
+                    .vec3("to light", l)
+                    .num("cos to light", pt.normal.dot(l))
+                    .flag("faces the light", pt.normal.dot(l) > 0.0),
+            );
+            steps.extend(t.inspect(&f, x, y));
+            let r = Reference::new(&s);
+            let hard = r.hard(&pt, &f.light);
+            let opts = ReferenceOptions::default();
+            let area = r.area_rgb(&pt, &f.light, i as u64, &opts);
+            let mut st = Step::new(
+                "reference",
+                "the ray tracer at the same point: hard (one ray to the light's centre) and, for area lights, the fraction of light samples that reach it (per channel)",
+            )
+            .num("hard", hard)
+            .vec3("area per channel", area)
+            .num("technique", v.value(i))
+            .num("difference", v.value(i) - area.dot(penumbra::visibility::LUMINANCE));
+            if !matches!(f.light.kind, penumbra::scene::LightKind::Area(_)) {
+                st = st.text("light", "not an area light: area = hard");
+            }
+            steps.push(st);
+        }
+    }
+    if json {
+        let doc = serde_json::json!({
+            "scene": s.name,
+            "technique": technique,
+            "settings": sets.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>(),
+            "pixel": [x, y],
+            "steps": steps,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?);
+        return Ok(());
+    }
+    println!(
+        "scene {}, technique {} [{}], pixel ({x}, {y})",
+        s.name,
+        technique,
+        sets.iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    for (k, st) in steps.iter().enumerate() {
+        println!(
+            "{:>2}. {}{}",
+            k + 1,
+            st.name,
+            if st.what.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", st.what)
+            }
+        );
+        for (key, val) in &st.values {
+            println!("      {key:<28} {val}");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,280 @@
+//! Running techniques against the reference: the reference (through a cache the caller
+//! provides), timing with warm-up and median, metrics, camera paths frame by frame. Returns
+//! data and writes no files: the report ([`crate::report`]) and the CLI do that.
+
+use crate::frame::{self, Frame};
+use crate::hash::{fnv1a, FNV_OFFSET};
+use crate::metrics::{self, Errors};
+use crate::pipeline::{Pipeline, Rgba8, Surface};
+use crate::reference::{Reference, ReferenceOptions};
+use crate::scene::Scene;
+use crate::shadow;
+use crate::visibility::Visibility;
+use std::time::Instant;
+
+/// Bump when the reference's algorithm changes, so caches made before do not match.
+const REFERENCE_REVISION: u32 = 1;
+
+/// Key of a cached reference: the scene file's bytes, the geometry and the shading points
+/// actually built from it (so a change to a mesh generator or to the G-buffer cannot reuse a
+/// stale file), the frame, the light and the options.
+pub fn reference_key(scene_text: &str, frame: &Frame, light: usize, opts: &ReferenceOptions) -> u64 {
+    let mut h = fnv1a(FNV_OFFSET, scene_text.as_bytes());
+    let words = |h: u64, it: &mut dyn Iterator<Item = u32>| it.fold(h, |h, w| fnv1a(h, &w.to_le_bytes()));
+    for o in &frame.scene.objects {
+        h = words(
+            h,
+            &mut o.mesh.positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)),
+        );
+        h = words(h, &mut o.mesh.indices.iter().copied());
+    }
+    h = words(
+        h,
+        &mut frame
+            .gbuffer
+            .position
+            .data()
+            .iter()
+            .zip(frame.gbuffer.normal.data())
+            .flat_map(|(p, n)| [p.to_array(), n.to_array()].concat().into_iter().map(f32::to_bits)),
+    );
+    h = fnv1a(
+        h,
+        format!(
+            "{light}/{}/{opts:?}/{}/{REFERENCE_REVISION}",
+            frame.index,
+            env!("CARGO_PKG_VERSION")
+        )
+        .as_bytes(),
+    );
+    h
+}
+
+/// Where reference images are kept between runs (keyed by [`reference_key`]).
+pub trait ReferenceCache {
+    /// The cached image of `pixels` pixels under `key`, if any.
+    fn get(&self, key: u64, pixels: usize) -> Option<Visibility>;
+    /// Stores an image under `key`.
+    fn put(&self, key: u64, v: &Visibility) -> Result<(), String>;
+}
+
+/// Reference visibility of a frame, from `cache` when it has it (`None`: no caching).
+/// Returns the visibility, the seconds spent computing it and the rays traced (0 when cached).
+pub fn reference(
+    p: &Pipeline,
+    frame: &Frame,
+    key: u64,
+    cache: Option<&dyn ReferenceCache>,
+) -> Result<(Visibility, f64, u64), String> {
+    let n = (frame.width() * frame.height()) as usize;
+    if let Some(v) = cache.and_then(|c| c.get(key, n)) {
+        return Ok((v, 0.0, 0));
+    }
+    let t = Instant::now();
+    let r = Reference::new(frame.scene);
+    let pts = frame.points();
+    let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &ReferenceOptions::default()));
+    let secs = t.elapsed().as_secs_f64();
+    if let Some(c) = cache {
+        c.put(key, &v)?;
+    }
+    Ok((v, secs, r.rays_traced()))
+}
+
+/// One technique run on one scene.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    /// Scene name.
+    pub scene: String,
+    /// Technique name.
+    pub technique: String,
+    /// Its settings, `k=v;k=v` (empty: defaults).
+    pub settings: String,
+    /// Errors against the reference.
+    pub errors: Errors,
+    /// Median milliseconds of the technique's visibility call.
+    pub ms: f64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Flicker along the camera path (0 without a path).
+    pub flicker: f64,
+    /// Whether the technique reported work counters on the path's frames (their chart is
+    /// worth showing).
+    pub counted_path: bool,
+    /// The technique's own pass times (ms) of its last run on the first frame.
+    pub passes: Vec<(&'static str, f64)>,
+    /// The technique's work counters on the first frame.
+    pub counters: Vec<(&'static str, f64)>,
+}
+
+impl RunResult {
+    /// Label for charts and tables.
+    pub fn label(&self) -> String {
+        if self.settings.is_empty() {
+            self.technique.clone()
+        } else {
+            format!("{} [{}]", self.technique, self.settings)
+        }
+    }
+}
+
+/// A technique's visibility, its median time (ms) and the technique (for its stages).
+pub type Timed = (Visibility, f64, Box<dyn shadow::ShadowTechnique>);
+
+/// Runs technique `name` with `sets` on `frame` `reps` times after one warm-up; returns the
+/// last visibility and the median time in milliseconds.
+pub fn time_technique(
+    p: &Pipeline,
+    frame: &Frame,
+    name: &str,
+    sets: &[(String, String)],
+    reps: usize,
+) -> Result<Timed, String> {
+    let mut t = shadow::create(name, sets)?;
+    let mut v = t.visibility(p, frame)?;
+    let mut times = Vec::new();
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        v = t.visibility(p, frame)?;
+        times.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    if v.len() != (frame.width() * frame.height()) as usize {
+        return Err(format!(
+            "technique '{name}' returned {} values for a {}x{} frame",
+            v.len(),
+            frame.width(),
+            frame.height()
+        ));
+    }
+    Ok((v, metrics::median(times), t))
+}
+
+/// One frame of a camera path: the technique's time and its work counters.
+#[derive(Clone, Debug)]
+pub struct PathFrame {
+    /// Milliseconds of the technique's visibility call.
+    pub ms: f64,
+    /// The technique's counters (name, value).
+    pub counters: Vec<(&'static str, f64)>,
+}
+
+/// The first frame of a run, kept for images.
+pub struct FirstFrame {
+    /// Frame size.
+    pub width: u32,
+    /// Frame size.
+    pub height: u32,
+    /// The technique's visibility.
+    pub visibility: Visibility,
+    /// The reference's.
+    pub reference: Visibility,
+    /// The metric mask.
+    pub mask: Vec<bool>,
+    /// The final shaded image.
+    pub shaded: Surface<Rgba8>,
+}
+
+/// Everything one [`render`] measures.
+pub struct RenderOutput {
+    /// Metrics and time.
+    pub result: RunResult,
+    /// Seconds the reference took (0 when cached).
+    pub reference_secs: f64,
+    /// Shadow rays the reference traced (0 when cached).
+    pub reference_rays: u64,
+    /// The technique's own pass times of its last run on the first frame (ms).
+    pub pass_times: Vec<(&'static str, f64)>,
+    /// The technique's counters on the first frame.
+    pub counters: Vec<(&'static str, f64)>,
+    /// The technique's notes on the first frame (irregular input and how it was handled).
+    pub notes: Vec<String>,
+    /// Time and counters of every frame of the camera path (one entry without a path).
+    pub path: Vec<PathFrame>,
+    /// The first frame's images' data.
+    pub first: FirstFrame,
+}
+
+/// Renders `scene` with a technique against the reference: metrics of the first frame, and
+/// for camera paths every frame (for the flicker metric and the path's time and counters).
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    p: &Pipeline,
+    scene: &Scene,
+    scene_text: &str,
+    name: &str,
+    sets: &[(String, String)],
+    reps: usize,
+    cache: Option<&dyn ReferenceCache>,
+) -> Result<RenderOutput, String> {
+    let frames = scene.camera_path.len().max(1);
+    let mut seq = Vec::new();
+    let mut first = None;
+    let mut pass_times = Vec::new();
+    let mut notes = Vec::new();
+    let mut path = Vec::new();
+    let (mut ref_secs, mut ref_rays) = (0.0, 0);
+    for i in 0..frames {
+        let f = frame::frame(p, scene, 0, i)?;
+        let (r, secs, rays) = reference(
+            p,
+            &f,
+            reference_key(scene_text, &f, 0, &ReferenceOptions::default()),
+            cache,
+        )?;
+        ref_secs += secs;
+        ref_rays += rays;
+        let (v, ms, t) = time_technique(p, &f, name, sets, if i == 0 { reps } else { 0 })?;
+        if i == 0 {
+            pass_times = t.timings();
+            notes = t.notes();
+        }
+        path.push(PathFrame {
+            ms,
+            counters: t.counters(),
+        });
+        let mask = f.metric_mask();
+        if i == 0 {
+            first = Some((
+                metrics::compare(&v, &r, &mask),
+                ms,
+                FirstFrame {
+                    width: f.width(),
+                    height: f.height(),
+                    shaded: frame::shade(&f, &v),
+                    visibility: v.clone(),
+                    reference: r.clone(),
+                    mask: mask.clone(),
+                },
+            ));
+        }
+        seq.push((v, r, mask));
+    }
+    let (errors, ms, first) = first.expect("at least one frame");
+    let settings = sets
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";");
+    let result = RunResult {
+        scene: scene.name.clone(),
+        technique: name.into(),
+        settings,
+        errors,
+        ms,
+        threads: p.threads(),
+        flicker: metrics::flicker(&seq),
+        counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
+        passes: pass_times.clone(),
+        counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
+    };
+    Ok(RenderOutput {
+        result,
+        reference_secs: ref_secs,
+        reference_rays: ref_rays,
+        pass_times,
+        counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
+        notes,
+        path,
+        first,
+    })
+}

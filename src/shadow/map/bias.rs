@@ -1,0 +1,80 @@
+//! Depth-bias terms shared by the shadow-map family's lookups (the constant and slope-scaled
+//! terms are the pipeline's polygon offset, applied in the light pass).
+//!
+//! - normal offset (Holbert 2011): the lookup point moves along the surface normal by
+//!   `k * texel size * sin(angle to the light)`;
+//! - receiver-plane depth bias (Isidoro 2006): the receiver's depth slope in shadow-map
+//!   texels, from its screen-space neighbours.
+
+use super::super::light::{project, LightView};
+use crate::reference::SamplePoint;
+use crate::scene::Light;
+use glam::{Mat4, Vec3};
+
+/// The normal-offset lookup point (Holbert 2011): `s` moved along `normal` by `k` texels of
+/// `view` at `s`, times the sine of the angle between the normal and the light direction.
+pub fn normal_offset(view: &LightView, light: &Light, s: &SamplePoint, k: f32) -> Vec3 {
+    if k <= 0.0 {
+        return s.position;
+    }
+    let l = light.to_light(s.position);
+    let sin = (1.0 - s.normal.dot(l).clamp(-1.0, 1.0).powi(2)).sqrt();
+    s.position + s.normal * (k * view.texel_at(light, s.position) * sin)
+}
+
+/// Receiver-plane depth bias (Isidoro 2006): from the light-space (u, v, z) of this pixel and
+/// its right and lower neighbours (same surface), solve for dz/du and dz/dv and return the
+/// depth change across one texel, `(|dz/du| + |dz/dv|) / size`. Zero where the neighbours are
+/// missing or the Jacobian is singular.
+#[allow(clippy::too_many_arguments)]
+pub fn receiver_plane_bias(
+    pts: &[Option<SamplePoint>],
+    objs: &[u32],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+    m: &Mat4,
+    size: u32,
+) -> f32 {
+    let own = objs[y * w + x];
+    let at = |xx: usize, yy: usize| {
+        if objs[yy * w + xx] == own {
+            pts[yy * w + xx].and_then(|s| project(m, s.position))
+        } else {
+            None
+        }
+    };
+    let Some((uv0, z0)) = at(x, y) else { return 0.0 };
+    let nx = if x + 1 < w {
+        at(x + 1, y)
+    } else if x > 0 {
+        at(x - 1, y)
+    } else {
+        None
+    };
+    let ny = if y + 1 < h {
+        at(x, y + 1)
+    } else if y > 0 {
+        at(x, y - 1)
+    } else {
+        None
+    };
+    let (Some((uvx, zx)), Some((uvy, zy))) = (nx, ny) else {
+        return 0.0;
+    };
+    let (du1, dz1) = (uvx - uv0, zx - z0);
+    let (du2, dz2) = (uvy - uv0, zy - z0);
+    let det = du1.x * du2.y - du2.x * du1.y;
+    if det.abs() < 1e-20 {
+        return 0.0;
+    }
+    let dzdu = (dz1 * du2.y - dz2 * du1.y) / det;
+    let dzdv = (du1.x * dz2 - du2.x * dz1) / det;
+    let b = (dzdu.abs() + dzdv.abs()) / size as f32;
+    if b.is_finite() {
+        b.min(0.05)
+    } else {
+        0.0
+    }
+}

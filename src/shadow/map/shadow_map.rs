@@ -1,0 +1,544 @@
+//! Shadow maps (Williams 1978; RTR 7.4; Cournia 3.1): depth from the light through the
+//! pipeline, then a depth comparison per camera pixel. Directional lights get an orthographic
+//! map, spot lights a perspective map of their cone, point and area lights (their centre) a
+//! cube map of six 90-degree faces, looked up per pixel by the face its direction selects.
+//!
+//! Options combine: depth format (16/24/32 bit); constant and slope-scaled bias (the
+//! pipeline's polygon offset); normal-offset bias (Holbert 2011: the lookup point moves along
+//! the normal by `k * texel size * sin(angle to the light)`); receiver-plane depth bias
+//! (Isidoro 2006: the receiver's depth slope in shadow-map texels, from its screen-space
+//! derivatives); which layer is stored (`first`; `second`, back faces only, Wang and Molnar
+//! 1994; `midpoint`, the average of the two nearest layers, Woo 1992, by depth peeling; `id`,
+//! object ids instead of depth, Cournia 3.1.2); fitting of a directional light's frustum to
+//! the casters that can shadow visible receivers, with other casters culled (RTR fig. 7.11);
+//! and texel snapping so camera motion does not move the sampling grid.
+//!
+//! Known failures: acne without bias, Peter Panning with too much, aliasing where the map is
+//! magnified, shimmering of fitted maps without snapping, light leaks of second-depth maps on
+//! open (two-sided) geometry, self-shadowing lost by id maps.
+
+use super::bias::{normal_offset, receiver_plane_bias};
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
+use crate::pipeline::*;
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::{Vec2, Vec4};
+use rayon::prelude::*;
+
+choice_enum! {
+    /// What the map stores.
+    pub enum Layer {
+        /// The nearest surface (Williams).
+        First = "first",
+        /// Back faces only (Wang and Molnar 1994).
+        Second = "second",
+        /// The average of the two nearest layers, by depth peeling (Woo 1992).
+        Midpoint = "midpoint",
+        /// Object ids of the nearest surface instead of depth (Cournia 3.1.2).
+        Id = "id",
+    }
+}
+
+choice_enum! {
+    /// Which frustum a directional light's map covers.
+    pub enum FitTo {
+        /// The whole scene's bounds.
+        Scene = "scene",
+        /// The receivers the camera sees, with casters that cannot shadow them culled.
+        Receivers = "receivers",
+    }
+}
+
+choice_enum! {
+    /// How the map is sampled.
+    pub enum Filter {
+        /// One comparison of the nearest texel.
+        None = "none",
+        /// Hardware-style 2x2 PCF: four comparisons, bilinearly weighted.
+        Pcf2 = "pcf2",
+    }
+}
+
+/// Options of the shadow map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Map side in texels (a cube map has six faces of this size). Default: 2048.
+    pub size: u32,
+    /// Depth storage. Default: f32.
+    pub format: DepthFormat,
+    /// Constant polygon offset, in units of the format's resolvable depth step. Default: 4.
+    pub units: f32,
+    /// Slope-scaled polygon offset factor. Default: 1.1.
+    pub slope: f32,
+    /// Normal-offset bias: texels along the normal, times sin(angle to the light). Default: 0.
+    pub normal: f32,
+    /// Receiver-plane depth bias (one texel of the receiver's depth slope). Default: false.
+    pub receiver: bool,
+    /// What the map stores. Default: first.
+    pub layer: Layer,
+    /// Directional lights: fit the map to the scene or to the visible receivers. Default: scene.
+    pub fit: FitTo,
+    /// Snap the fitted frustum to whole texels (against shimmering). Default: false.
+    pub snap: bool,
+    /// Lookup filter. Default: none.
+    pub filter: Filter,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            size: 2048,
+            format: DepthFormat::F32,
+            units: 4.0,
+            slope: 1.1,
+            normal: 0.0,
+            receiver: false,
+            layer: Layer::First,
+            fit: FitTo::Scene,
+            snap: false,
+            filter: Filter::None,
+        }
+    }
+}
+
+/// The option declaration (`--set`, `penumbra list`, the constructor's check).
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "shadow-map",
+        fields: vec![
+            Field::range(
+                "size",
+                "map side in texels (a cube map has six faces of this size)",
+                16,
+                MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
+            Field::new("format", "depth storage: f32, u24 or u16", |o: &mut Options| {
+                &mut o.format
+            }),
+            Field::range(
+                "units",
+                "constant polygon offset, in units of the format's resolvable depth step",
+                -1e6,
+                1e6,
+                |o: &mut Options| &mut o.units,
+            ),
+            Field::range(
+                "slope",
+                "slope-scaled polygon offset factor",
+                -1e3,
+                1e3,
+                |o: &mut Options| &mut o.slope,
+            ),
+            Field::range(
+                "normal",
+                "normal-offset bias: texels along the normal, times sin(angle to the light)",
+                0.0,
+                100.0,
+                |o: &mut Options| &mut o.normal,
+            ),
+            Field::new(
+                "receiver",
+                "receiver-plane depth bias (one texel of the receiver's depth slope)",
+                |o: &mut Options| &mut o.receiver,
+            ),
+            Field::new(
+                "layer",
+                "first, second (back faces), midpoint (two nearest layers) or id (object ids)",
+                |o: &mut Options| &mut o.layer,
+            ),
+            Field::new(
+                "fit",
+                "directional lights: scene bounds, or receivers (casters that shadow visible receivers)",
+                |o: &mut Options| &mut o.fit,
+            ),
+            Field::new(
+                "snap",
+                "snap the fitted frustum to whole texels (against shimmering)",
+                |o: &mut Options| &mut o.snap,
+            ),
+            Field::new(
+                "filter",
+                "none (one comparison) or pcf2 (2x2 hardware PCF)",
+                |o: &mut Options| &mut o.filter,
+            ),
+        ],
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "shadow-map",
+        summary:
+            "depth map from the light, one comparison per pixel (RTR 7.4): acne, Peter Panning, aliasing, shimmering",
+        options: declaration().infos(),
+        sweep: &[
+            &[("size", "256")],
+            &[("size", "512")],
+            &[("size", "1024")],
+            &[("size", "2048")],
+            &[("size", "4096")],
+            &[("format", "u16")],
+            &[("format", "u24")],
+            &[("units", "0"), ("slope", "0")],
+            &[("units", "100000")],
+            &[("units", "0"), ("slope", "0"), ("normal", "1.5")],
+            &[("units", "0"), ("slope", "0"), ("receiver", "true")],
+            &[("layer", "second"), ("units", "0"), ("slope", "0")],
+            &[("layer", "midpoint"), ("units", "0"), ("slope", "0")],
+            &[("layer", "id")],
+            &[("fit", "receivers")],
+            &[("fit", "receivers"), ("snap", "true")],
+            &[("filter", "pcf2")],
+        ],
+        create: |pairs| Ok(Box::new(ShadowMap::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// The shadow-map technique (see the module docs).
+pub struct ShadowMap {
+    opts: Options,
+    /// Last run: one map per light view.
+    maps: Vec<(Surface<f32>, LightView)>,
+    /// Last run (id maps): object id + 1 per texel, per view.
+    ids: Vec<Surface<f32>>,
+    culled: usize,
+    /// The fitted view of the last run (directional lights fitted to receivers), for `stages`.
+    fitted: Option<LightView>,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl ShadowMap {
+    /// A shadow map with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<ShadowMap, String> {
+        declaration().check(&opts)?;
+        Ok(ShadowMap {
+            opts,
+            maps: Vec::new(),
+            ids: Vec::new(),
+            culled: 0,
+            fitted: None,
+            times: Vec::new(),
+        })
+    }
+
+    /// Casters culled by fitting in the last run.
+    pub fn culled(&self) -> usize {
+        self.culled
+    }
+
+    /// The maps of the last run, one per light view (six for point lights).
+    pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
+        &self.maps
+    }
+
+    /// Pass 1: the light's map(s) of `frame`.
+    fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
+        let o = &self.opts;
+        let fit = light::fit(frame, o.size, o.fit == FitTo::Receivers, o.snap);
+        self.culled = fit.culled;
+        self.fitted = fit.fitted;
+        let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
+        self.ids.clear();
+        let casters = merged_casters(frame, &fit.casters)?;
+        let pass = DepthPass {
+            size: o.size,
+            format: o.format,
+            offset: PolygonOffset {
+                units: o.units,
+                factor: o.slope,
+            },
+        };
+        for view in fit.views {
+            let reuse = old.pop();
+            let map = match o.layer {
+                Layer::First => pass.render(p, &casters, &view, CullMode::None, None, reuse)?,
+                Layer::Second => pass.render(p, &casters, &view, CullMode::Front, None, reuse)?,
+                Layer::Midpoint => {
+                    let d1 = pass.render(p, &casters, &view, CullMode::None, None, reuse)?;
+                    let d2 = pass.render(p, &casters, &view, CullMode::None, Some(&d1), None)?;
+                    let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
+                    Surface::from_vec(o.size, o.size, mid).map_err(|e| e.to_string())?
+                }
+                Layer::Id => {
+                    // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
+                    // `dump` shows.
+                    let mut ids = Surface::new(o.size, o.size, 0.0f32).map_err(|e| e.to_string())?;
+                    let mut depth = Surface::new(o.size, o.size, 1.0f32).map_err(|e| e.to_string())?;
+                    for (oi, ob) in frame.scene.objects.iter().enumerate().filter(|(i, _)| fit.casters[*i]) {
+                        let id = oi as f32 + 1.0;
+                        let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
+                        p.draw(
+                            &mut Targets::color(&mut ids).with_depth(&mut depth),
+                            &RenderState::default(),
+                            &ob.mesh.positions,
+                            &ob.mesh.indices,
+                            &TransformPositions(view.matrix),
+                            &fs,
+                        )
+                        .map_err(|e| e.to_string())?;
+                    }
+                    self.ids.push(ids);
+                    depth
+                }
+            };
+            self.maps.push((map, view));
+        }
+        Ok(())
+    }
+
+    /// Pass 2 at one pixel: the lookup, every step reported to `t`.
+    #[inline(always)]
+    fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> f32 {
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
+        let Some(s) = pts[y * w + x] else { return f32::NAN };
+        let o = &self.opts;
+        let light = &frame.light;
+        let face = light::face_of(self.maps.len(), light, s.position);
+        let (map, view) = &self.maps[face];
+        // Normal offset: move the lookup point along the normal (Holbert 2011).
+        let pos = normal_offset(view, light, &s, o.normal);
+        t.step(|| {
+            Step::new(
+                "light view",
+                "the view that sees the point (one of six cube faces for point lights)",
+            )
+            .int("view", face)
+            .int("views", self.maps.len())
+            .flag("perspective", view.perspective)
+            .num("texel size at the point", view.texel_at(light, s.position))
+        });
+        if o.normal > 0.0 {
+            t.step(|| {
+                Step::new("normal offset", "lookup point moved along the normal (Holbert 2011)")
+                    .num("texels", o.normal)
+                    .vec3("lookup point", pos)
+                    .num("moved by", (pos - s.position).length())
+            });
+        }
+        let Some((uv, z)) = view.lookup(pos) else {
+            t.step(|| Step::new("behind the light", "the point is behind the view's eye: lit"));
+            return 1.0;
+        };
+        let size = map.width();
+        t.step(|| {
+            Step::new(
+                "light-space position",
+                "texture coordinate (top-left origin) and depth in the view",
+            )
+            .vec2("uv", uv)
+            .vec2("texel", uv * size as f32)
+            .num("depth", z)
+        });
+        if o.layer == Layer::Id {
+            let id = sample_nearest(&self.ids[face], uv, Address::Clamp);
+            let inside = uv.cmpge(Vec2::ZERO).all() && uv.cmple(Vec2::ONE).all();
+            let own = objs[y * w + x];
+            let lit = !inside || id == 0.0 || id as u32 == own + 1;
+            t.step(|| {
+                Step::new(
+                    "id comparison",
+                    "lit when the nearest surface stored is the pixel's own object",
+                )
+                .int("stored object id + 1", id as i64)
+                .int("own object id + 1", own as i64 + 1)
+                .flag("inside the map", inside)
+                .flag("lit", lit)
+            });
+            return if lit { 1.0 } else { 0.0 };
+        }
+        let mut z = z;
+        if o.receiver {
+            let b = receiver_plane_bias(pts, objs, w, h, x, y, &view.matrix, size);
+            z -= b;
+            t.step(|| {
+                Step::new(
+                    "receiver-plane bias",
+                    "one texel of the receiver's depth slope (Isidoro 2006)",
+                )
+                .num("bias", b)
+            });
+        }
+        let z = o.format.quantize(z.clamp(0.0, 1.0));
+        let sampler = CompareSampler::default();
+        t.step(|| {
+            Step::new(
+                "reference depth",
+                "the point's depth, clamped and quantized to the map's format; the polygon offset was added to the map",
+            )
+            .num("depth", z)
+            .num("polygon offset units", o.units)
+            .num("polygon offset slope", o.slope)
+        });
+        let v = match o.filter {
+            Filter::Pcf2 => sampler.pcf2x2(map, uv, z),
+            Filter::None => sampler.nearest(map, uv, z),
+        };
+        t.step(|| texel_steps(map, uv, z, o.filter));
+        v
+    }
+}
+
+/// The texels a lookup compared, with their stored depths and outcomes (for `inspect`).
+fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, filter: Filter) -> Step {
+    let (w, h) = (map.width() as i64, map.height() as i64);
+    let mut step = Step::new(
+        "comparison",
+        match filter {
+            Filter::None => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
+            Filter::Pcf2 => "four texels compared, then weighted bilinearly by the fraction (hardware PCF)",
+        },
+    );
+    let texels: Vec<(i64, i64, f32)> = match filter {
+        Filter::None => {
+            let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);
+            let ty = ((uv.y * h as f32).floor() as i64).clamp(0, h - 1);
+            vec![(tx, ty, 1.0)]
+        }
+        Filter::Pcf2 => {
+            let (x, y, fx, fy) = footprint((w as u32, h as u32), uv);
+            step = step.vec2("fraction", Vec2::new(fx, fy));
+            [
+                (0, 0, (1.0 - fx) * (1.0 - fy)),
+                (1, 0, fx * (1.0 - fy)),
+                (0, 1, (1.0 - fx) * fy),
+                (1, 1, fx * fy),
+            ]
+            .iter()
+            .map(|&(dx, dy, wt)| ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1), wt))
+            .collect()
+        }
+    };
+    for (i, (tx, ty, wt)) in texels.into_iter().enumerate() {
+        let d = map.at(tx as u32, ty as u32);
+        step = step
+            .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
+            .num(&format!("stored depth {i}"), d)
+            .flag(&format!("lit {i}"), z <= d)
+            .num(&format!("weight {i}"), wt);
+    }
+    step
+}
+
+impl ShadowTechnique for ShadowMap {
+    fn name(&self) -> &'static str {
+        "shadow-map"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = std::time::Instant::now();
+        self.light_pass(p, frame)?;
+        let t1 = std::time::Instant::now();
+        // Pass 2: one lookup per camera pixel.
+        let w = frame.width() as usize;
+        let mut out = vec![f32::NAN; w * frame.height() as usize];
+        let this = &*self;
+        p.install(|| {
+            out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+                for (x, o) in row.iter_mut().enumerate() {
+                    *o = this.lookup(frame, x, y, &mut NoTrace);
+                }
+            })
+        });
+        self.times = vec![
+            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut t = Steps::default();
+        if self.maps.is_empty() {
+            return t.0;
+        }
+        t.step(|| {
+            Step::new("maps", "the light pass of the last run")
+                .int("views", self.maps.len())
+                .int("size", self.opts.size)
+                .text("format", crate::shadow::options::OptionValue::show(&self.opts.format))
+                .text("layer", self.opts.layer.as_str())
+                .int("casters culled by fitting", self.culled)
+        });
+        let v = self.lookup(frame, x as usize, y as usize, &mut t);
+        t.0.push(inspect::result(v));
+        t.0
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let texels: usize = self.maps.iter().map(|(m, _)| m.data().len()).sum();
+        vec![("map texels", texels as f64), ("casters culled", self.culled as f64)]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v: Vec<Stage> = self
+            .maps
+            .iter()
+            .enumerate()
+            .map(|(i, (m, _))| Stage::Scalar {
+                name: format!("depth_map{i}"),
+                data: m.clone(),
+                lo: 0.0,
+                hi: 1.0,
+            })
+            .collect();
+        if let Some(fitted) = &self.fitted {
+            v.push(Stage::Color {
+                name: "fitted_frustum".into(),
+                data: fitted_overview(p, frame, fitted)?,
+            });
+        }
+        for (i, ids) in self.ids.iter().enumerate() {
+            let hi = ids.data().iter().copied().fold(1.0f32, f32::max);
+            v.push(Stage::Scalar {
+                name: format!("id_map{i}"),
+                data: ids.clone(),
+                lo: 0.0,
+                hi,
+            });
+        }
+        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fitting_culls_casters_that_cannot_shadow_visible_receivers() {
+        // A box far to the side of the view casts nowhere the camera looks: culled.
+        let text = "[camera]\nposition = [0, 3, 6]\ntarget = [0, 0, 0]\nresolution = [64, 48]\n\n[[light]]\ntype = \"directional\"\ndirection = [0.2, -1, 0.1]\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [60, 0.5, 0]\n";
+        let scene = crate::scene::file::parse(text, std::path::Path::new("t.toml")).unwrap();
+        let p = Pipeline::new(2).unwrap();
+        let f = crate::frame::frame(&p, &scene, 0, 0).unwrap();
+        let mut sm = ShadowMap::new(Options {
+            size: 256,
+            fit: FitTo::Receivers,
+            ..Default::default()
+        })
+        .unwrap();
+        sm.visibility(&p, &f).unwrap();
+        assert_eq!(sm.culled(), 1);
+    }
+
+    #[test]
+    fn the_library_constructor_checks_ranges() {
+        let e = ShadowMap::new(Options {
+            size: 0,
+            ..Default::default()
+        })
+        .err()
+        .unwrap();
+        assert_eq!(e, "technique 'shadow-map': option size=0 is outside [16, 16384]");
+    }
+}

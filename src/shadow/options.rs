@@ -1,0 +1,349 @@
+//! Typed technique options and their one declaration per field.
+//!
+//! A technique's library API is a plain `Options` struct (`Default`, every field documented
+//! with "Default: ..."). The CLI's `--set key=value`, `penumbra list` and the option check of
+//! the library constructor all read one [`Declaration`]: a list of [`Field`]s, each naming
+//! the struct field it maps to (by an accessor function), its key, documentation and, for
+//! numbers, its range. No technique parses text by hand.
+//!
+//! Why a small trait ([`OptionValue`]) and a builder rather than a macro: the declaration
+//! stays ordinary Rust (readable, formatted, checked by the compiler field by field), a field
+//! type is added by one `impl`, and choice enums get their names from [`crate::choice_enum!`].
+
+use std::fmt::Display;
+
+/// A type an option can have: parsed from and shown as text.
+pub trait OptionValue: Clone + 'static {
+    /// What `penumbra list` calls the type ("integer", "number", "bool", "text", or the
+    /// choices joined by `|`).
+    fn type_name() -> String;
+    /// Parses a value; the error is the end of a sentence ("is not a number").
+    fn parse(s: &str) -> Result<Self, String>;
+    /// The value as text (parses back to the same value).
+    fn show(&self) -> String;
+}
+
+macro_rules! numeric_option {
+    ($t:ty, $name:expr) => {
+        impl OptionValue for $t {
+            fn type_name() -> String {
+                $name.into()
+            }
+            fn parse(s: &str) -> Result<Self, String> {
+                s.parse().map_err(|_| "is not a number".to_string())
+            }
+            fn show(&self) -> String {
+                self.to_string()
+            }
+        }
+    };
+}
+numeric_option!(u32, "integer");
+numeric_option!(usize, "integer");
+numeric_option!(f32, "number");
+
+impl OptionValue for bool {
+    fn type_name() -> String {
+        "bool".into()
+    }
+    /// `true`/`false`, also `on`/`off`.
+    fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "true" | "on" => Ok(true),
+            "false" | "off" => Ok(false),
+            _ => Err("is not one of true, false (or on, off)".into()),
+        }
+    }
+    fn show(&self) -> String {
+        self.to_string()
+    }
+}
+
+impl OptionValue for String {
+    fn type_name() -> String {
+        "text".into()
+    }
+    fn parse(s: &str) -> Result<Self, String> {
+        Ok(s.to_string())
+    }
+    fn show(&self) -> String {
+        self.clone()
+    }
+}
+
+/// Declares a `Copy` enum whose variants have option names, and its [`OptionValue`] impl:
+///
+/// ```
+/// penumbra::choice_enum! {
+///     /// How to filter.
+///     pub enum Filter {
+///         /// One comparison.
+///         None = "none",
+///         /// 2x2 PCF.
+///         Pcf2 = "pcf2",
+///     }
+/// }
+/// use penumbra::shadow::options::OptionValue;
+/// assert_eq!(Filter::parse("pcf2").unwrap(), Filter::Pcf2);
+/// assert!(Filter::parse("gauss").unwrap_err().contains("not one of none, pcf2"));
+/// ```
+#[macro_export]
+macro_rules! choice_enum {
+    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $v:ident = $s:literal),+ $(,)? }) => {
+        $(#[$m])*
+        #[derive(Copy, Clone, Debug, PartialEq, Eq)]
+        pub enum $name { $($(#[$vm])* $v),+ }
+        impl $name {
+            /// The option names of the variants, in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($s),+];
+            /// The option name of this variant.
+            pub fn as_str(self) -> &'static str {
+                match self { $($name::$v => $s),+ }
+            }
+        }
+        impl $crate::shadow::options::OptionValue for $name {
+            fn type_name() -> String {
+                Self::NAMES.join("|")
+            }
+            fn parse(s: &str) -> Result<Self, String> {
+                match s {
+                    $($s => Ok($name::$v),)+
+                    _ => Err(format!("is not one of {}", Self::NAMES.join(", "))),
+                }
+            }
+            fn show(&self) -> String {
+                self.as_str().to_string()
+            }
+        }
+    };
+}
+
+type Setter<O> = Box<dyn Fn(&mut O, &str) -> Result<(), String> + Send + Sync>;
+type Checker<O> = Box<dyn Fn(&O) -> Result<(), String> + Send + Sync>;
+type Shower<O> = Box<dyn Fn(&O) -> String + Send + Sync>;
+
+/// One option: key, documentation, type and range, and the struct field it maps to.
+pub struct Field<O> {
+    /// Key for `--set key=value`.
+    pub key: &'static str,
+    /// What it does.
+    pub doc: &'static str,
+    /// Type (and range) for `penumbra list`, e.g. `integer in [16, 16384]`.
+    pub ty: String,
+    /// The default, as text.
+    pub default: String,
+    set: Setter<O>,
+    check: Checker<O>,
+    show: Shower<O>,
+}
+
+impl<O: Clone + Default + 'static> Field<O> {
+    /// A field of any value (no range).
+    pub fn new<T: OptionValue>(key: &'static str, doc: &'static str, access: fn(&mut O) -> &mut T) -> Self {
+        Field {
+            key,
+            doc,
+            ty: T::type_name(),
+            default: access(&mut O::default()).show(),
+            set: Box::new(move |o, s| {
+                *access(o) = T::parse(s)?;
+                Ok(())
+            }),
+            check: Box::new(|_| Ok(())),
+            show: Box::new(move |o| access(&mut o.clone()).show()),
+        }
+    }
+
+    /// A numeric field that must lie in `[lo, hi]` (NaN never does).
+    pub fn range<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
+        key: &'static str,
+        doc: &'static str,
+        lo: T,
+        hi: T,
+        access: fn(&mut O) -> &mut T,
+    ) -> Self {
+        let inside = move |v: T| -> Result<(), String> {
+            if v >= lo && v <= hi {
+                Ok(())
+            } else {
+                Err(format!("is outside [{lo}, {hi}]"))
+            }
+        };
+        Field {
+            key,
+            doc,
+            ty: format!("{} in [{lo}, {hi}]", T::type_name()),
+            default: access(&mut O::default()).show(),
+            set: Box::new(move |o, s| {
+                let v = T::parse(s)?;
+                inside(v)?;
+                *access(o) = v;
+                Ok(())
+            }),
+            check: Box::new(move |o| inside(*access(&mut o.clone()))),
+            show: Box::new(move |o| access(&mut o.clone()).show()),
+        }
+    }
+}
+
+/// A technique's options: its name and fields. Parses `key=value` settings into the struct
+/// and checks a struct built in code, with the same messages.
+pub struct Declaration<O> {
+    /// Technique name (for messages).
+    pub technique: &'static str,
+    /// The fields, in the order `penumbra list` prints them.
+    pub fields: Vec<Field<O>>,
+}
+
+impl<O: Clone + Default + 'static> Declaration<O> {
+    /// `Options::default()` with `pairs` applied in order; errors name the technique, the
+    /// option and what is wrong, and list the valid keys for an unknown one.
+    pub fn parse(&self, pairs: &[(String, String)]) -> Result<O, String> {
+        let mut o = O::default();
+        for (k, v) in pairs {
+            let Some(f) = self.fields.iter().find(|f| f.key == k) else {
+                let keys: Vec<&str> = self.fields.iter().map(|f| f.key).collect();
+                return Err(format!(
+                    "technique '{}' has no option '{k}' (options: {})",
+                    self.technique,
+                    if keys.is_empty() {
+                        "none".into()
+                    } else {
+                        keys.join(", ")
+                    }
+                ));
+            };
+            (f.set)(&mut o, v).map_err(|e| format!("technique '{}': option {k}={v} {e}", self.technique))?;
+        }
+        Ok(o)
+    }
+
+    /// Checks every ranged field of `o` (the library constructors call this).
+    pub fn check(&self, o: &O) -> Result<(), String> {
+        for f in &self.fields {
+            (f.check)(o)
+                .map_err(|e| format!("technique '{}': option {}={} {e}", self.technique, f.key, (f.show)(o)))?;
+        }
+        Ok(())
+    }
+
+    /// The settings of `o` that differ from the defaults, as `key=value` pairs.
+    pub fn settings(&self, o: &O) -> Vec<(String, String)> {
+        self.fields
+            .iter()
+            .filter_map(|f| {
+                let v = (f.show)(o);
+                (v != f.default).then(|| (f.key.to_string(), v))
+            })
+            .collect()
+    }
+
+    /// The declaration as plain rows (key, type, default, doc) for listings.
+    pub fn infos(&self) -> Vec<OptionInfo> {
+        self.fields
+            .iter()
+            .map(|f| OptionInfo {
+                key: f.key,
+                ty: f.ty.clone(),
+                default: f.default.clone(),
+                doc: f.doc,
+            })
+            .collect()
+    }
+}
+
+/// One option as plain data: what `penumbra list` prints.
+#[derive(Clone, Debug)]
+pub struct OptionInfo {
+    /// Key for `--set key=value`.
+    pub key: &'static str,
+    /// Type and range.
+    pub ty: String,
+    /// Default value, as text.
+    pub default: String,
+    /// What it does.
+    pub doc: &'static str,
+}
+
+impl OptionValue for crate::pipeline::DepthFormat {
+    fn type_name() -> String {
+        "f32|u24|u16".into()
+    }
+    fn parse(s: &str) -> Result<Self, String> {
+        use crate::pipeline::DepthFormat as D;
+        match s {
+            "f32" => Ok(D::F32),
+            "u24" => Ok(D::Unorm24),
+            "u16" => Ok(D::Unorm16),
+            _ => Err("is not one of f32, u24, u16".into()),
+        }
+    }
+    fn show(&self) -> String {
+        use crate::pipeline::DepthFormat as D;
+        match self {
+            D::F32 => "f32",
+            D::Unorm24 => "u24",
+            D::Unorm16 => "u16",
+        }
+        .into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Clone, Debug, Default)]
+    struct O {
+        n: u32,
+        x: f32,
+        on: bool,
+        name: String,
+    }
+
+    fn decl() -> Declaration<O> {
+        Declaration {
+            technique: "t",
+            fields: vec![
+                Field::range("n", "a count", 1, 8, |o: &mut O| &mut o.n),
+                Field::range("x", "a number", -1.0, 1.0, |o: &mut O| &mut o.x),
+                Field::new("on", "a switch", |o: &mut O| &mut o.on),
+                Field::new("name", "words", |o: &mut O| &mut o.name),
+            ],
+        }
+    }
+
+    fn pairs(p: &[(&str, &str)]) -> Vec<(String, String)> {
+        p.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+    }
+
+    #[test]
+    fn parse_check_and_messages() {
+        let d = decl();
+        let o = d
+            .parse(&pairs(&[("n", "3"), ("x", "-0.5"), ("on", "on"), ("name", "a b")]))
+            .unwrap();
+        assert_eq!((o.n, o.x, o.on, o.name.as_str()), (3, -0.5, true, "a b"));
+        assert_eq!(d.settings(&o).len(), 4);
+        let err = |p: &[(&str, &str)]| d.parse(&pairs(p)).unwrap_err();
+        assert_eq!(err(&[("n", "9")]), "technique 't': option n=9 is outside [1, 8]");
+        assert_eq!(err(&[("x", "NaN")]), "technique 't': option x=NaN is outside [-1, 1]");
+        assert_eq!(err(&[("n", "two")]), "technique 't': option n=two is not a number");
+        assert!(err(&[("on", "yes")]).contains("is not one of true, false"));
+        assert_eq!(
+            err(&[("m", "1")]),
+            "technique 't' has no option 'm' (options: n, x, on, name)"
+        );
+        // The library path: a struct built in code is checked with the same message.
+        let bad = O { n: 0, ..O::default() };
+        assert_eq!(
+            d.check(&bad).unwrap_err(),
+            "technique 't': option n=0 is outside [1, 8]"
+        );
+        let infos = d.infos();
+        assert_eq!(
+            (infos[0].ty.as_str(), infos[0].default.as_str()),
+            ("integer in [1, 8]", "0")
+        );
+    }
+}
