@@ -1429,3 +1429,137 @@ fn a_vertex_at_the_clip_origin_is_dropped_alike_on_both_vertex_paths() {
         (px(3, 27), px(36, 27), px(20, 3))
     );
 }
+
+/// The order-dependent update the raster-ordered tests apply: slot 0 a running hash of the
+/// primitive ids in arrival order, slot 1 a count, slot 2 the last depth's bits; a pixel with
+/// more slots records its k-th fragment's primitive in slot `3 + k % (len - 3)`.
+fn ordered_update(prim: u32, z: f32, px: &mut [u32]) {
+    if px.is_empty() {
+        return;
+    }
+    px[0] = px[0].wrapping_mul(0x9e37_79b1).wrapping_add(prim + 1);
+    if px.len() > 2 {
+        let k = px[1];
+        px[1] += 1;
+        px[2] = z.to_bits();
+        if px.len() > 3 {
+            let n = px.len() - 3;
+            px[3 + k as usize % n] = prim;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Raster-ordered storage: for any thread count, with a depth test or without, with
+    /// standard or conservative rasterization, fixed or indexed per-pixel storage, the store
+    /// equals applying the passing fragments one by one in submission order (the fragment
+    /// lists of the same draw, themselves tested to be in submission order), and the access
+    /// counter counts every application.
+    #[test]
+    fn raster_ordered_storage_applies_fragments_in_submission_order(
+        seed in any::<u64>(), n in 1usize..50, depth_test in any::<bool>(), conservative in any::<bool>(), indexed in any::<bool>()
+    ) {
+        let mut rng = SplitMix(seed);
+        let mut verts = Vec::new();
+        for _ in 0..n * 3 {
+            let r = |rng: &mut SplitMix| (rng.next_u64() % (W as u64 * 256)) as i64;
+            let (x, y) = (r(&mut rng), r(&mut rng));
+            verts.push(clip(x, y, rng.next_f32()));
+        }
+        let idx: Vec<u32> = (0..verts.len() as u32).collect();
+        let state = RenderState {
+            depth: DepthState {
+                func: if depth_test { CompareFunc::Less } else { CompareFunc::Always },
+                write: depth_test,
+                ..Default::default()
+            },
+            raster: if conservative { RasterMode::Overestimate } else { RasterMode::Standard },
+            ..Default::default()
+        };
+        let counts: Vec<u32> = (0..W * H).map(|i| if indexed { (i * 7 + 3) % 9 } else { 6 }).collect();
+        let new_store = || if indexed {
+            PixelStore::indexed(W, H, &counts, 0u32).unwrap()
+        } else {
+            PixelStore::fixed(W, H, 6, 0u32).unwrap()
+        };
+        // The sequential truth: the same draw's fragment lists, applied in list order.
+        let mut lists = FragmentLists::new(W, H, 1 << 22).unwrap();
+        let mut d0 = Surface::new(W, H, 1.0f32).unwrap();
+        let list_stats = pipeline(1).draw(&mut Targets::none().with_depth(&mut d0).with_lists(&mut lists), &state, &verts, &idx,
+            &ClipPassthrough, &Shader(|_: &Fragment<()>| Vec4::ZERO)).unwrap();
+        let mut want = new_store();
+        for y in 0..H { for x in 0..W {
+            let nodes: Vec<(u32, f32)> = lists.iter(x, y).map(|nd| (nd.prim, nd.depth)).collect();
+            for (prim, z) in nodes { ordered_update(prim, z, want.pixel_mut(x, y)); }
+        }}
+        for threads in [1, 2, 4] {
+            let mut store = new_store();
+            let mut depth = Surface::new(W, H, 1.0f32).unwrap();
+            let prog = |f: &Fragment<()>, px: &mut [u32]| ordered_update(f.prim, f.z, px);
+            let stats = pipeline(threads).draw_ordered(&mut Targets::none().with_depth(&mut depth), &state, &verts, &idx,
+                &ClipPassthrough, &prog, &mut store).unwrap();
+            prop_assert!(store == want, "{} threads: the store differs from sequential application", threads);
+            prop_assert_eq!(stats.fragments_shaded, list_stats.list_nodes, "accesses");
+            prop_assert_eq!(stats.fragments_passed, list_stats.fragments_passed);
+            prop_assert_eq!(depth.data(), d0.data());
+        }
+    }
+}
+
+#[test]
+fn raster_ordered_draws_without_other_targets_and_reject_bad_ones() {
+    // No depth or stencil target: every covered pixel applies, sizes come from the store.
+    let verts = [clip(0, 0, 0.5), clip(256 * 200, 0, 0.5), clip(0, 256 * 200, 0.5)];
+    let mut store = PixelStore::fixed(W, H, 1, 0u32).unwrap();
+    let prog = |_: &Fragment<()>, px: &mut [u32]| px[0] += 1;
+    let st = pipeline(2)
+        .draw_ordered(
+            &mut Targets::none(),
+            &RenderState::default(),
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &prog,
+            &mut store,
+        )
+        .unwrap();
+    let touched = store.data().iter().filter(|&&v| v == 1).count() as u64;
+    assert_eq!(
+        (touched, st.fragments_shaded),
+        (st.fragments_rasterized, st.fragments_rasterized)
+    );
+    assert!(touched > 10_000);
+    // A colour target, or a store of another size, is an error.
+    let mut c = Surface::new(W, H, [0u8; 4]).unwrap();
+    assert!(pipeline(1)
+        .draw_ordered(
+            &mut Targets::color(&mut c),
+            &RenderState::default(),
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &prog,
+            &mut store
+        )
+        .is_err());
+    let mut d = Surface::new(W / 2, H, 1.0f32).unwrap();
+    let e = pipeline(1)
+        .draw_ordered(
+            &mut Targets::none().with_depth(&mut d),
+            &RenderState::default(),
+            &verts,
+            &[0, 1, 2],
+            &ClipPassthrough,
+            &prog,
+            &mut store,
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("pixel store"), "{e}");
+    // Bad stores.
+    assert!(PixelStore::fixed(0, 4, 1, 0u8).is_err());
+    assert!(PixelStore::fixed(65536, 65536, 2, 0u8).is_err());
+    assert!(PixelStore::indexed(2, 2, &[1, 2, 3], 0u8).is_err());
+    assert!(PixelStore::indexed(1, 2, &[u32::MAX, 2], 0u8).is_err());
+}

@@ -148,6 +148,12 @@ pub trait FragmentProgram<V>: Sync {
     /// holds each group back for a few groups after the hint (which costs a copy per group),
     /// and otherwise shades it at once.
     const PREFETCHES: bool = false;
+    /// True only for the pipeline's own raster-ordered adapter ([`super::ordered`]): the
+    /// program then has side effects on per-pixel storage, so it runs once per fragment that
+    /// passes the tests, after them, on the per-fragment path (never deferred, never four
+    /// lanes at once), in primitive order per pixel.
+    #[doc(hidden)]
+    const ORDERED: bool = false;
     /// Shades one fragment.
     fn shade(&self, f: &Fragment<V>) -> Option<Vec4>;
     /// Shades four fragments of one row at once (used when the program cannot discard and the
@@ -484,7 +490,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     stats: &mut DrawStats,
     lists: &mut TileLists,
 ) {
-    let needs_shading = targets.color.is_some() || targets.lists || P::MAY_DISCARD;
+    let needs_shading = targets.color.is_some() || targets.lists || P::MAY_DISCARD || P::ORDERED;
     let depth_test = targets.depth.is_some() && state.depth.func != CompareFunc::Always;
     let depth_write = targets.depth.is_some() && state.depth.write;
     let stencil_on = targets.stencil.is_some() && state.stencil.enabled;
@@ -522,7 +528,8 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     }
 
     let wide_state = WideState::new(state);
-    let wide = needs_shading && !P::MAY_DISCARD && !stencil_on && !targets.lists && targets.color.is_some();
+    let wide =
+        needs_shading && !P::MAY_DISCARD && !P::ORDERED && !stencil_on && !targets.lists && targets.color.is_some();
     #[cfg(target_arch = "x86_64")]
     if super::deferred::applies(state, targets, wide) {
         super::deferred::shade_tile_deferred(chunks, tile, rect, state, targets, program, stats);

@@ -15,6 +15,10 @@
 //!    [`FragmentProgram::shade4`] on structure-of-arrays lanes, bit-identical to the
 //!    one-pixel path).
 //!
+//! Beside them: raster-ordered per-pixel storage ([`ordered`], [`Pipeline::draw_ordered`]):
+//! a program reads and writes its pixel's slice of user data, one pixel's fragments in
+//! primitive order, with no locks (tile ownership gives the order).
+//!
 //! Around them: [`surface`] (targets, cube maps, arrays, mip chains), [`sampler`] (nearest,
 //! bilinear, 2x2 comparison PCF, gather, explicit mip level) and [`compute`] (min/max reduce,
 //! histogram, summed-area table, separable blur).
@@ -26,6 +30,7 @@
 //!   inside triangle" test;
 //! - fragment-list node count equals the fragments that passed, lists in submission order;
 //! - two-sided stencil incr/decr over closed meshes counts surfaces crossed;
+//! - a raster-ordered draw equals applying its fragments one by one in submission order;
 //! - every output (targets, lists, counters) is bit-identical for any thread count: a tile is
 //!   owned by one worker per draw and walks its triangles in submission order, and all partial
 //!   results are combined in tile order.
@@ -37,6 +42,7 @@ pub mod deferred;
 pub mod fixed;
 pub mod fragment;
 pub mod lists;
+pub mod ordered;
 pub mod raster;
 pub mod sampler;
 pub mod setup;
@@ -47,6 +53,7 @@ pub mod wide;
 
 pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
 pub use lists::{FragmentLists, ListNode};
+pub use ordered::{OrderedProgram, PixelStore};
 pub use state::*;
 pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
@@ -471,7 +478,7 @@ impl Pipeline {
         };
         let ntri = indices.len() / 3;
         // Shading attributes are read only by fragment programs that run (see `shade_tile`).
-        let needs_attrs = raw.color.is_some() || raw.lists || P::MAY_DISCARD;
+        let needs_attrs = raw.color.is_some() || raw.lists || P::MAY_DISCARD || P::ORDERED;
         let depth_clear = targets.depth_clear.filter(|_| raw.depth.is_some());
         let color_clear = targets.color_clear.filter(|_| raw.color.is_some());
         if ntri == 0 {
@@ -608,5 +615,70 @@ impl Pipeline {
         times.list_merge += t3.elapsed().as_secs_f64();
         *self.times.lock().unwrap_or_else(|e| e.into_inner()) += times;
         Ok(stats)
+    }
+
+    /// Draws with raster-ordered per-pixel storage: `program` is applied to every fragment
+    /// that passes the depth and stencil tests of `targets` (which may hold depth and stencil,
+    /// but no colour or lists), with exclusive access to its pixel's slice of `store`, one
+    /// pixel's fragments in submission order (see [`ordered`]). The store must have the size
+    /// of the draw. [`DrawStats::fragments_shaded`] counts the program's accesses.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_ordered<VP, P, T>(
+        &self,
+        targets: &mut Targets<'_, Rgba8>,
+        state: &RenderState,
+        vertices: &[VP::In],
+        indices: &[u32],
+        vp: &VP,
+        program: &P,
+        store: &mut PixelStore<T>,
+    ) -> Result<DrawStats, PipelineError>
+    where
+        VP: VertexProgram,
+        P: OrderedProgram<VP::Out, T>,
+        T: Copy + Send + Sync,
+    {
+        if targets.color.is_some() || targets.lists.is_some() {
+            return Err(PipelineError::BadArgument(
+                "a raster-ordered draw writes its store only: no colour target or fragment lists".into(),
+            ));
+        }
+        let size = (store.width(), store.height());
+        if targets.depth.is_none() && targets.stencil.is_none() {
+            // No other target: a dummy size carrier is needed for the draw's size check.
+            let mut dummy = Surface::new(size.0, size.1, 0u8)?;
+            let mut t = Targets::none().with_stencil(&mut dummy);
+            let st = RenderState {
+                stencil: StencilState {
+                    enabled: false,
+                    ..state.stencil
+                },
+                ..*state
+            };
+            return self.draw(
+                &mut t,
+                &st,
+                vertices,
+                indices,
+                vp,
+                &ordered::Ordered::new(program, store),
+            );
+        }
+        let got = targets.size()?;
+        if got != size {
+            return Err(PipelineError::SizeMismatch {
+                what: "pixel store",
+                expected: got,
+                got: size,
+            });
+        }
+        self.draw(
+            targets,
+            state,
+            vertices,
+            indices,
+            vp,
+            &ordered::Ordered::new(program, store),
+        )
     }
 }

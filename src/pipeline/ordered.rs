@@ -1,0 +1,183 @@
+//! Raster-ordered per-pixel storage (what D3D calls rasterizer-ordered views, GL
+//! `fragment_shader_interlock`): per-pixel user data that a fragment program reads and
+//! writes, the fragments of one pixel applied in primitive (submission) order.
+//!
+//! A GPU needs an interlock for this; here it follows from how the pipeline already works: a
+//! tile is owned by one worker for the whole draw and walks its triangles in submission order,
+//! so a pixel's storage is touched by one thread at a time, fragment after fragment in
+//! primitive order, without locks. The result never depends on the thread count.
+//!
+//! Storage is a [`PixelStore`]: each pixel owns a slice of `T`, either of a fixed size
+//! ([`PixelStore::fixed`]: AVSM's nodes per texel) or of its own size, indexed into one pool
+//! ([`PixelStore::indexed`]: the irregular z-buffer's samples per texel). A draw with it is
+//! [`super::Pipeline::draw_ordered`]; the program is an [`OrderedProgram`].
+
+use super::fragment::{Fragment, FragmentProgram};
+use super::PipelineError;
+use glam::Vec4;
+
+/// Per-pixel slices of user data in one pool.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelStore<T> {
+    width: u32,
+    height: u32,
+    /// `offsets[i]..offsets[i + 1]` is pixel `i`'s range of `data` (row-major pixels).
+    offsets: Vec<u32>,
+    data: Vec<T>,
+}
+
+impl<T: Copy + Send + Sync> PixelStore<T> {
+    /// `slots` values of `init` per pixel.
+    pub fn fixed(width: u32, height: u32, slots: usize, init: T) -> Result<Self, PipelineError> {
+        let pixels = check_size(width, height)?;
+        let total = pixels
+            .checked_mul(slots)
+            .filter(|&n| n <= u32::MAX as usize)
+            .ok_or_else(|| {
+                PipelineError::BadArgument(format!(
+                    "pixel store of {width}x{height} pixels x {slots} slots is too large (at most {} values)",
+                    u32::MAX
+                ))
+            })?;
+        Ok(PixelStore {
+            width,
+            height,
+            offsets: (0..=pixels).map(|i| (i * slots) as u32).collect(),
+            data: vec![init; total],
+        })
+    }
+
+    /// `counts[i]` values of `init` for pixel `i` (row-major), one pool for all.
+    pub fn indexed(width: u32, height: u32, counts: &[u32], init: T) -> Result<Self, PipelineError> {
+        let pixels = check_size(width, height)?;
+        if counts.len() != pixels {
+            return Err(PipelineError::BadArgument(format!(
+                "pixel store: {} counts for {width}x{height} = {pixels} pixels",
+                counts.len()
+            )));
+        }
+        let mut offsets = Vec::with_capacity(pixels + 1);
+        let mut total = 0u64;
+        offsets.push(0);
+        for &c in counts {
+            total += c as u64;
+            if total > u32::MAX as u64 {
+                return Err(PipelineError::BadArgument(format!(
+                    "pixel store: more than {} values in all",
+                    u32::MAX
+                )));
+            }
+            offsets.push(total as u32);
+        }
+        Ok(PixelStore {
+            width,
+            height,
+            offsets,
+            data: vec![init; total as usize],
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The values of pixel (x, y).
+    pub fn pixel(&self, x: u32, y: u32) -> &[T] {
+        let i = (y * self.width + x) as usize;
+        &self.data[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    /// The values of pixel (x, y), to change.
+    pub fn pixel_mut(&mut self, x: u32, y: u32) -> &mut [T] {
+        let i = (y * self.width + x) as usize;
+        &mut self.data[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    /// Pixel `i`'s range of [`PixelStore::data`] (row-major pixel index).
+    pub fn range(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+
+    /// Every value, pixel after pixel.
+    pub fn data(&self) -> &[T] {
+        &self.data
+    }
+
+    /// Every value, to change (between draws).
+    pub fn data_mut(&mut self) -> &mut [T] {
+        &mut self.data
+    }
+
+    /// Bytes of storage (values and offsets).
+    pub fn bytes(&self) -> usize {
+        self.data.len() * std::mem::size_of::<T>() + self.offsets.len() * 4
+    }
+}
+
+fn check_size(width: u32, height: u32) -> Result<usize, PipelineError> {
+    if width == 0 || height == 0 || width > super::MAX_DIMENSION || height > super::MAX_DIMENSION {
+        return Err(PipelineError::BadSize { width, height });
+    }
+    Ok(width as usize * height as usize)
+}
+
+/// A fragment program with raster-ordered access to its pixel's storage.
+pub trait OrderedProgram<V, T>: Sync {
+    /// Called for every fragment that passes the depth and stencil tests, with exclusive
+    /// access to its pixel's values; the fragments of one pixel come in primitive order.
+    fn apply(&self, f: &Fragment<V>, pixel: &mut [T]);
+}
+
+impl<V, T, F: Fn(&Fragment<V>, &mut [T]) + Sync> OrderedProgram<V, T> for F {
+    #[inline(always)]
+    fn apply(&self, f: &Fragment<V>, pixel: &mut [T]) {
+        self(f, pixel)
+    }
+}
+
+/// The pipeline's side of an ordered draw: a fragment program that applies the user's
+/// program to the fragment's pixel of the store.
+pub(crate) struct Ordered<'a, P, T> {
+    pub program: &'a P,
+    pub data: *mut T,
+    pub offsets: &'a [u32],
+    pub width: usize,
+}
+
+// SAFETY: a pixel's range of the store is written only while its tile is processed, and a
+// tile is processed by exactly one worker per draw (see `Pipeline::draw`); `ORDERED`
+// programs run only on the per-fragment path (never deferred, never four lanes at once), so
+// no two threads ever hold the same pixel's slice, and one thread holds it once at a time.
+unsafe impl<P: Sync, T: Send> Sync for Ordered<'_, P, T> {}
+
+impl<V, P: OrderedProgram<V, T>, T: Send> FragmentProgram<V> for Ordered<'_, P, T> {
+    const ORDERED: bool = true;
+
+    #[inline(always)]
+    fn shade(&self, f: &Fragment<V>) -> Option<Vec4> {
+        let i = f.y as usize * self.width + f.x as usize;
+        let (a, b) = (self.offsets[i] as usize, self.offsets[i + 1] as usize);
+        // SAFETY: see the `Sync` impl: this worker owns the pixel during the call.
+        let px = unsafe { std::slice::from_raw_parts_mut(self.data.add(a), b - a) };
+        self.program.apply(f, px);
+        Some(Vec4::ZERO)
+    }
+}
+
+impl<'a, P, T> Ordered<'a, P, T> {
+    /// Wraps `program` over `store`.
+    pub fn new(program: &'a P, store: &'a mut PixelStore<T>) -> Self {
+        Ordered {
+            program,
+            data: store.data.as_mut_ptr(),
+            offsets: &store.offsets,
+            width: store.width as usize,
+        }
+    }
+}
