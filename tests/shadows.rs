@@ -746,3 +746,86 @@ fn bench_export_writes_the_workload() {
     assert!(!ok && text.contains("plain-file"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn coloured_glass_gives_a_colour_reference_that_no_scalar_technique_matches() {
+    let p = Pipeline::new(2).unwrap();
+    let s = load(Path::new("fixtures/scenes/stained_glass.toml")).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let (r, _, _) = run::reference(&p, &f, 0, None).unwrap();
+    assert!(r.is_rgb(), "coloured materials make a colour reference");
+    // Light through the red pane alone: red passes, green and blue do not.
+    let red = (0..r.len()).filter(|&i| {
+        let c = r.rgb(i);
+        c.x > 0.8 && c.y < 0.2 && c.z < 0.2
+    });
+    assert!(red.count() > 500, "a red-tinted shadow on the ground");
+    // Where panes overlap the tints multiply: some pixel is dark in every channel but not 0.
+    assert!((0..r.len()).any(|i| {
+        let c = r.rgb(i);
+        c.max_element() > 0.0 && c.max_element() < 0.2
+    }));
+    // A scalar technique's best single value per pixel still misses the channels.
+    let mut t = shadow::create("shadow-volume", &[]).unwrap();
+    let v = t.visibility(&p, &f).unwrap();
+    assert!(!v.is_rgb());
+    let e = compare(&v, &r, &f.metric_mask());
+    assert!(e.rmse > 0.1, "scalar against colour: RMSE over channels {}", e.rmse);
+    // Grey veils (layers) keep a scalar reference.
+    let s = load(Path::new("fixtures/scenes/layers.toml")).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    assert!(!run::reference(&p, &f, 0, None).unwrap().0.is_rgb());
+}
+
+#[test]
+fn inspect_explains_a_pixel_for_every_technique() {
+    let p = Pipeline::new(2).unwrap();
+    let s = load(Path::new("fixtures/scenes/contact.toml")).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    // A pixel in the box's shadow on the ground: every technique's last step is its result,
+    // equal to the image's value there.
+    let (x, y) = (f.width() / 2, f.height() * 3 / 4);
+    assert!(f.point(x, y).is_some());
+    for info in shadow::registry() {
+        for set in info.sweep.iter().take(2) {
+            let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+            let mut t = shadow::create(info.name, &sets).unwrap();
+            let v = t.visibility(&p, &f).unwrap();
+            let steps = t.inspect(&f, x, y);
+            let last = steps.last().unwrap_or_else(|| panic!("{} explains nothing", info.name));
+            assert_eq!(last.name, "result", "{}", info.name);
+            let got = match last.values[0].1 {
+                shadow::Value::Num(n) => n as f32,
+                _ => panic!("{}: result is not a number", info.name),
+            };
+            let want = v.value((y * f.width() + x) as usize);
+            assert!(
+                got == want || (got.is_nan() && want.is_nan()),
+                "{}: inspect {got} vs image {want}",
+                info.name
+            );
+            assert!(steps.len() >= 2, "{}: at least one step before the result", info.name);
+        }
+    }
+    // The CLI: text and JSON.
+    let (ok, out) = cli(&[
+        "inspect",
+        "fixtures/scenes/contact.toml",
+        "--technique",
+        "shadow-map",
+        "--set",
+        "filter=pcf2",
+        "--pixel",
+        &format!("{x},{y}"),
+        "--json",
+    ]);
+    assert!(ok, "{out}");
+    assert!(
+        out.contains("\"steps\"") && out.contains("stored depth 0") && out.contains("\"reference\""),
+        "{out}"
+    );
+    let (ok, out) = cli(&["inspect", "fixtures/scenes/contact.toml", "--pixel", "9999,1"]);
+    assert!(!ok && out.contains("outside the"), "{out}");
+    let (ok, out) = cli(&["inspect", "fixtures/scenes/contact.toml", "--pixel", "a,b"]);
+    assert!(!ok && out.contains("is not X,Y"), "{out}");
+}

@@ -72,8 +72,9 @@ pub fn list() -> Result<(), String> {
     println!("techniques:");
     for t in shadow::registry() {
         println!("  {:<12} {}", t.name, t.summary);
-        for o in t.options {
-            println!("      --set {}={:<8} {}", o.key, o.default, o.doc);
+        for o in &t.options {
+            let kv = format!("{}={}", o.key, o.default);
+            println!("      --set {kv:<22} {} [{}]", o.doc, o.ty);
         }
     }
     println!("scenes ({FIXTURES}):");

@@ -520,6 +520,25 @@ translate = [0, 0.5, 0]
     }
 
     #[test]
+    fn coloured_transmittance_is_parsed_and_checked() {
+        let glass = OK.replace(
+            "[[material]]\nname = \"ground\"",
+            "[[material]]\nname = \"ground\"\ntransmittance = [1, 0.5, 0]",
+        );
+        let s = parse(&glass, Path::new("s.toml")).unwrap();
+        let m = s.materials.iter().find(|m| m.name == "ground").unwrap();
+        assert_eq!(m.transmittance_rgb(), glam::Vec3::new(1.0, 0.5, 0.0));
+        assert_eq!(s.materials[0].transmittance_rgb(), glam::Vec3::ZERO, "opaque default");
+        let e = err(&glass.replace("[1, 0.5, 0]", "[1, 2, 0]"));
+        assert!(
+            e.contains("field `transmittance`: each channel must be in [0, 1]"),
+            "{e}"
+        );
+        let e = err(&glass.replace("[1, 0.5, 0]", "[1, nan, 0]"));
+        assert!(e.contains("transmittance"), "{e}");
+    }
+
+    #[test]
     fn errors_name_file_line_and_field() {
         let e = err(&OK.replace("size = [10, 10]", "size = [10, -1]"));
         assert!(e.starts_with("s.toml:15: [[object]] #1 (plane), field `size`"), "{e}");
