@@ -27,6 +27,9 @@ pub struct GBuffer {
     pub normal: Surface<Vec3>,
     /// Object index, or [`NO_OBJECT`].
     pub object: Surface<u32>,
+    /// Index of the visible triangle within its object's mesh (undefined where there is no
+    /// object): with [`crate::scene::Scene::triangle_bases`], a scene-wide triangle id.
+    pub prim: Surface<u32>,
 }
 
 /// Everything a technique gets: the scene, the light, the camera and its G-buffer.
@@ -62,6 +65,13 @@ impl Frame<'_> {
             position: self.gbuffer.position.at(x, y),
             normal: self.gbuffer.normal.at(x, y),
         })
+    }
+
+    /// The scene-wide id of the triangle visible at pixel index `i` (row-major), if any:
+    /// `bases[object] + prim`, with `bases` from [`crate::scene::Scene::triangle_bases`].
+    pub fn triangle_at(&self, i: usize, bases: &[u32]) -> Option<u32> {
+        let o = self.gbuffer.object.data()[i];
+        (o != NO_OBJECT).then(|| bases[o as usize] + self.gbuffer.prim.data()[i])
     }
 
     /// All shading points, row-major.
@@ -139,7 +149,8 @@ pub fn gbuffer(p: &Pipeline, scene: &Scene, camera: &Camera) -> Result<GBuffer, 
             if (two_sided || !f.front) && n.dot(eye - f.var.0) < 0.0 {
                 n = -n;
             }
-            n.extend(oi as f32)
+            // The triangle's index rides in the unused w, by bit pattern (exact for any count).
+            n.extend(f32::from_bits(f.prim))
         });
         p.draw(
             &mut Targets::color(&mut nrm).with_depth(&mut depth),
@@ -154,6 +165,7 @@ pub fn gbuffer(p: &Pipeline, scene: &Scene, camera: &Camera) -> Result<GBuffer, 
         position: pos_id.map(|v| v.truncate()),
         object: pos_id.map(|v| if v.w < 0.0 { NO_OBJECT } else { v.w as u32 }),
         normal: nrm.map(|v| v.truncate()),
+        prim: nrm.map(|v| v.w.to_bits()),
         depth,
     })
 }

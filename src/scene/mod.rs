@@ -254,6 +254,20 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The scene-wide id of each object's first triangle (objects' triangles numbered in
+    /// scene order).
+    pub fn triangle_bases(&self) -> Vec<u32> {
+        let mut base = 0u32;
+        self.objects
+            .iter()
+            .map(|o| {
+                let b = base;
+                base += o.mesh.triangles() as u32;
+                b
+            })
+            .collect()
+    }
+
     /// World bounds of all objects.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         self.objects

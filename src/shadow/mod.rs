@@ -9,9 +9,10 @@
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
-//! cookies), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! cookies), [`exact`] (the irregular z-buffer), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 
+pub mod exact;
 pub mod inspect;
 pub mod light;
 pub mod map;
@@ -115,6 +116,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         volume::shadow_volume::info(),
         planar::projected::info(),
         planar::cookie::info(),
+        exact::izb::info(),
     ]
 }
 

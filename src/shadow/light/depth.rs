@@ -14,8 +14,11 @@ pub struct Casters {
     pub positions: Vec<Vec3>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
-    /// Per triangle: the index of its scene object (for primitive-id tests).
+    /// Per triangle: the index of its scene object.
     pub object: Vec<u32>,
+    /// Per triangle: its scene-wide id ([`crate::scene::Scene::triangle_bases`] + its index
+    /// in its object), the id the G-buffer reports for the surface it is.
+    pub triangle: Vec<u32>,
 }
 
 /// The kept objects' triangles as one mesh, in scene order (one draw instead of one per
@@ -36,7 +39,9 @@ pub fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<Casters, String> {
         positions: Vec::with_capacity(kept().map(|(_, o)| o.mesh.positions.len()).sum()),
         indices: Vec::with_capacity(kept().map(|(_, o)| o.mesh.indices.len()).sum()),
         object: Vec::new(),
+        triangle: Vec::new(),
     };
+    let bases = frame.scene.triangle_bases();
     for (oi, o) in kept() {
         let m = &o.mesh;
         if let Some(bad) = m.indices.iter().find(|&&i| i as usize >= m.positions.len()) {
@@ -50,6 +55,7 @@ pub fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<Casters, String> {
         c.positions.extend_from_slice(&m.positions);
         c.indices.extend(m.indices.iter().map(|i| i + base));
         c.object.extend(std::iter::repeat_n(oi as u32, m.indices.len() / 3));
+        c.triangle.extend(bases[oi]..bases[oi] + (m.indices.len() / 3) as u32);
     }
     Ok(c)
 }

@@ -98,30 +98,39 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 perspective: true,
             }]
         }
-        LightKind::Point | LightKind::Area(_) => {
-            let far = far_from(l.position);
-            let proj = Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, (far * 1e-4).max(1e-3), far);
-            CubeFace::ALL
-                .iter()
-                .map(|f| {
-                    // Rows: x = u, y = -v (texture v points down), z = -forward (looking down -z).
-                    let (fwd, u, v) = f.basis();
-                    let e = l.position;
-                    let view = Mat4::from_cols(
-                        Vec4::new(u.x, -v.x, -fwd.x, 0.0),
-                        Vec4::new(u.y, -v.y, -fwd.y, 0.0),
-                        Vec4::new(u.z, -v.z, -fwd.z, 0.0),
-                        Vec4::new(-u.dot(e), v.dot(e), fwd.dot(e), 1.0),
-                    );
-                    LightView {
-                        matrix: proj * view,
-                        texel: 2.0 / size as f32,
-                        perspective: true,
-                    }
-                })
-                .collect()
-        }
+        LightKind::Point | LightKind::Area(_) => cube_views(frame, size),
     }
+}
+
+/// Six 90-degree cube-face views around the light's position (in [`CubeFace::ALL`] order),
+/// whatever its kind: point and area lights use them, and techniques that must see every
+/// direction from a spot light (its cone aside) too.
+pub fn cube_views(frame: &Frame, size: u32) -> Vec<LightView> {
+    let l = &frame.light;
+    let (lo, hi) = frame.scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+    let cs = corners(lo, hi);
+    let far_from = |p: Vec3| cs.iter().map(|c| (*c - p).length()).fold(0.0f32, f32::max) * 1.01 + 1e-3;
+    let far = far_from(l.position);
+    let proj = Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, (far * 1e-4).max(1e-3), far);
+    CubeFace::ALL
+        .iter()
+        .map(|f| {
+            // Rows: x = u, y = -v (texture v points down), z = -forward (looking down -z).
+            let (fwd, u, v) = f.basis();
+            let e = l.position;
+            let view = Mat4::from_cols(
+                Vec4::new(u.x, -v.x, -fwd.x, 0.0),
+                Vec4::new(u.y, -v.y, -fwd.y, 0.0),
+                Vec4::new(u.z, -v.z, -fwd.z, 0.0),
+                Vec4::new(-u.dot(e), v.dot(e), fwd.dot(e), 1.0),
+            );
+            LightView {
+                matrix: proj * view,
+                texel: 2.0 / size as f32,
+                perspective: true,
+            }
+        })
+        .collect()
 }
 
 fn up_for(d: Vec3) -> Vec3 {

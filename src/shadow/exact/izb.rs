@@ -1,0 +1,826 @@
+//! The irregular z-buffer (Johnson et al. 2005; Aila and Laine 2004; Sintorn et al. 2008;
+//! Wyman et al. 2015; RTR 7.9): exact hard shadows at the camera's own sample points.
+//!
+//! A shadow map samples visibility on the light's regular grid and the camera then looks the
+//! grid up at other points, which is where acne, aliasing and bias come from. The irregular
+//! z-buffer turns this around: the camera's sample points are inserted into a light-space
+//! grid as they are (irregularly), and the occluders are rasterized into the same grid, each
+//! covered texel testing its own samples against the occluding triangle exactly.
+//!
+//! Pass by pass:
+//! 1. **Samples**: one per pixel (the G-buffer's point) or `k` per pixel (4, 16, 32) at
+//!    stratified sub-pixel positions, each the pixel's sub-sample camera ray intersected with
+//!    the pixel's tangent plane (position and normal), as Wyman et al. place them. Samples
+//!    whose normal faces away from the light are unlit and never inserted.
+//! 2. **Grid**: the light's view ([`crate::shadow::light::light_views`]: orthographic for a
+//!    directional light, six cube faces for point, area and spot lights, since samples may lie
+//!    outside a spot's cone) cropped to the light-space bounds of its samples ("tight bounds
+//!    are formed from this set", RTR 7.9), `size` x `size` texels; a cube face without samples
+//!    is skipped.
+//! 3. **Lists**: each sample goes into the list of the texel it projects to. The lists are a
+//!    deterministic counting sort by texel (count, prefix sum, fill in sample order) into one
+//!    pool (the pipeline's indexed [`PixelStore`]), so list order is the samples' order and
+//!    never depends on the thread count. (Drawing the points into the pipeline's fragment
+//!    lists would give the same order, at the cost of a node per sample and a pass to copy
+//!    the nodes into the store the occluder pass needs.)
+//! 4. **Occluder pass**: every caster triangle is drawn through the pipeline into the grid
+//!    with *conservative* rasterization (every texel the triangle touches gets a fragment), and
+//!    the fragment program, through the pipeline's raster-ordered storage
+//!    ([`Pipeline::draw_ordered`]), walks the texel's samples and tests each against the
+//!    triangle exactly: the segment from the sample to the light (for a directional light, the
+//!    ray against its direction) intersects the triangle strictly in front of the sample
+//!    (Möller–Trumbore, `t > 0`). Standard rasterization is an option, to show why it is not
+//!    enough: a triangle thinner than a texel misses the texel centres and its shadow breaks.
+//!
+//! No depth bias anywhere. A sample is never tested against the triangle it lies on (the
+//! G-buffer's primitive id) where that triangle faces the light. Closed meshes (checked with
+//! the shadow volumes' edge adjacency, [`crate::shadow::volume::silhouette::Adjacency`]) cast
+//! only through their triangles that face away from the light: a ray blocked by a closed
+//! object crosses one of them (Sintorn et al.: "no bias for closed objects"). Open meshes and
+//! two-sided sheets cast through every triangle. Where a sample's own triangle faces away from
+//! the light while its interpolated normal faces it (the terminator of a tessellated sphere,
+//! the far side of a heightfield's ridge), the sample's ray leaves through the back of its own
+//! surface and the triangle is tested like any other. The ray starts where the reference's
+//! does: the point moved a few ULPs along its normal (Wächter and Binder 2019), a property of
+//! float numbers that does not depend on the scene, the light or the grid. Coplanar contact (a
+//! box resting on the ground) needs nothing: the ground under the box is shadowed by the box's
+//! top, and the box's bottom faces away from the light.
+//!
+//! Known failure: long lists. Where receivers are seen at a grazing angle from the light, or
+//! the camera's samples crowd into few light texels (`long_view`, `grazing`), lists grow and
+//! so does the occluder pass; `counters` reports list lengths, `dump` their image.
+
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::*;
+use crate::reference::{offset_origin, SamplePoint};
+use crate::scene::{Light, LightKind};
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::volume::silhouette::Adjacency;
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use rayon::prelude::*;
+use std::time::Instant;
+
+choice_enum! {
+    /// Samples per pixel.
+    pub enum SamplesPerPixel {
+        /// The G-buffer's point.
+        One = "1",
+        /// 2 x 2 strata.
+        Four = "4",
+        /// 4 x 4 strata.
+        Sixteen = "16",
+        /// 8 x 4 strata.
+        ThirtyTwo = "32",
+    }
+}
+
+impl SamplesPerPixel {
+    /// The count.
+    pub fn count(self) -> usize {
+        match self {
+            SamplesPerPixel::One => 1,
+            SamplesPerPixel::Four => 4,
+            SamplesPerPixel::Sixteen => 16,
+            SamplesPerPixel::ThirtyTwo => 32,
+        }
+    }
+
+    /// Strata columns and rows.
+    fn grid(self) -> (usize, usize) {
+        match self {
+            SamplesPerPixel::One => (1, 1),
+            SamplesPerPixel::Four => (2, 2),
+            SamplesPerPixel::Sixteen => (4, 4),
+            SamplesPerPixel::ThirtyTwo => (8, 4),
+        }
+    }
+}
+
+choice_enum! {
+    /// How occluders are rasterized into the grid.
+    pub enum OccluderRaster {
+        /// Conservative overestimate: every texel the triangle touches (exact).
+        Conservative = "conservative",
+        /// Texel centres only (to show what breaks: thin occluders' shadows).
+        Standard = "standard",
+    }
+}
+
+/// Options of the irregular z-buffer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Light-space grid side in texels (per cube face for point lights). Default: 1024.
+    pub size: u32,
+    /// Samples per pixel. Default: 1.
+    pub samples: SamplesPerPixel,
+    /// Occluder rasterization. Default: conservative.
+    pub raster: OccluderRaster,
+    /// Most samples the lists may hold (a frame with more is an error). Default: 16777216
+    /// (16 M, 384 MiB of lists).
+    pub capacity: u32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            size: 1024,
+            samples: SamplesPerPixel::One,
+            raster: OccluderRaster::Conservative,
+            capacity: 1 << 24,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "izb",
+        fields: vec![
+            Field::range(
+                "size",
+                "light-space grid side in texels (per cube face for point lights)",
+                16,
+                MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
+            Field::new(
+                "samples",
+                "samples per pixel: 1 (the G-buffer's point), 4, 16 or 32 (anti-aliased hard shadows)",
+                |o: &mut Options| &mut o.samples,
+            ),
+            Field::new(
+                "raster",
+                "occluder rasterization: conservative (exact) or standard (thin occluders' shadows break)",
+                |o: &mut Options| &mut o.raster,
+            ),
+            Field::range(
+                "capacity",
+                "most samples the lists may hold (a frame with more is an error)",
+                1,
+                1 << 28,
+                |o: &mut Options| &mut o.capacity,
+            ),
+        ],
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "izb",
+        summary: "irregular z-buffer (RTR 7.9): camera samples in light-space lists, occluders conservatively rasterized and tested exactly; long lists at grazing views",
+        options: declaration().infos(),
+        sweep: &[
+            &[],
+            &[("size", "256")],
+            &[("size", "2048")],
+            &[("raster", "standard")],
+            &[("samples", "4")],
+        ],
+        create: |pairs| Ok(Box::new(Izb::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// Marks a sample no triangle has shadowed (yet).
+const LIT: u32 = u32::MAX;
+/// Marks a sample that is in no list (faces away from the light).
+const NOT_INSERTED: u32 = u32::MAX;
+
+/// One sample in a texel's list.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ListSample {
+    /// World position.
+    pub position: Vec3,
+    /// Scene-wide id of the triangle it lies on (never tested against it).
+    pub triangle: u32,
+    /// Scene-wide id of the first triangle found to shadow it, or `u32::MAX` (lit).
+    pub shadowed_by: u32,
+    /// Triangles tested against it.
+    pub tests: u32,
+}
+
+/// A camera sample: the pixel it belongs to, its surface point and triangle.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct CameraSample {
+    /// Row-major pixel index.
+    pub pixel: u32,
+    /// The point on the pixel's tangent plane, and the pixel's normal.
+    pub point: SamplePoint,
+    /// Scene-wide id of the triangle visible at the pixel.
+    pub triangle: u32,
+}
+
+/// The camera samples of `frame`, `k` per covered pixel (pixel-major, strata row by row):
+/// with one sample, the G-buffer's point; with more, stratified sub-pixel camera rays
+/// intersected with the pixel's tangent plane (falling back to the G-buffer's point where the
+/// plane is seen edge-on or the hit lands more than two pixels' footprint away).
+pub fn camera_samples(frame: &Frame, k: SamplesPerPixel) -> Vec<CameraSample> {
+    let (w, h) = (frame.width() as usize, frame.height() as usize);
+    let bases = frame.scene.triangle_bases();
+    let (cols, rows) = k.grid();
+    let inv = frame.camera.view_projection().inverse();
+    let eye = frame.camera.position;
+    let pts = frame.points();
+    let per_row: Vec<Vec<CameraSample>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut out = Vec::new();
+            for x in 0..w {
+                let i = y * w + x;
+                let Some(s) = pts[i] else { continue };
+                let triangle = frame.triangle_at(i, &bases).unwrap_or(u32::MAX);
+                if cols * rows == 1 {
+                    out.push(CameraSample {
+                        pixel: i as u32,
+                        point: s,
+                        triangle,
+                    });
+                    continue;
+                }
+                // The pixel's footprint at the point: the distance between neighbouring
+                // pixel rays there, for the fall-back test.
+                let ray = |px: f32, py: f32| {
+                    let ndc = Vec2::new(px / w as f32 * 2.0 - 1.0, 1.0 - py / h as f32 * 2.0);
+                    let far = inv.project_point3(ndc.extend(1.0));
+                    (far - eye).normalize()
+                };
+                let dist = (s.position - eye).length();
+                let foot = (ray(x as f32 + 0.5, y as f32 + 0.5) - ray(x as f32 + 1.5, y as f32 + 0.5)).length() * dist;
+                for r in 0..rows {
+                    for c in 0..cols {
+                        let px = x as f32 + (c as f32 + 0.5) / cols as f32;
+                        let py = y as f32 + (r as f32 + 0.5) / rows as f32;
+                        let d = ray(px, py);
+                        let denom = s.normal.dot(d);
+                        let mut p = s.position;
+                        if denom.abs() > 1e-6 {
+                            let t = s.normal.dot(s.position - eye) / denom;
+                            let q = eye + d * t;
+                            if t > 0.0 && (q - s.position).length() <= 2.0 * foot.max(1e-12) {
+                                p = q;
+                            }
+                        }
+                        out.push(CameraSample {
+                            pixel: i as u32,
+                            point: SamplePoint {
+                                position: p,
+                                normal: s.normal,
+                            },
+                            triangle,
+                        });
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    per_row.concat()
+}
+
+/// From `p` towards the light: the light's position minus `p`, or against a directional
+/// light's direction.
+fn to_light(light: &Light, p: Vec3) -> Vec3 {
+    match light.kind {
+        LightKind::Directional => -light.direction,
+        _ => light.position - p,
+    }
+}
+
+/// Whether a sample's surface faces the light (the others are unlit and never inserted).
+fn faces_light(light: &Light, s: &SamplePoint) -> bool {
+    s.normal.dot(light.to_light(s.position)) > 0.0
+}
+
+/// A triangle as the occluder test needs it (Möller–Trumbore).
+#[derive(Copy, Clone, Debug)]
+struct Occluder {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    id: u32,
+}
+
+impl Occluder {
+    /// Whether the segment from `p` to the light (`to_light` = light position - p, `t` in
+    /// (0, 1); directional: the direction to the light, `t` > 0) hits the triangle.
+    #[inline(always)]
+    fn blocks(&self, p: Vec3, to_light: Vec3, directional: bool) -> bool {
+        let pv = to_light.cross(self.e2);
+        let det = self.e1.dot(pv);
+        if det == 0.0 || !det.is_finite() {
+            return false;
+        }
+        let inv = 1.0 / det;
+        let tv = p - self.v0;
+        let u = tv.dot(pv) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return false;
+        }
+        let qv = tv.cross(self.e1);
+        let v = to_light.dot(qv) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return false;
+        }
+        let t = self.e2.dot(qv) * inv;
+        t > 0.0 && (directional || t < 1.0)
+    }
+}
+
+/// One light view of the grid: its cropped matrix, the store of lists, and where each of its
+/// samples sits.
+struct View {
+    view: LightView,
+    store: PixelStore<ListSample>,
+    /// Occluder fragments of the pass.
+    fragments: u64,
+}
+
+/// The irregular z-buffer (see the module docs).
+pub struct Izb {
+    opts: Options,
+    samples: Vec<CameraSample>,
+    /// Per sample: (view, index into that view's store), or NOT_INSERTED.
+    slot: Vec<(u8, u32)>,
+    views: Vec<View>,
+    occluders: usize,
+    /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency.
+    closed: Vec<bool>,
+    /// Samples whose own triangle faces away from the light (tested against it).
+    self_shadowed: usize,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl Izb {
+    /// An irregular z-buffer with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Izb, String> {
+        declaration().check(&opts)?;
+        Ok(Izb {
+            opts,
+            samples: Vec::new(),
+            slot: Vec::new(),
+            views: Vec::new(),
+            occluders: 0,
+            closed: Vec::new(),
+            self_shadowed: 0,
+            times: Vec::new(),
+        })
+    }
+
+    /// The camera samples of the last run.
+    pub fn samples(&self) -> &[CameraSample] {
+        &self.samples
+    }
+
+    /// Visibility of every camera sample of the last run (0 for samples facing away).
+    pub fn sample_visibility(&self) -> Vec<f32> {
+        self.slot
+            .iter()
+            .map(|&(v, i)| {
+                if i == NOT_INSERTED {
+                    0.0
+                } else if self.views[v as usize].store.data()[i as usize].shadowed_by == LIT {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// Passes 1-3: samples, grids cropped to them, lists by counting sort.
+    fn insert(&mut self, frame: &Frame) -> Result<(), String> {
+        let size = self.opts.size;
+        self.samples = camera_samples(frame, self.opts.samples);
+        if self.samples.len() > self.opts.capacity as usize {
+            return Err(format!(
+                "technique 'izb': {} samples ({}x{} pixels x {}) exceed the lists' capacity of {} (raise capacity=, at most {})",
+                self.samples.len(),
+                frame.width(),
+                frame.height(),
+                self.opts.samples.count(),
+                self.opts.capacity,
+                1u32 << 28
+            ));
+        }
+        let light = frame.light;
+        // A spot light's samples may lie outside its cone (the reference gives spot lights no
+        // cone): like point lights, it gets six cube faces, each cropped to its samples.
+        let base = match light.kind {
+            LightKind::Spot { .. } => light::cube_views(frame, size),
+            _ => light_views(frame, size),
+        };
+        // Closed meshes (edge adjacency, as the shadow volumes check them).
+        self.closed = frame
+            .scene
+            .objects
+            .par_iter()
+            .map(|o| {
+                let r = Adjacency::new(&o.mesh).report;
+                r.is_closed_manifold() && r.degenerate_triangles == 0
+            })
+            .collect();
+        // A sample is never tested against its own triangle where that triangle faces the
+        // light (its geometric normal turned to the side of the shading normal, for two-sided
+        // sheets). Where it faces away (near the terminator of a tessellated sphere, on the
+        // far side of a heightfield's ridge), the sample's ray leaves through the back of its
+        // own surface, and the triangle is tested like any other.
+        let bases = frame.scene.triangle_bases();
+        let own_faces_light = |s: &CameraSample| -> bool {
+            if s.triangle == u32::MAX {
+                return false;
+            }
+            let o = bases.partition_point(|&b| b <= s.triangle).saturating_sub(1);
+            let m = &frame.scene.objects[o].mesh;
+            let t = (s.triangle - bases[o]) as usize * 3;
+            let [a, b, c] = [m.indices[t], m.indices[t + 1], m.indices[t + 2]].map(|i| m.positions[i as usize]);
+            let mut n = (b - a).cross(c - a);
+            if n.dot(s.point.normal) < 0.0 {
+                n = -n;
+            }
+            n.dot(to_light(&light, (a + b + c) / 3.0)) > 0.0
+        };
+        let skip_own: Vec<bool> = self.samples.par_iter().map(own_faces_light).collect();
+        self.self_shadowed = skip_own.iter().filter(|b| !**b).count();
+        // Which view each facing sample falls in, and its uv there.
+        let located: Vec<Option<(u8, Vec2)>> = self
+            .samples
+            .par_iter()
+            .map(|s| {
+                if !faces_light(&light, &s.point) {
+                    return None;
+                }
+                let f = light::face_of(base.len(), &light, s.point.position);
+                let (uv, _) = base[f].lookup(s.point.position)?;
+                Some((f as u8, uv))
+            })
+            .collect();
+        // Tight bounds per view (in the base view's uv), then the cropped view.
+        let mut bounds = vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); base.len()];
+        for (f, uv) in located.iter().flatten() {
+            let b = &mut bounds[*f as usize];
+            *b = (b.0.min(*uv), b.1.max(*uv));
+        }
+        let mut view_of = vec![u8::MAX; base.len()];
+        let mut views: Vec<LightView> = Vec::new();
+        for (f, (lo, hi)) in bounds.iter().enumerate() {
+            if lo.x > hi.x {
+                continue; // no samples in this view
+            }
+            view_of[f] = views.len() as u8;
+            views.push(crop(&base[f], *lo, *hi, size));
+        }
+        // Texel of each sample in its cropped view.
+        let texel: Vec<Option<(u8, u32)>> = located
+            .par_iter()
+            .zip(&self.samples)
+            .map(|(l, s)| {
+                let (f, _) = (*l)?;
+                let v = view_of[f as usize];
+                let (uv, _) = views[v as usize].lookup(s.point.position)?;
+                let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+                let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+                Some((v, ty * size + tx))
+            })
+            .collect();
+        // Counting sort by texel, per view: counts, the store's offsets, fill in sample order.
+        let n = (size * size) as usize;
+        let mut counts = vec![vec![0u32; n]; views.len()];
+        for (v, t) in texel.iter().flatten() {
+            counts[*v as usize][*t as usize] += 1;
+        }
+        let mut stores = Vec::with_capacity(views.len());
+        for c in &counts {
+            let empty = ListSample {
+                position: Vec3::ZERO,
+                triangle: u32::MAX,
+                shadowed_by: LIT,
+                tests: 0,
+            };
+            stores.push(PixelStore::indexed(size, size, c, empty).map_err(|e| e.to_string())?);
+        }
+        let mut fill: Vec<Vec<u32>> = counts.iter().map(|c| vec![0u32; c.len()]).collect();
+        self.slot = vec![(0, NOT_INSERTED); self.samples.len()];
+        for (i, (t, s)) in texel.iter().zip(&self.samples).enumerate() {
+            let Some((v, t)) = *t else { continue };
+            let (v, t) = (v as usize, t as usize);
+            let at = stores[v].range(t).start + fill[v][t] as usize;
+            fill[v][t] += 1;
+            stores[v].data_mut()[at] = ListSample {
+                // The ray starts where the reference's does: the point moved a few ULPs along
+                // its normal (Wächter and Binder 2019), a property of float numbers, not a
+                // bias that depends on the scene or the light.
+                position: offset_origin(s.point.position, s.point.normal),
+                triangle: if skip_own[i] { s.triangle } else { u32::MAX },
+                shadowed_by: LIT,
+                tests: 0,
+            };
+            self.slot[i] = (v as u8, at as u32);
+        }
+        self.views = views
+            .into_iter()
+            .zip(stores)
+            .map(|(view, store)| View {
+                view,
+                store,
+                fragments: 0,
+            })
+            .collect();
+        Ok(())
+    }
+
+    /// Pass 4: occluders through the pipeline, conservatively, testing each texel's samples.
+    fn occlude(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
+        let light = frame.light;
+        let directional = light.kind == LightKind::Directional;
+        let casters = merged_casters(frame, &vec![true; frame.scene.objects.len()])?;
+        // Closed meshes cast only through triangles facing away from the light.
+        let closed = &self.closed;
+        let mut occluders = Vec::new();
+        let mut indices = Vec::new();
+        for (t, tri) in casters.indices.chunks_exact(3).enumerate() {
+            let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| casters.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            if closed[casters.object[t] as usize] && n.dot(to_light(&light, (a + b + c) / 3.0)) > 0.0 {
+                continue; // a closed mesh's light-facing triangle: never needed
+            }
+            occluders.push(Occluder {
+                v0: a,
+                e1: b - a,
+                e2: c - a,
+                id: casters.triangle[t],
+            });
+            indices.extend_from_slice(tri);
+        }
+        self.occluders = occluders.len();
+        let state = RenderState {
+            depth: DepthState {
+                func: CompareFunc::Always,
+                write: false,
+                clamp: true,
+                ..Default::default()
+            },
+            raster: match self.opts.raster {
+                OccluderRaster::Conservative => RasterMode::Overestimate,
+                OccluderRaster::Standard => RasterMode::Standard,
+            },
+            ..Default::default()
+        };
+        let lp = light.position;
+        let dir = -light.direction;
+        let program = |f: &Fragment<()>, list: &mut [ListSample]| {
+            let o = &occluders[f.prim as usize];
+            for s in list {
+                if s.shadowed_by != LIT || s.triangle == o.id {
+                    continue;
+                }
+                s.tests += 1;
+                let to = if directional { dir } else { lp - s.position };
+                if o.blocks(s.position, to, directional) {
+                    s.shadowed_by = o.id;
+                }
+            }
+        };
+        for v in &mut self.views {
+            let st = p
+                .draw_ordered(
+                    &mut Targets::none(),
+                    &state,
+                    &casters.positions,
+                    &indices,
+                    &TransformPositions(v.view.matrix),
+                    &program,
+                    &mut v.store,
+                )
+                .map_err(|e| e.to_string())?;
+            v.fragments = st.fragments_shaded;
+        }
+        Ok(())
+    }
+
+    /// Per texel list lengths of view `v`.
+    fn lengths(&self, v: usize) -> Surface<f32> {
+        let s = &self.views[v].store;
+        let data = (0..(s.width() * s.height()) as usize)
+            .map(|i| s.range(i).len() as f32)
+            .collect();
+        Surface::from_vec(s.width(), s.height(), data).expect("grid size")
+    }
+
+    fn list_stats(&self) -> (usize, usize, u64) {
+        let (mut nonempty, mut max, mut tests) = (0usize, 0usize, 0u64);
+        for v in &self.views {
+            let s = &v.store;
+            for i in 0..(s.width() * s.height()) as usize {
+                let n = s.range(i).len();
+                nonempty += (n > 0) as usize;
+                max = max.max(n);
+            }
+            tests += s.data().iter().map(|x| x.tests as u64).sum::<u64>();
+        }
+        (nonempty, max, tests)
+    }
+}
+
+/// `base` cropped to its samples' uv bounds `lo`..`hi` (plus half a texel), so the grid's
+/// texels cover only where samples are: a scale and offset of clip x and y.
+fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> LightView {
+    let pad = 0.5 / size as f32;
+    let (lo, hi) = (lo - pad, hi + pad);
+    // uv -> ndc: x = 2u - 1, y = 1 - 2v.
+    let (x0, x1) = (2.0 * lo.x - 1.0, 2.0 * hi.x - 1.0);
+    let (y0, y1) = (1.0 - 2.0 * hi.y, 1.0 - 2.0 * lo.y);
+    let (sx, sy) = (2.0 / (x1 - x0).max(1e-9), 2.0 / (y1 - y0).max(1e-9));
+    let c = Mat4::from_cols(
+        Vec4::new(sx, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, sy, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 1.0, 0.0),
+        Vec4::new(-(x0 + x1) * 0.5 * sx, -(y0 + y1) * 0.5 * sy, 0.0, 1.0),
+    );
+    LightView {
+        matrix: c * base.matrix,
+        texel: base.texel * (hi - lo).max_element(),
+        perspective: base.perspective,
+    }
+}
+
+impl ShadowTechnique for Izb {
+    fn name(&self) -> &'static str {
+        "izb"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = Instant::now();
+        p.install(|| self.insert(frame))?;
+        let t1 = Instant::now();
+        self.occlude(p, frame)?;
+        let t2 = Instant::now();
+        // Resolve: each pixel's mean over its samples.
+        let k = self.opts.samples.count() as f32;
+        let mut out: Vec<f32> = frame
+            .points()
+            .iter()
+            .map(|s| if s.is_some() { 0.0 } else { f32::NAN })
+            .collect();
+        for (s, lit) in self.samples.iter().zip(self.sample_visibility()) {
+            out[s.pixel as usize] += lit / k;
+        }
+        self.times = vec![
+            ("sample insertion", (t1 - t0).as_secs_f64() * 1e3),
+            ("occluder pass", (t2 - t1).as_secs_f64() * 1e3),
+            ("resolve", t2.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let i = (y * frame.width() + x) as usize;
+        let mut steps = vec![Step::new(
+            "grid",
+            "the light views cropped to their samples, and the lists (counting sort by texel)",
+        )
+        .int("views", self.views.len())
+        .int("size", self.opts.size)
+        .int("samples in the frame", self.samples.len())
+        .int("occluder triangles", self.occluders)];
+        let start = self.samples.partition_point(|s| (s.pixel as usize) < i);
+        let mut lit_sum = 0.0;
+        let k = self.opts.samples.count();
+        let names = |id: u32| -> String {
+            let bases = frame.scene.triangle_bases();
+            let o = bases.partition_point(|&b| b <= id).saturating_sub(1);
+            frame
+                .scene
+                .objects
+                .get(o)
+                .map_or("?".into(), |ob| format!("{} (triangle {})", ob.name, id - bases[o]))
+        };
+        for (j, s) in self.samples[start..]
+            .iter()
+            .take_while(|s| s.pixel as usize == i)
+            .enumerate()
+        {
+            let (v, at) = self.slot[start + j];
+            let mut st = Step::new(
+                format!("sample {j}"),
+                "a camera sample: its point, the texel whose list holds it, and what the occluder pass found",
+            )
+            .vec3("position", s.point.position)
+            .text("on", names(s.triangle));
+            if at == NOT_INSERTED {
+                st = st
+                    .flag("faces the light", false)
+                    .text("result", "unlit (faces away from the light)");
+            } else {
+                let view = &self.views[v as usize];
+                let ls = view.store.data()[at as usize];
+                let (uv, _) = view.view.lookup(s.point.position).unwrap_or_default();
+                let t = (0..(view.store.width() * view.store.height()) as usize)
+                    .find(|&t| view.store.range(t).contains(&(at as usize)))
+                    .unwrap_or(0);
+                st = st
+                    .int("view", v)
+                    .vec2("uv", uv)
+                    .vec2(
+                        "texel",
+                        Vec2::new(
+                            (t as u32 % view.store.width()) as f32,
+                            (t as u32 / view.store.width()) as f32,
+                        ),
+                    )
+                    .int("list length", view.store.range(t).len())
+                    .int("triangles tested", ls.tests)
+                    .flag("lit", ls.shadowed_by == LIT);
+                if ls.shadowed_by != LIT {
+                    st = st.text("shadowed by", names(ls.shadowed_by));
+                } else {
+                    lit_sum += 1.0;
+                }
+            }
+            steps.push(st);
+        }
+        let v = if frame.point(x, y).is_some() {
+            lit_sum / k as f32
+        } else {
+            f32::NAN
+        };
+        steps.push(inspect::result(v));
+        steps
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let (nonempty, max, tests) = self.list_stats();
+        let inserted = self.slot.iter().filter(|s| s.1 != NOT_INSERTED).count();
+        let bytes: usize = self.views.iter().map(|v| v.store.bytes()).sum();
+        vec![
+            ("samples", self.samples.len() as f64),
+            ("samples inserted", inserted as f64),
+            ("samples tested against their own triangle", self.self_shadowed as f64),
+            ("non-empty texels", nonempty as f64),
+            ("max list length", max as f64),
+            ("mean list length", inserted as f64 / nonempty.max(1) as f64),
+            ("occluder triangles", self.occluders as f64),
+            (
+                "occluder fragments",
+                self.views.iter().map(|v| v.fragments).sum::<u64>() as f64,
+            ),
+            ("triangle-sample tests", tests as f64),
+            ("list bytes", bytes as f64),
+        ]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v = Vec::new();
+        for i in 0..self.views.len() {
+            let len = self.lengths(i);
+            let hi = len.data().iter().copied().fold(1.0f32, f32::max);
+            v.push(Stage::Scalar {
+                name: format!("list_length{i}"),
+                data: len,
+                lo: 0.0,
+                hi,
+            });
+            // Triangle-sample tests per texel (the occluder pass's work where it went).
+            let s = &self.views[i].store;
+            let tests = (0..(s.width() * s.height()) as usize)
+                .map(|t| s.data()[s.range(t)].iter().map(|x| x.tests as f32).sum())
+                .collect();
+            let tests = Surface::from_vec(s.width(), s.height(), tests).map_err(|e| e.to_string())?;
+            let hi = tests.data().iter().copied().fold(1.0f32, f32::max);
+            v.push(Stage::Scalar {
+                name: format!("tests_per_texel{i}"),
+                data: tests,
+                lo: 0.0,
+                hi,
+            });
+        }
+        if self.views.len() == 1 && frame.light.kind != LightKind::Point {
+            v.push(Stage::Color {
+                name: "grid_over_light_view".into(),
+                data: light::fitted_overview(p, frame, &self.views[0].view)?,
+            });
+        }
+        // Shadowed samples per pixel.
+        let mut shadowed = frame
+            .points()
+            .iter()
+            .map(|s| if s.is_some() { 0.0 } else { f32::NAN })
+            .collect::<Vec<f32>>();
+        for (s, lit) in self.samples.iter().zip(self.sample_visibility()) {
+            shadowed[s.pixel as usize] += 1.0 - lit;
+        }
+        v.push(Stage::Scalar {
+            name: "shadowed_samples_per_pixel".into(),
+            data: Surface::from_vec(frame.width(), frame.height(), shadowed).map_err(|e| e.to_string())?,
+            lo: 0.0,
+            hi: self.opts.samples.count() as f32,
+        });
+        Ok(v)
+    }
+}
