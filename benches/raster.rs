@@ -66,7 +66,8 @@ fn random(c: &mut Criterion) {
 }
 
 /// Shadow techniques on the spheres scene (100k triangles, 1920x1080): shadow volumes whole
-/// and their silhouette extraction alone, and the shadow map.
+/// and their silhouette extraction alone, the shadow map, the irregular z-buffer (1 and 4
+/// samples per pixel) and the reference's hard visibility.
 fn techniques(c: &mut Criterion) {
     use penumbra::shadow::{self, volume::silhouette};
     let p = Pipeline::new(threads()).unwrap();
@@ -89,10 +90,19 @@ fn techniques(c: &mut Criterion) {
                 .sum::<usize>()
         })
     });
-    for (name, sets) in [("shadow-volume", vec![]), ("shadow-map", vec![])] {
+    let izb4 = vec![("samples".to_string(), "4".to_string())];
+    for (id, name, sets) in [
+        ("shadow-volume", "shadow-volume", vec![]),
+        ("shadow-map", "shadow-map", vec![]),
+        ("izb", "izb", vec![]),
+        ("izb-4spp", "izb", izb4),
+    ] {
         let mut t = shadow::create(name, &sets).unwrap();
-        g.bench_function(name, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
+    // The reference's hard visibility of the same pixels (the third way to exact hard shadows).
+    let mut r = shadow::create("reference", &[("area".into(), "false".into())]).unwrap();
+    g.bench_function("reference-hard", |b| b.iter(|| r.visibility(&p, &f).unwrap()));
     g.finish();
 }
 

@@ -49,6 +49,19 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
 
     /// `counts[i]` values of `init` for pixel `i` (row-major), one pool for all.
     pub fn indexed(width: u32, height: u32, counts: &[u32], init: T) -> Result<Self, PipelineError> {
+        let mut s = PixelStore {
+            width,
+            height,
+            offsets: Vec::new(),
+            data: Vec::new(),
+        };
+        s.rebuild_indexed(width, height, counts, init)?;
+        Ok(s)
+    }
+
+    /// Makes this store what [`PixelStore::indexed`] would make, reusing its allocations (a
+    /// technique that rebuilds its lists every frame keeps its memory warm).
+    pub fn rebuild_indexed(&mut self, width: u32, height: u32, counts: &[u32], init: T) -> Result<(), PipelineError> {
         let pixels = check_size(width, height)?;
         if counts.len() != pixels {
             return Err(PipelineError::BadArgument(format!(
@@ -56,9 +69,10 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 counts.len()
             )));
         }
-        let mut offsets = Vec::with_capacity(pixels + 1);
+        self.offsets.clear();
+        self.offsets.reserve(pixels + 1);
+        self.offsets.push(0);
         let mut total = 0u64;
-        offsets.push(0);
         for &c in counts {
             total += c as u64;
             if total > u32::MAX as u64 {
@@ -67,14 +81,13 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                     u32::MAX
                 )));
             }
-            offsets.push(total as u32);
+            self.offsets.push(total as u32);
         }
-        Ok(PixelStore {
-            width,
-            height,
-            offsets,
-            data: vec![init; total as usize],
-        })
+        self.width = width;
+        self.height = height;
+        self.data.clear();
+        self.data.resize(total as usize, init);
+        Ok(())
     }
 
     /// Width in pixels.
@@ -102,6 +115,12 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
     /// Pixel `i`'s range of [`PixelStore::data`] (row-major pixel index).
     pub fn range(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+
+    /// Where each pixel's values start in [`PixelStore::data`] (one more entry than pixels:
+    /// the last is the total).
+    pub fn offsets(&self) -> &[u32] {
+        &self.offsets
     }
 
     /// Every value, pixel after pixel.

@@ -218,66 +218,168 @@ pub struct CameraSample {
 /// intersected with the pixel's tangent plane (falling back to the G-buffer's point where the
 /// plane is seen edge-on or the hit lands more than two pixels' footprint away).
 pub fn camera_samples(frame: &Frame, k: SamplesPerPixel) -> Vec<CameraSample> {
-    let (w, h) = (frame.width() as usize, frame.height() as usize);
-    let bases = frame.scene.triangle_bases();
-    let (cols, rows) = k.grid();
-    let inv = frame.camera.view_projection().inverse();
-    let eye = frame.camera.position;
-    let pts = frame.points();
-    let per_row: Vec<Vec<CameraSample>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut out = Vec::new();
-            for x in 0..w {
-                let i = y * w + x;
-                let Some(s) = pts[i] else { continue };
-                let triangle = frame.triangle_at(i, &bases).unwrap_or(u32::MAX);
-                if cols * rows == 1 {
-                    out.push(CameraSample {
-                        pixel: i as u32,
-                        point: s,
-                        triangle,
-                    });
-                    continue;
-                }
-                // The pixel's footprint at the point: the distance between neighbouring
-                // pixel rays there, for the fall-back test.
-                let ray = |px: f32, py: f32| {
-                    let ndc = Vec2::new(px / w as f32 * 2.0 - 1.0, 1.0 - py / h as f32 * 2.0);
-                    let far = inv.project_point3(ndc.extend(1.0));
-                    (far - eye).normalize()
+    camera_samples_grid(frame, k.grid())
+}
+
+/// [`camera_samples`] on any `(columns, rows)` grid of sub-pixel strata (for supersampled
+/// references: `(8, 8)` is 64 rays per pixel).
+pub fn camera_samples_grid(frame: &Frame, grid: (usize, usize)) -> Vec<CameraSample> {
+    let filler = SampleFiller {
+        grid,
+        ..SampleFiller::new(frame, SamplesPerPixel::One)
+    };
+    let w = frame.width() as usize;
+    let mut out = Vec::new();
+    for (y, row) in frame.points().chunks(w).enumerate() {
+        let n = row.iter().filter(|p| p.is_some()).count() * grid.0 * grid.1;
+        let start = out.len();
+        out.resize(start + n, CameraSample::default());
+        filler.row(y, &mut out[start..]);
+    }
+    out
+}
+
+/// Makes the samples of one row at a time (see [`camera_samples`]).
+struct SampleFiller<'a> {
+    frame: &'a Frame<'a>,
+    bases: Vec<u32>,
+    grid: (usize, usize),
+    inv: Mat4,
+    eye: Vec3,
+}
+
+impl<'a> SampleFiller<'a> {
+    fn new(frame: &'a Frame<'a>, k: SamplesPerPixel) -> Self {
+        SampleFiller {
+            frame,
+            bases: frame.scene.triangle_bases(),
+            grid: k.grid(),
+            inv: frame.camera.view_projection().inverse(),
+            eye: frame.camera.position,
+        }
+    }
+
+    /// The samples of row `y` into `out` (exactly as many as the row's covered pixels times k).
+    fn row(&self, y: usize, out: &mut [CameraSample]) {
+        let f = self.frame;
+        let (w, h) = (f.width() as usize, f.height() as usize);
+        let (cols, rows) = self.grid;
+        let pts = &f.points()[y * w..(y + 1) * w];
+        let mut o = 0;
+        for (x, p) in pts.iter().enumerate() {
+            let Some(s) = *p else { continue };
+            let i = y * w + x;
+            let triangle = f.triangle_at(i, &self.bases).unwrap_or(u32::MAX);
+            if cols * rows == 1 {
+                out[o] = CameraSample {
+                    pixel: i as u32,
+                    point: s,
+                    triangle,
                 };
-                let dist = (s.position - eye).length();
-                let foot = (ray(x as f32 + 0.5, y as f32 + 0.5) - ray(x as f32 + 1.5, y as f32 + 0.5)).length() * dist;
-                for r in 0..rows {
-                    for c in 0..cols {
-                        let px = x as f32 + (c as f32 + 0.5) / cols as f32;
-                        let py = y as f32 + (r as f32 + 0.5) / rows as f32;
-                        let d = ray(px, py);
-                        let denom = s.normal.dot(d);
-                        let mut p = s.position;
-                        if denom.abs() > 1e-6 {
-                            let t = s.normal.dot(s.position - eye) / denom;
-                            let q = eye + d * t;
-                            if t > 0.0 && (q - s.position).length() <= 2.0 * foot.max(1e-12) {
-                                p = q;
-                            }
+                o += 1;
+                continue;
+            }
+            let ray = |px: f32, py: f32| {
+                let ndc = Vec2::new(px / w as f32 * 2.0 - 1.0, 1.0 - py / h as f32 * 2.0);
+                (self.inv.project_point3(ndc.extend(1.0)) - self.eye).normalize()
+            };
+            // The pixel's footprint at the point, for the fall-back test.
+            let dist = (s.position - self.eye).length();
+            let foot = (ray(x as f32 + 0.5, y as f32 + 0.5) - ray(x as f32 + 1.5, y as f32 + 0.5)).length() * dist;
+            for r in 0..rows {
+                for c in 0..cols {
+                    let d = ray(
+                        x as f32 + (c as f32 + 0.5) / cols as f32,
+                        y as f32 + (r as f32 + 0.5) / rows as f32,
+                    );
+                    let denom = s.normal.dot(d);
+                    let mut p = s.position;
+                    if denom.abs() > 1e-6 {
+                        let t = s.normal.dot(s.position - self.eye) / denom;
+                        let q = self.eye + d * t;
+                        if t > 0.0 && (q - s.position).length() <= 2.0 * foot.max(1e-12) {
+                            p = q;
                         }
-                        out.push(CameraSample {
-                            pixel: i as u32,
-                            point: SamplePoint {
-                                position: p,
-                                normal: s.normal,
-                            },
-                            triangle,
-                        });
                     }
+                    out[o] = CameraSample {
+                        pixel: i as u32,
+                        point: SamplePoint {
+                            position: p,
+                            normal: s.normal,
+                        },
+                        triangle,
+                    };
+                    o += 1;
                 }
             }
-            out
+        }
+        debug_assert_eq!(o, out.len());
+    }
+}
+
+impl Default for CameraSample {
+    fn default() -> Self {
+        CameraSample {
+            pixel: u32::MAX,
+            point: SamplePoint {
+                position: Vec3::ZERO,
+                normal: Vec3::ZERO,
+            },
+            triangle: u32::MAX,
+        }
+    }
+}
+
+/// Where a sample goes: its view, uv there, texel, and whether it skips its own triangle.
+#[derive(Copy, Clone, Debug)]
+struct Located {
+    view: u8,
+    uv: Vec2,
+    texel: u32,
+    skip_own: bool,
+}
+
+impl Located {
+    /// In no list (faces away from the light).
+    const NONE: Located = Located {
+        view: u8::MAX,
+        uv: Vec2::ZERO,
+        texel: u32::MAX,
+        skip_own: false,
+    };
+}
+
+impl ListSample {
+    const EMPTY: ListSample = ListSample {
+        position: Vec3::ZERO,
+        triangle: u32::MAX,
+        shadowed_by: LIT,
+        tests: 0,
+    };
+}
+
+/// Per scene triangle (scene-wide ids): its geometric normal (unnormalised) and whether it
+/// faces the light (at its centroid).
+fn triangle_facing(frame: &Frame) -> Vec<(Vec3, bool)> {
+    let light = frame.light;
+    let per: Vec<Vec<(Vec3, bool)>> = frame
+        .scene
+        .objects
+        .par_iter()
+        .map(|o| {
+            let m = &o.mesh;
+            m.indices
+                .chunks_exact(3)
+                .map(|t| {
+                    let [a, b, c] =
+                        [t[0], t[1], t[2]].map(|i| m.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+                    let n = (b - a).cross(c - a);
+                    (n, n.dot(to_light(&light, (a + b + c) / 3.0)) > 0.0)
+                })
+                .collect()
         })
         .collect();
-    per_row.concat()
+    per.concat()
 }
 
 /// From `p` towards the light: the light's position minus `p`, or against a directional
@@ -349,7 +451,12 @@ pub struct Izb {
     /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency.
     closed: Vec<bool>,
     /// Samples whose own triangle faces away from the light (tested against it).
-    self_shadowed: usize,
+    own_tested: usize,
+    /// Kept buffers: where each row's samples start, each sample's view and texel, the
+    /// counts per texel per view.
+    row_start: Vec<u32>,
+    located: Vec<Located>,
+    counts: Vec<Vec<u32>>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -364,7 +471,10 @@ impl Izb {
             views: Vec::new(),
             occluders: 0,
             closed: Vec::new(),
-            self_shadowed: 0,
+            own_tested: 0,
+            row_start: Vec::new(),
+            located: Vec::new(),
+            counts: Vec::new(),
             times: Vec::new(),
         })
     }
@@ -390,80 +500,104 @@ impl Izb {
             .collect()
     }
 
-    /// Passes 1-3: samples, grids cropped to them, lists by counting sort.
+    /// Passes 1-3: samples, grids cropped to them, lists by counting sort. Every buffer is
+    /// kept from run to run (fresh pages cost more than the work on them).
     fn insert(&mut self, frame: &Frame) -> Result<(), String> {
         let size = self.opts.size;
-        self.samples = camera_samples(frame, self.opts.samples);
-        if self.samples.len() > self.opts.capacity as usize {
+        let k = self.opts.samples.count();
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let pts = frame.points();
+        // Samples per row, and the capacity check before anything is allocated.
+        let row_counts: Vec<u32> = pts
+            .par_chunks(w)
+            .map(|r| (r.iter().filter(|p| p.is_some()).count() * k) as u32)
+            .collect();
+        self.row_start.clear();
+        self.row_start.push(0);
+        let mut total = 0usize;
+        for c in &row_counts {
+            total += *c as usize;
+            self.row_start.push(total as u32);
+        }
+        if total > self.opts.capacity as usize {
             return Err(format!(
-                "technique 'izb': {} samples ({}x{} pixels x {}) exceed the lists' capacity of {} (raise capacity=, at most {})",
-                self.samples.len(),
+                "technique 'izb': {total} samples ({}x{} pixels, {k} per covered pixel) exceed the lists' capacity of {} (raise capacity=, at most {})",
                 frame.width(),
                 frame.height(),
-                self.opts.samples.count(),
                 self.opts.capacity,
                 1u32 << 28
             ));
         }
+        // Pass 1: samples, row by row in parallel, into the kept buffer.
         let light = frame.light;
+        let facing = triangle_facing(frame);
+        let filler = SampleFiller::new(frame, self.opts.samples);
+        self.samples.clear();
+        self.samples.resize(total, CameraSample::default());
+        let mut rows: Vec<&mut [CameraSample]> = Vec::with_capacity(h);
+        let mut rest = self.samples.as_mut_slice();
+        for c in &row_counts {
+            let (a, b) = rest.split_at_mut(*c as usize);
+            rows.push(a);
+            rest = b;
+        }
+        rows.into_par_iter().enumerate().for_each(|(y, out)| filler.row(y, out));
         // A spot light's samples may lie outside its cone (the reference gives spot lights no
         // cone): like point lights, it gets six cube faces, each cropped to its samples.
         let base = match light.kind {
             LightKind::Spot { .. } => light::cube_views(frame, size),
             _ => light_views(frame, size),
         };
-        // Closed meshes (edge adjacency, as the shadow volumes check them).
-        self.closed = frame
-            .scene
-            .objects
-            .par_iter()
-            .map(|o| {
-                let r = Adjacency::new(&o.mesh).report;
-                r.is_closed_manifold() && r.degenerate_triangles == 0
-            })
-            .collect();
-        // A sample is never tested against its own triangle where that triangle faces the
-        // light (its geometric normal turned to the side of the shading normal, for two-sided
-        // sheets). Where it faces away (near the terminator of a tessellated sphere, on the
-        // far side of a heightfield's ridge), the sample's ray leaves through the back of its
-        // own surface, and the triangle is tested like any other.
-        let bases = frame.scene.triangle_bases();
-        let own_faces_light = |s: &CameraSample| -> bool {
-            if s.triangle == u32::MAX {
-                return false;
-            }
-            let o = bases.partition_point(|&b| b <= s.triangle).saturating_sub(1);
-            let m = &frame.scene.objects[o].mesh;
-            let t = (s.triangle - bases[o]) as usize * 3;
-            let [a, b, c] = [m.indices[t], m.indices[t + 1], m.indices[t + 2]].map(|i| m.positions[i as usize]);
-            let mut n = (b - a).cross(c - a);
-            if n.dot(s.point.normal) < 0.0 {
-                n = -n;
-            }
-            n.dot(to_light(&light, (a + b + c) / 3.0)) > 0.0
-        };
-        let skip_own: Vec<bool> = self.samples.par_iter().map(own_faces_light).collect();
-        self.self_shadowed = skip_own.iter().filter(|b| !**b).count();
-        // Which view each facing sample falls in, and its uv there.
-        let located: Vec<Option<(u8, Vec2)>> = self
-            .samples
+        // Which view each sample falls in and its uv there (None: faces away from the light),
+        // and whether it skips its own triangle: only where that triangle faces the light (its
+        // geometric normal turned to the side of the shading normal, for two-sided sheets).
+        // Where it faces away (the terminator of a tessellated sphere, the far side of a
+        // heightfield's ridge), the sample's ray leaves through the back of its own surface
+        // and the triangle is tested like any other.
+        self.located.clear();
+        self.samples
             .par_iter()
             .map(|s| {
                 if !faces_light(&light, &s.point) {
-                    return None;
+                    return Located::NONE;
                 }
                 let f = light::face_of(base.len(), &light, s.point.position);
-                let (uv, _) = base[f].lookup(s.point.position)?;
-                Some((f as u8, uv))
+                let Some((uv, _)) = base[f].lookup(s.point.position) else {
+                    return Located::NONE;
+                };
+                let skip_own = facing.get(s.triangle as usize).is_some_and(|&(n, lit)| {
+                    let flip = n.dot(s.point.normal) < 0.0;
+                    lit != flip
+                });
+                Located {
+                    view: f as u8,
+                    uv,
+                    skip_own,
+                    texel: u32::MAX,
+                }
             })
-            .collect();
-        // Tight bounds per view (in the base view's uv), then the cropped view.
-        let mut bounds = vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); base.len()];
-        for (f, uv) in located.iter().flatten() {
-            let b = &mut bounds[*f as usize];
-            *b = (b.0.min(*uv), b.1.max(*uv));
-        }
-        let mut view_of = vec![u8::MAX; base.len()];
+            .collect_into_vec(&mut self.located);
+        // Pass 2: tight bounds per view (min and max: the same for any thread count), then
+        // the cropped views.
+        let nb = base.len();
+        let bounds = self
+            .located
+            .par_iter()
+            .fold(
+                || vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); nb],
+                |mut b, l| {
+                    if l.view != u8::MAX {
+                        let e = &mut b[l.view as usize];
+                        *e = (e.0.min(l.uv), e.1.max(l.uv));
+                    }
+                    b
+                },
+            )
+            .reduce(
+                || vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); nb],
+                |a, b| a.iter().zip(&b).map(|(x, y)| (x.0.min(y.0), x.1.max(y.1))).collect(),
+            );
+        let mut view_of = vec![u8::MAX; nb];
         let mut views: Vec<LightView> = Vec::new();
         for (f, (lo, hi)) in bounds.iter().enumerate() {
             if lo.x > hi.x {
@@ -473,51 +607,67 @@ impl Izb {
             views.push(crop(&base[f], *lo, *hi, size));
         }
         // Texel of each sample in its cropped view.
-        let texel: Vec<Option<(u8, u32)>> = located
-            .par_iter()
-            .zip(&self.samples)
-            .map(|(l, s)| {
-                let (f, _) = (*l)?;
-                let v = view_of[f as usize];
-                let (uv, _) = views[v as usize].lookup(s.point.position)?;
-                let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-                let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-                Some((v, ty * size + tx))
-            })
-            .collect();
-        // Counting sort by texel, per view: counts, the store's offsets, fill in sample order.
-        let n = (size * size) as usize;
-        let mut counts = vec![vec![0u32; n]; views.len()];
-        for (v, t) in texel.iter().flatten() {
-            counts[*v as usize][*t as usize] += 1;
-        }
-        let mut stores = Vec::with_capacity(views.len());
-        for c in &counts {
-            let empty = ListSample {
-                position: Vec3::ZERO,
-                triangle: u32::MAX,
-                shadowed_by: LIT,
-                tests: 0,
+        self.located.par_iter_mut().zip(&self.samples).for_each(|(l, s)| {
+            if l.view == u8::MAX {
+                return;
+            }
+            l.view = view_of[l.view as usize];
+            let Some((uv, _)) = views[l.view as usize].lookup(s.point.position) else {
+                l.view = u8::MAX;
+                return;
             };
-            stores.push(PixelStore::indexed(size, size, c, empty).map_err(|e| e.to_string())?);
+            let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+            let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+            l.texel = ty * size + tx;
+        });
+        // Pass 3: counting sort by texel, per view: counts, the store's offsets, then each
+        // sample written behind the ones before it (sample order = list order).
+        let n = (size * size) as usize;
+        self.counts.resize_with(views.len(), Vec::new);
+        for c in &mut self.counts {
+            c.clear();
+            c.resize(n, 0);
         }
-        let mut fill: Vec<Vec<u32>> = counts.iter().map(|c| vec![0u32; c.len()]).collect();
-        self.slot = vec![(0, NOT_INSERTED); self.samples.len()];
-        for (i, (t, s)) in texel.iter().zip(&self.samples).enumerate() {
-            let Some((v, t)) = *t else { continue };
-            let (v, t) = (v as usize, t as usize);
-            let at = stores[v].range(t).start + fill[v][t] as usize;
-            fill[v][t] += 1;
-            stores[v].data_mut()[at] = ListSample {
+        for l in &self.located {
+            if l.view != u8::MAX {
+                self.counts[l.view as usize][l.texel as usize] += 1;
+            }
+        }
+        let mut old: Vec<PixelStore<ListSample>> = self.views.drain(..).map(|v| v.store).collect();
+        let mut stores = Vec::with_capacity(views.len());
+        for c in &self.counts[..views.len()] {
+            let store = match old.pop() {
+                Some(mut st) => {
+                    st.rebuild_indexed(size, size, c, ListSample::EMPTY)
+                        .map_err(|e| e.to_string())?;
+                    st
+                }
+                None => PixelStore::indexed(size, size, c, ListSample::EMPTY).map_err(|e| e.to_string())?,
+            };
+            stores.push(store);
+        }
+        let mut cursors: Vec<Vec<u32>> = stores.iter().map(|st| st.offsets()[..n].to_vec()).collect();
+        self.slot.clear();
+        self.slot.resize(self.samples.len(), (0, NOT_INSERTED));
+        self.own_tested = 0;
+        for (i, (l, s)) in self.located.iter().zip(&self.samples).enumerate() {
+            if l.view == u8::MAX {
+                continue;
+            }
+            let (v, t) = (l.view as usize, l.texel as usize);
+            let at = cursors[v][t];
+            cursors[v][t] += 1;
+            self.own_tested += !l.skip_own as usize;
+            stores[v].data_mut()[at as usize] = ListSample {
                 // The ray starts where the reference's does: the point moved a few ULPs along
                 // its normal (Wächter and Binder 2019), a property of float numbers, not a
                 // bias that depends on the scene or the light.
                 position: offset_origin(s.point.position, s.point.normal),
-                triangle: if skip_own[i] { s.triangle } else { u32::MAX },
+                triangle: if l.skip_own { s.triangle } else { u32::MAX },
                 shadowed_by: LIT,
                 tests: 0,
             };
-            self.slot[i] = (v as u8, at as u32);
+            self.slot[i] = (v as u8, at);
         }
         self.views = views
             .into_iter()
@@ -536,7 +686,19 @@ impl Izb {
         let light = frame.light;
         let directional = light.kind == LightKind::Directional;
         let casters = merged_casters(frame, &vec![true; frame.scene.objects.len()])?;
-        // Closed meshes cast only through triangles facing away from the light.
+        // Closed meshes (edge adjacency, as the shadow volumes check them) cast only through
+        // their triangles that face away from the light.
+        self.closed = p.install(|| {
+            frame
+                .scene
+                .objects
+                .par_iter()
+                .map(|o| {
+                    let r = Adjacency::new(&o.mesh).report;
+                    r.is_closed_manifold() && r.degenerate_triangles == 0
+                })
+                .collect()
+        });
         let closed = &self.closed;
         let mut occluders = Vec::new();
         let mut indices = Vec::new();
@@ -657,16 +819,26 @@ impl ShadowTechnique for Izb {
         let t1 = Instant::now();
         self.occlude(p, frame)?;
         let t2 = Instant::now();
-        // Resolve: each pixel's mean over its samples.
+        // Resolve: each pixel's mean over its samples, row by row (a row's samples are
+        // contiguous, pixel after pixel).
         let k = self.opts.samples.count() as f32;
-        let mut out: Vec<f32> = frame
-            .points()
-            .iter()
-            .map(|s| if s.is_some() { 0.0 } else { f32::NAN })
-            .collect();
-        for (s, lit) in self.samples.iter().zip(self.sample_visibility()) {
-            out[s.pixel as usize] += lit / k;
-        }
+        let w = frame.width() as usize;
+        let mut out = vec![f32::NAN; w * frame.height() as usize];
+        let this = &*self;
+        p.install(|| {
+            out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+                let (a, b) = (this.row_start[y] as usize, this.row_start[y + 1] as usize);
+                for (s, &(v, at)) in this.samples[a..b].iter().zip(&this.slot[a..b]) {
+                    let px = &mut row[s.pixel as usize - y * w];
+                    if px.is_nan() {
+                        *px = 0.0;
+                    }
+                    if at != NOT_INSERTED && this.views[v as usize].store.data()[at as usize].shadowed_by == LIT {
+                        *px += 1.0 / k;
+                    }
+                }
+            })
+        });
         self.times = vec![
             ("sample insertion", (t1 - t0).as_secs_f64() * 1e3),
             ("occluder pass", (t2 - t1).as_secs_f64() * 1e3),
@@ -761,7 +933,7 @@ impl ShadowTechnique for Izb {
         vec![
             ("samples", self.samples.len() as f64),
             ("samples inserted", inserted as f64),
-            ("samples tested against their own triangle", self.self_shadowed as f64),
+            ("samples tested against their own triangle", self.own_tested as f64),
             ("non-empty texels", nonempty as f64),
             ("max list length", max as f64),
             ("mean list length", inserted as f64 / nonempty.max(1) as f64),
