@@ -396,16 +396,50 @@ fn faces_light(light: &Light, s: &SamplePoint) -> bool {
     s.normal.dot(light.to_light(s.position)) > 0.0
 }
 
-/// A triangle as the occluder test needs it (Möller–Trumbore).
+/// A triangle as the occluder test needs it (Möller–Trumbore), with its plane for an early
+/// out.
 #[derive(Copy, Clone, Debug)]
 struct Occluder {
     v0: Vec3,
     e1: Vec3,
     e2: Vec3,
+    /// `e1 x e2` and its squared length.
+    n: Vec3,
+    n2: f32,
+    /// `n . (light - v0)` (directional: `n . direction to the light`): the light's side.
+    light_side: f32,
     id: u32,
 }
 
 impl Occluder {
+    fn new(a: Vec3, b: Vec3, c: Vec3, light: &Light, id: u32) -> Occluder {
+        let (e1, e2) = (b - a, c - a);
+        let n = e1.cross(e2);
+        let light_side = match light.kind {
+            LightKind::Directional => n.dot(-light.direction),
+            _ => n.dot(light.position - a),
+        };
+        Occluder {
+            v0: a,
+            e1,
+            e2,
+            n,
+            n2: n.length_squared(),
+            light_side,
+            id,
+        }
+    }
+
+    /// True when `p` lies clearly on the light's side of the triangle's plane (by more than
+    /// 1e-4 of its distance to the triangle's first vertex, so rounding cannot decide): then
+    /// the segment to the light cannot cross the triangle, and the exact test is skipped.
+    #[inline(always)]
+    fn same_side_as_light(&self, p: Vec3) -> bool {
+        let tv = p - self.v0;
+        let a = self.n.dot(tv);
+        a * self.light_side > 0.0 && a * a > 1e-8 * self.n2 * tv.length_squared()
+    }
+
     /// Whether the segment from `p` to the light (`to_light` = light position - p, `t` in
     /// (0, 1); directional: the direction to the light, `t` > 0) hits the triangle.
     #[inline(always)]
@@ -457,6 +491,8 @@ pub struct Izb {
     row_start: Vec<u32>,
     located: Vec<Located>,
     counts: Vec<Vec<u32>>,
+    records: Vec<ListSample>,
+    cursors: Vec<Vec<u32>>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -475,6 +511,8 @@ impl Izb {
             row_start: Vec::new(),
             located: Vec::new(),
             counts: Vec::new(),
+            records: Vec::new(),
+            cursors: Vec::new(),
             times: Vec::new(),
         })
     }
@@ -646,19 +684,12 @@ impl Izb {
             };
             stores.push(store);
         }
-        let mut cursors: Vec<Vec<u32>> = stores.iter().map(|st| st.offsets()[..n].to_vec()).collect();
-        self.slot.clear();
-        self.slot.resize(self.samples.len(), (0, NOT_INSERTED));
-        self.own_tested = 0;
-        for (i, (l, s)) in self.located.iter().zip(&self.samples).enumerate() {
-            if l.view == u8::MAX {
-                continue;
-            }
-            let (v, t) = (l.view as usize, l.texel as usize);
-            let at = cursors[v][t];
-            cursors[v][t] += 1;
-            self.own_tested += !l.skip_own as usize;
-            stores[v].data_mut()[at as usize] = ListSample {
+        // The records, in sample order, in parallel; then each copied behind its texel's list.
+        self.records.clear();
+        self.located
+            .par_iter()
+            .zip(&self.samples)
+            .map(|(l, s)| ListSample {
                 // The ray starts where the reference's does: the point moved a few ULPs along
                 // its normal (Wächter and Binder 2019), a property of float numbers, not a
                 // bias that depends on the scene or the light.
@@ -666,7 +697,25 @@ impl Izb {
                 triangle: if l.skip_own { s.triangle } else { u32::MAX },
                 shadowed_by: LIT,
                 tests: 0,
-            };
+            })
+            .collect_into_vec(&mut self.records);
+        self.cursors.resize_with(stores.len(), Vec::new);
+        for (c, st) in self.cursors.iter_mut().zip(&stores) {
+            c.clear();
+            c.extend_from_slice(&st.offsets()[..n]);
+        }
+        self.slot.clear();
+        self.slot.resize(self.samples.len(), (0, NOT_INSERTED));
+        self.own_tested = 0;
+        for (i, (l, rec)) in self.located.iter().zip(&self.records).enumerate() {
+            if l.view == u8::MAX {
+                continue;
+            }
+            let (v, t) = (l.view as usize, l.texel as usize);
+            let at = self.cursors[v][t];
+            self.cursors[v][t] += 1;
+            self.own_tested += !l.skip_own as usize;
+            stores[v].data_mut()[at as usize] = *rec;
             self.slot[i] = (v as u8, at);
         }
         self.views = views
@@ -708,12 +757,7 @@ impl Izb {
             if closed[casters.object[t] as usize] && n.dot(to_light(&light, (a + b + c) / 3.0)) > 0.0 {
                 continue; // a closed mesh's light-facing triangle: never needed
             }
-            occluders.push(Occluder {
-                v0: a,
-                e1: b - a,
-                e2: c - a,
-                id: casters.triangle[t],
-            });
+            occluders.push(Occluder::new(a, b, c, &light, casters.triangle[t]));
             indices.extend_from_slice(tri);
         }
         self.occluders = occluders.len();
@@ -739,6 +783,9 @@ impl Izb {
                     continue;
                 }
                 s.tests += 1;
+                if o.same_side_as_light(s.position) {
+                    continue;
+                }
                 let to = if directional { dir } else { lp - s.position };
                 if o.blocks(s.position, to, directional) {
                     s.shadowed_by = o.id;
