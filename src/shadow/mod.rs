@@ -18,6 +18,7 @@ pub mod light;
 pub mod map;
 pub mod options;
 pub mod overview;
+pub mod pixels;
 pub mod planar;
 pub mod reference;
 pub mod volume;

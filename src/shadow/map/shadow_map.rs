@@ -24,9 +24,9 @@ use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSample
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
+use crate::shadow::pixels::per_pixel;
 use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
-use rayon::prelude::*;
 
 choice_enum! {
     /// What the map stores.
@@ -435,16 +435,8 @@ impl ShadowTechnique for ShadowMap {
         self.light_pass(p, frame)?;
         let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
-        let w = frame.width() as usize;
-        let mut out = vec![f32::NAN; w * frame.height() as usize];
         let this = &*self;
-        p.install(|| {
-            out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                for (x, o) in row.iter_mut().enumerate() {
-                    *o = this.lookup(frame, x, y, &mut NoTrace);
-                }
-            })
-        });
+        let out = per_pixel(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),

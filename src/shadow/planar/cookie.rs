@@ -17,9 +17,9 @@ use crate::pipeline::sampler::{sample_bilinear, sample_nearest, Address};
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, LightView};
+use crate::shadow::pixels::per_pixel;
 use crate::shadow::{object_named, Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
-use rayon::prelude::*;
 
 choice_enum! {
     /// How the mask is sampled.
@@ -219,16 +219,8 @@ impl ShadowTechnique for Cookie {
         }
         let t1 = std::time::Instant::now();
         // Pass 2: project the mask onto every receiver pixel.
-        let w = frame.width() as usize;
-        let mut out = vec![f32::NAN; w * frame.height() as usize];
         let this = &*self;
-        p.install(|| {
-            out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                for (x, o) in row.iter_mut().enumerate() {
-                    *o = this.project(frame, x, y, &mut NoTrace);
-                }
-            })
-        });
+        let out = per_pixel(p, frame, |x, y| this.project(frame, x, y, &mut NoTrace));
         self.times = vec![
             ("mask pass", (t1 - t0).as_secs_f64() * 1e3),
             ("projection pass", t1.elapsed().as_secs_f64() * 1e3),

@@ -1,0 +1,20 @@
+//! The per-pixel pass most techniques end with: a function of the pixel, run row by row on the
+//! pipeline's workers (deterministic: each pixel's value depends on that pixel alone).
+
+use crate::frame::Frame;
+use crate::pipeline::Pipeline;
+use rayon::prelude::*;
+
+/// `f(x, y)` for every pixel of `frame`, row-major, rows in parallel on `p`'s workers.
+pub fn per_pixel(p: &Pipeline, frame: &Frame, f: impl Fn(usize, usize) -> f32 + Sync) -> Vec<f32> {
+    let w = frame.width() as usize;
+    let mut out = vec![f32::NAN; w * frame.height() as usize];
+    p.install(|| {
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                *o = f(x, y);
+            }
+        })
+    });
+    out
+}
