@@ -61,6 +61,26 @@ fn technique_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
+contact avsm [] 264f8a0a621b5ed8
+contact avsm [nodes=4] 264f8a0a621b5ed8
+contact avsm [nodes=16] 264f8a0a621b5ed8
+contact avsm [order=reverse] 264f8a0a621b5ed8
+point_casters avsm [] 4963da0d1b015b75
+point_casters avsm [nodes=4] 4963da0d1b015b75
+point_casters avsm [nodes=16] 4963da0d1b015b75
+point_casters avsm [order=reverse] 4963da0d1b015b75
+planar avsm [] 53067c7945199088
+planar avsm [nodes=4] 53067c7945199088
+planar avsm [nodes=16] 53067c7945199088
+planar avsm [order=reverse] 53067c7945199088
+cookie avsm [] 28363364b0baaf95
+cookie avsm [nodes=4] 28363364b0baaf95
+cookie avsm [nodes=16] 28363364b0baaf95
+cookie avsm [order=reverse] 28363364b0baaf95
+long_view avsm [] 31e8d66c38255b25
+long_view avsm [nodes=4] 31e8d66c38255b25
+long_view avsm [nodes=16] 31e8d66c38255b25
+long_view avsm [order=reverse] 31e8d66c38255b25
 contact izb [] 2fd73c8de3d90925
 contact izb [size=256] 2fd73c8de3d90925
 contact izb [size=1024] 2fd73c8de3d90925

@@ -9,7 +9,7 @@
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
-//! cookies), [`exact`] (the irregular z-buffer), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 
 pub mod exact;
@@ -22,6 +22,7 @@ pub mod pixels;
 pub mod planar;
 pub mod reference;
 pub mod volume;
+pub mod volumetric;
 
 pub use inspect::{Step, Value};
 pub use options::{Declaration, Field, OptionInfo};
@@ -118,6 +119,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::projected::info(),
         planar::cookie::info(),
         exact::izb::info(),
+        volumetric::avsm::info(),
     ]
 }
 

@@ -1,0 +1,548 @@
+//! Adaptive volumetric shadow maps (Salvi, Vidimce, Lauritzen and Lefohn 2010; RTR 7.8):
+//! each light texel keeps a fixed number of nodes `(depth, transmittance)`, a compressed
+//! transmittance curve along its light ray, built as the casters' fragments stream in.
+//!
+//! - **Light pass**: every caster (opaque ones transmit 0, semi-transparent ones their
+//!   material's transmittance per channel) is drawn from the light (views of
+//!   [`crate::shadow::light`]: one, or six cube faces) through the pipeline's raster-ordered
+//!   storage ([`Pipeline::draw_ordered`]): each fragment, in submission order per texel,
+//!   inserts a node at its depth and multiplies the transmittance of every node behind it by
+//!   its own. When the texel's nodes overflow, the node whose removal changes the curve's
+//!   area least is removed, never the first: the streaming lossy compression of the paper. On
+//!   a GPU this needs pixel-order interlock (D3D's rasterizer-ordered views); here the
+//!   pipeline's tile ownership gives the same per-texel order for free, so the result does
+//!   not depend on the thread count (a test checks it).
+//! - **The curve.** Our casters are thin surfaces, so each fragment is a step of the curve
+//!   (the paper's particles are segments with linear falloff inside): a node stores the
+//!   transmittance *behind* its depth, `T(z)` is the transmittance of the last node in front
+//!   of `z` (1 in front of every node). Removing node `i` extends node `i - 1`'s value over
+//!   `[d_i, d_{i+1})`, which changes the area under the curve by
+//!   `|T_{i-1} - T_i| (d_{i+1} - d_i)` (summed over the channels); the paper's metric is the
+//!   same area for its piecewise-linear reconstruction.
+//! - **Lookup**: the receiver's light-space depth, with the shadow map's polygon offset in
+//!   the light pass so that a surface does not shadow itself, against its texel's curve.
+//!
+//! Known failure: order dependence. The compression is greedy and streaming, so the same
+//! fragments in another order give another curve: `order=reverse` inserts every texel's
+//! fragments in reverse submission order, and the difference is measured on `smoke`. With too
+//! few nodes for the layers of a texel, far layers merge and light leaks.
+
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::*;
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::{Vec2, Vec3};
+use std::time::Instant;
+
+/// Most nodes a texel may keep.
+pub const MAX_NODES: usize = 64;
+
+choice_enum! {
+    /// The order in which each texel's fragments are inserted.
+    pub enum Order {
+        /// Submission order (scene order, then triangle order).
+        Forward = "forward",
+        /// Reverse submission order (to show the method's order dependence).
+        Reverse = "reverse",
+    }
+}
+
+/// Options of the adaptive volumetric shadow map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Map side in texels (per cube face for point lights). Default: 512.
+    pub size: u32,
+    /// Nodes per texel, 1 to 64. Default: 8 (the paper's common setting).
+    pub nodes: u32,
+    /// Insertion order. Default: forward.
+    pub order: Order,
+    /// Constant polygon offset of the light pass (a surface must not shadow itself), in the
+    /// depth format's steps. Default: 4 (the shadow map's).
+    pub units: f32,
+    /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
+    pub slope: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            size: 512,
+            nodes: 8,
+            order: Order::Forward,
+            units: 4.0,
+            slope: 1.1,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "avsm",
+        fields: vec![
+            Field::range(
+                "size",
+                "map side in texels (per cube face for point lights)",
+                16,
+                MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
+            Field::range(
+                "nodes",
+                "nodes per texel (the compressed curve's size)",
+                1,
+                MAX_NODES as u32,
+                |o: &mut Options| &mut o.nodes,
+            ),
+            Field::new(
+                "order",
+                "forward (submission order) or reverse (each texel's fragments backwards: order dependence)",
+                |o: &mut Options| &mut o.order,
+            ),
+            Field::range(
+                "units",
+                "constant polygon offset of the light pass",
+                -1e6,
+                1e6,
+                |o: &mut Options| &mut o.units,
+            ),
+            Field::range(
+                "slope",
+                "slope-scaled polygon offset of the light pass",
+                -1e3,
+                1e3,
+                |o: &mut Options| &mut o.slope,
+            ),
+        ],
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "avsm",
+        summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
+        options: declaration().infos(),
+        sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
+        create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// One node of a texel's curve: the transmittance per channel behind `depth`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Light-space depth in [0, 1].
+    pub depth: f32,
+    /// Transmittance behind it, per channel.
+    pub t: Vec3,
+}
+
+/// A texel's curve as stored: `nodes` slots of [`Node`]s in depth order (unused slots at
+/// depth infinity), then one header slot whose depth counts the fragments inserted and whose
+/// first channel counts the nodes removed by compression (both exact below 2^24).
+#[derive(Copy, Clone, Debug)]
+pub struct Curve<'a>(pub &'a [Node]);
+
+/// An unused node slot.
+pub const UNUSED: Node = Node {
+    depth: f32::INFINITY,
+    t: Vec3::ONE,
+};
+
+/// A cleared header slot.
+pub const HEADER: Node = Node {
+    depth: 0.0,
+    t: Vec3::ZERO,
+};
+
+impl Curve<'_> {
+    /// The nodes in use.
+    pub fn nodes(&self) -> &[Node] {
+        let slots = &self.0[..self.0.len() - 1];
+        &slots[..slots.partition_point(|n| n.depth.is_finite())]
+    }
+
+    /// Fragments inserted into the texel.
+    pub fn inserted(&self) -> u32 {
+        self.0[self.0.len() - 1].depth as u32
+    }
+
+    /// Nodes removed by compression.
+    pub fn removed(&self) -> u32 {
+        self.0[self.0.len() - 1].t.x as u32
+    }
+
+    /// Transmittance at depth `z`: the last node strictly in front of it (1 if none).
+    pub fn at(&self, z: f32) -> Vec3 {
+        let n = self.nodes();
+        let k = n.partition_point(|nd| nd.depth < z);
+        if k == 0 {
+            Vec3::ONE
+        } else {
+            n[k - 1].t
+        }
+    }
+}
+
+/// Inserts a fragment at `depth` transmitting `t` (per channel) into a texel's slots (see
+/// [`Curve`]) (Salvi et al.: insert, then, past the slot count, remove the node whose
+/// removal changes the area under the curve least, never the first).
+pub fn insert(slots: &mut [Node], depth: f32, t: Vec3) {
+    let max = slots.len() - 1;
+    let header = slots[max];
+    let len = Curve(slots).nodes().len();
+    // Work on a copy with room for one more node.
+    let mut buf = [UNUSED; MAX_NODES + 1];
+    buf[..len].copy_from_slice(&slots[..len]);
+    let k = buf[..len].partition_point(|nd| nd.depth <= depth);
+    let before = if k == 0 { Vec3::ONE } else { buf[k - 1].t };
+    // Everything behind the fragment is attenuated by it.
+    for nd in &mut buf[k..len] {
+        nd.t *= t;
+    }
+    buf.copy_within(k..len, k + 1);
+    buf[k] = Node { depth, t: before * t };
+    let mut n = len + 1;
+    let mut removed = header.t.x;
+    while n > max {
+        remove_least(&mut buf, n);
+        n -= 1;
+        removed += 1.0;
+    }
+    slots[..n].copy_from_slice(&buf[..n]);
+    slots[max] = Node {
+        depth: header.depth + 1.0,
+        t: Vec3::new(removed, 0.0, 0.0),
+    };
+}
+
+/// Removes the node (never the first) of `buf[..n]` whose removal changes the area under the
+/// curve least: node `i` going extends `T_{i-1}` over `[d_i, d_{i+1})`, an area of
+/// `|T_{i-1} - T_i| (d_{i+1} - d_i)` summed over the channels. With one node, nothing goes
+/// but the new one's information is lost: the first node stays.
+fn remove_least(buf: &mut [Node], n: usize) {
+    if n <= 1 {
+        return;
+    }
+    let area = |i: usize| {
+        let next = if i + 1 < n { buf[i + 1].depth } else { 1.0 };
+        let d = (buf[i - 1].t - buf[i].t).abs();
+        (d.x + d.y + d.z) * (next - buf[i].depth).max(0.0)
+    };
+    let mut best = 1;
+    let mut best_area = area(1);
+    for i in 2..n {
+        let a = area(i);
+        if a < best_area {
+            best = i;
+            best_area = a;
+        }
+    }
+    buf.copy_within(best + 1..n, best);
+    buf[n - 1] = UNUSED;
+}
+
+/// The adaptive volumetric shadow map (see the module docs).
+pub struct Avsm {
+    opts: Options,
+    /// Last run: one store of curves (`nodes + 1` slots per texel) and view per light view.
+    maps: Vec<(PixelStore<Node>, LightView)>,
+    /// Whether the scene has a coloured material (then the result is per channel).
+    coloured: bool,
+    fragments: u64,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl Avsm {
+    /// An AVSM with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Avsm, String> {
+        declaration().check(&opts)?;
+        Ok(Avsm {
+            opts,
+            maps: Vec::new(),
+            coloured: false,
+            fragments: 0,
+            times: Vec::new(),
+        })
+    }
+
+    /// The curve of the texel the point `p` falls in, with its view and texel.
+    fn curve_at(&self, frame: &Frame, p: Vec3) -> Option<(usize, Vec2, f32, Curve<'_>)> {
+        let f = light::face_of(self.maps.len(), &frame.light, p);
+        let (store, view) = &self.maps[f];
+        let (uv, z) = view.lookup(p)?;
+        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
+            return None;
+        }
+        let s = store.width();
+        let (tx, ty) = ((uv.x * s as f32) as u32, (uv.y * s as f32) as u32);
+        Some((
+            f,
+            Vec2::new(tx as f32, ty as f32),
+            z,
+            Curve(store.pixel(tx.min(s - 1), ty.min(s - 1))),
+        ))
+    }
+}
+
+impl ShadowTechnique for Avsm {
+    fn name(&self) -> &'static str {
+        "avsm"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = Instant::now();
+        let o = self.opts.clone();
+        let scene = frame.scene;
+        self.coloured = scene.materials.iter().any(|m| {
+            let t = m.transmittance_rgb();
+            t.x != t.y || t.y != t.z
+        });
+        // Casters in scene order, each triangle with its material's transmittance.
+        let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
+        let transmit: Vec<Vec3> = casters
+            .object
+            .iter()
+            .map(|&ob| scene.materials[scene.objects[ob as usize].material].transmittance_rgb())
+            .collect();
+        let mut indices = casters.indices.clone();
+        if o.order == Order::Reverse {
+            // Every texel then sees its fragments backwards (triangles reversed; a triangle
+            // covers a texel once).
+            let tris: Vec<[u32; 3]> = indices.chunks_exact(3).rev().map(|t| [t[0], t[1], t[2]]).collect();
+            indices = tris.concat();
+        }
+        let ntri = transmit.len() as u32;
+        let reverse = o.order == Order::Reverse;
+        let program = |f: &Fragment<()>, px: &mut [Node]| {
+            let tri = if reverse { ntri - 1 - f.prim } else { f.prim };
+            insert(px, f.z, transmit[tri as usize]);
+        };
+        let state = RenderState {
+            offset: PolygonOffset {
+                units: o.units,
+                factor: o.slope,
+            },
+            depth: DepthState {
+                func: CompareFunc::Always,
+                write: false,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut old: Vec<PixelStore<Node>> = self.maps.drain(..).map(|(s, _)| s).collect();
+        let slots = o.nodes as usize + 1;
+        self.fragments = 0;
+        for view in light_views(frame, o.size) {
+            let mut store = match old.pop() {
+                Some(s) if s.width() == o.size && s.pixel(0, 0).len() == slots => s,
+                _ => PixelStore::fixed(o.size, o.size, slots, UNUSED).map_err(|e| e.to_string())?,
+            };
+            p.install(|| {
+                use rayon::prelude::*;
+                store.data_mut().par_chunks_mut(slots).for_each(|px| {
+                    px.fill(UNUSED);
+                    px[slots - 1] = HEADER;
+                })
+            });
+            let st = p
+                .draw_ordered(
+                    &mut Targets::none(),
+                    &state,
+                    &casters.positions,
+                    &indices,
+                    &TransformPositions(view.matrix),
+                    &program,
+                    &mut store,
+                )
+                .map_err(|e| e.to_string())?;
+            self.fragments += st.fragments_shaded;
+            self.maps.push((store, view));
+        }
+        let t1 = Instant::now();
+        // Lookup: each receiver's depth against its texel's curve.
+        let pts = frame.points();
+        let this = &*self;
+        let rgb: Vec<Vec3> = p.install(|| {
+            use rayon::prelude::*;
+            pts.par_iter()
+                .map(|s| match s {
+                    None => Vec3::NAN,
+                    Some(s) => match this.curve_at(frame, s.position) {
+                        Some((_, _, z, c)) => c.at(z.clamp(0.0, 1.0)),
+                        None => Vec3::ONE,
+                    },
+                })
+                .collect()
+        });
+        self.times = vec![
+            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(if self.coloured {
+            Visibility::Rgb(rgb)
+        } else {
+            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
+        })
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let Some(s) = frame.point(x, y) else { return Vec::new() };
+        if self.maps.is_empty() {
+            return Vec::new();
+        }
+        let mut steps = Vec::new();
+        let Some((f, texel, z, c)) = self.curve_at(frame, s.position) else {
+            steps.push(Step::new("outside", "the point is outside the light's map: lit"));
+            steps.push(inspect::result(1.0));
+            return steps;
+        };
+        steps.push(
+            Step::new(
+                "light-space position",
+                "the texel whose curve the point reads, and its depth there",
+            )
+            .int("view", f)
+            .vec2("texel", texel)
+            .num("depth", z),
+        );
+        let mut st = Step::new(
+            "curve",
+            "the texel's nodes (depth: transmittance behind it, per channel), after streaming compression",
+        )
+        .int("nodes", c.nodes().len())
+        .int("fragments inserted", c.inserted())
+        .int("nodes removed", c.removed());
+        for (i, n) in c.nodes().iter().enumerate() {
+            st = st
+                .num(&format!("node {i} depth"), n.depth)
+                .vec3(&format!("node {i} T"), n.t);
+        }
+        steps.push(st);
+        let t = c.at(z.clamp(0.0, 1.0));
+        steps.push(
+            Step::new(
+                "lookup",
+                "the transmittance of the last node in front of the point (1 if none)",
+            )
+            .int("nodes in front", c.nodes().partition_point(|n| n.depth < z))
+            .vec3("transmittance", t),
+        );
+        steps.push(inspect::result(if self.coloured {
+            t.dot(crate::visibility::LUMINANCE)
+        } else {
+            t.x
+        }));
+        steps
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let slots = self.opts.nodes as usize + 1;
+        let curves = || {
+            self.maps
+                .iter()
+                .flat_map(move |(s, _)| s.data().chunks_exact(slots).map(Curve))
+        };
+        let removed: u64 = curves().map(|c| c.removed() as u64).sum();
+        let max_in = curves().map(|c| c.inserted()).max().unwrap_or(0);
+        let texels = curves().count();
+        vec![
+            ("fragments inserted", self.fragments as f64),
+            ("nodes removed", removed as f64),
+            ("max fragments in a texel", max_in as f64),
+            (
+                "light-space bytes",
+                (texels * slots * std::mem::size_of::<Node>()) as f64,
+            ),
+        ]
+    }
+
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v = Vec::new();
+        for (i, (s, _)) in self.maps.iter().enumerate() {
+            let (w, h) = (s.width(), s.height());
+            let slots = self.opts.nodes as usize + 1;
+            let of = |f: &dyn Fn(Curve) -> f32| -> Result<Surface<f32>, String> {
+                Surface::from_vec(w, h, s.data().chunks_exact(slots).map(|c| f(Curve(c))).collect())
+                    .map_err(|e| e.to_string())
+            };
+            let most = s
+                .data()
+                .chunks_exact(slots)
+                .map(|c| Curve(c).inserted())
+                .max()
+                .unwrap_or(1)
+                .max(1);
+            v.push(Stage::Scalar {
+                name: format!("nodes_used{i}"),
+                data: of(&|c| c.nodes().len() as f32)?,
+                lo: 0.0,
+                hi: self.opts.nodes as f32,
+            });
+            v.push(Stage::Scalar {
+                name: format!("fragments_per_texel{i}"),
+                data: of(&|c| c.inserted() as f32)?,
+                lo: 0.0,
+                hi: most as f32,
+            });
+            v.push(Stage::Scalar {
+                name: format!("transmittance_behind_all{i}"),
+                data: of(&|c| c.at(1.0).dot(crate::visibility::LUMINANCE))?,
+                lo: 0.0,
+                hi: 1.0,
+            });
+        }
+        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn texel(nodes: usize) -> Vec<Node> {
+        let mut v = vec![UNUSED; nodes + 1];
+        v[nodes] = HEADER;
+        v
+    }
+
+    #[test]
+    fn a_curve_multiplies_what_lies_behind_and_compresses_least_area_first() {
+        let mut px = texel(8);
+        insert(&mut px, 0.5, Vec3::splat(0.5));
+        insert(&mut px, 0.2, Vec3::splat(0.5));
+        let c = Curve(&px);
+        assert_eq!(c.at(0.1), Vec3::ONE);
+        assert_eq!(c.at(0.3), Vec3::splat(0.5));
+        assert_eq!(c.at(0.6), Vec3::splat(0.25));
+        assert_eq!((c.inserted(), c.removed()), (2, 0));
+        // Three nodes into two slots: the node whose step covers the least area goes (never
+        // the first): the one at 0.9 (0.25 -> 0.2 over [0.9, 1)) rather than 0.5's.
+        let mut two = texel(2);
+        for (d, t) in [(0.5, 0.5), (0.2, 0.5), (0.9, 0.8)] {
+            insert(&mut two, d, Vec3::splat(t));
+        }
+        let c = Curve(&two);
+        assert_eq!(c.nodes().len(), 2);
+        assert_eq!((c.inserted(), c.removed()), (3, 1));
+        assert_eq!((c.nodes()[0].depth, c.nodes()[1].depth), (0.2, 0.5));
+        assert_eq!(c.at(0.95), Vec3::splat(0.25));
+        // One slot: only the first node is ever kept.
+        let mut one = texel(1);
+        for k in 0..10 {
+            insert(&mut one, 0.9 - 0.1 * k as f32, Vec3::splat(0.9));
+        }
+        assert_eq!(Curve(&one).nodes().len(), 1);
+        // Per channel: a red filter behind a green one leaves nothing of either.
+        let mut rgb = texel(4);
+        insert(&mut rgb, 0.3, Vec3::new(1.0, 0.1, 0.1));
+        insert(&mut rgb, 0.6, Vec3::new(0.1, 1.0, 0.1));
+        assert_eq!(Curve(&rgb).at(0.7), Vec3::new(0.1, 0.1, 0.010000001));
+    }
+}
