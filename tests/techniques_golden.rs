@@ -61,6 +61,16 @@ fn technique_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
+contact transparency-map [] 076f1858599bb525
+contact transparency-map [size=512] 264f8a0a621b5ed8
+point_casters transparency-map [] eb4285b6e9e8b4c5
+point_casters transparency-map [size=512] 4963da0d1b015b75
+planar transparency-map [] d6e87c4048aeae68
+planar transparency-map [size=512] 53067c7945199088
+cookie transparency-map [] f1ec318a3fe4fce8
+cookie transparency-map [size=512] 28363364b0baaf95
+long_view transparency-map [] 467baf28f97c71d8
+long_view transparency-map [size=512] 31e8d66c38255b25
 contact avsm [] 264f8a0a621b5ed8
 contact avsm [nodes=4] 264f8a0a621b5ed8
 contact avsm [nodes=16] 264f8a0a621b5ed8

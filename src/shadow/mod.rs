@@ -9,7 +9,7 @@
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
-//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 
 pub mod exact;
@@ -119,6 +119,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::projected::info(),
         planar::cookie::info(),
         exact::izb::info(),
+        volumetric::transparency_map::info(),
         volumetric::avsm::info(),
     ]
 }

@@ -1,5 +1,8 @@
 //! Volumetric shadows (RTR 7.8): transmittance through semi-transparent casters along each
-//! light ray. [`avsm`]: adaptive volumetric shadow maps, a fixed number of nodes per texel
-//! compressed as the fragments stream in through the pipeline's raster-ordered storage.
+//! light ray. [`transparency_map`]: the nearest transparent caster's colour beside the opaque
+//! depth map (one layer). [`avsm`]: adaptive volumetric shadow maps, a fixed number of nodes
+//! per texel compressed as the fragments stream in through the pipeline's raster-ordered
+//! storage.
 
 pub mod avsm;
+pub mod transparency_map;
