@@ -61,6 +61,26 @@ fn technique_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
+contact opacity-maps [slices=4] 264f8a0a621b5ed8
+contact opacity-maps [] 264f8a0a621b5ed8
+contact opacity-maps [layout=deep;slices=4] 264f8a0a621b5ed8
+contact opacity-maps [layout=deep] 264f8a0a621b5ed8
+point_casters opacity-maps [slices=4] 4963da0d1b015b75
+point_casters opacity-maps [] 4963da0d1b015b75
+point_casters opacity-maps [layout=deep;slices=4] 4963da0d1b015b75
+point_casters opacity-maps [layout=deep] 4963da0d1b015b75
+planar opacity-maps [slices=4] 53067c7945199088
+planar opacity-maps [] 53067c7945199088
+planar opacity-maps [layout=deep;slices=4] 53067c7945199088
+planar opacity-maps [layout=deep] 53067c7945199088
+cookie opacity-maps [slices=4] 28363364b0baaf95
+cookie opacity-maps [] 28363364b0baaf95
+cookie opacity-maps [layout=deep;slices=4] 28363364b0baaf95
+cookie opacity-maps [layout=deep] 28363364b0baaf95
+long_view opacity-maps [slices=4] 31e8d66c38255b25
+long_view opacity-maps [] 31e8d66c38255b25
+long_view opacity-maps [layout=deep;slices=4] 31e8d66c38255b25
+long_view opacity-maps [layout=deep] 31e8d66c38255b25
 contact transparency-map [] 076f1858599bb525
 contact transparency-map [size=512] 264f8a0a621b5ed8
 point_casters transparency-map [] eb4285b6e9e8b4c5

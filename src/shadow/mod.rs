@@ -9,7 +9,7 @@
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
-//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 
 pub mod exact;
@@ -120,6 +120,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::cookie::info(),
         exact::izb::info(),
         volumetric::transparency_map::info(),
+        volumetric::opacity_maps::info(),
         volumetric::avsm::info(),
     ]
 }
