@@ -61,6 +61,16 @@ fn technique_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
+contact deep-shadow-map [] 264f8a0a621b5ed8
+contact deep-shadow-map [tolerance=0.1] 264f8a0a621b5ed8
+point_casters deep-shadow-map [] 4963da0d1b015b75
+point_casters deep-shadow-map [tolerance=0.1] 4963da0d1b015b75
+planar deep-shadow-map [] 53067c7945199088
+planar deep-shadow-map [tolerance=0.1] 53067c7945199088
+cookie deep-shadow-map [] 28363364b0baaf95
+cookie deep-shadow-map [tolerance=0.1] 28363364b0baaf95
+long_view deep-shadow-map [] 31e8d66c38255b25
+long_view deep-shadow-map [tolerance=0.1] 31e8d66c38255b25
 contact opacity-maps [slices=4] 264f8a0a621b5ed8
 contact opacity-maps [] 264f8a0a621b5ed8
 contact opacity-maps [layout=deep;slices=4] 264f8a0a621b5ed8

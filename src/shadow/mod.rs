@@ -9,7 +9,8 @@
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
-//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, deep shadow
+//! maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 
 pub mod exact;
@@ -121,6 +122,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         exact::izb::info(),
         volumetric::transparency_map::info(),
         volumetric::opacity_maps::info(),
+        volumetric::deep_shadow_map::info(),
         volumetric::avsm::info(),
     ]
 }

@@ -1,0 +1,517 @@
+//! Deep shadow maps (Lokovic and Veach 2000; RTR 7.8): each light texel stores its whole
+//! transmittance function along the light ray, built from every caster fragment and
+//! compressed to a piecewise-linear function within an error tolerance.
+//!
+//! - **Light pass**: every caster is drawn from the light into the pipeline's per-pixel
+//!   fragment lists (deterministic: each texel's list is in submission order), each fragment
+//!   carrying its material's transmittance per channel.
+//! - **Per texel**: the fragments sorted by depth (ties in submission order) make a step
+//!   function: `T` drops by the fragment's factor at its depth. It is written as vertices
+//!   (two at every step, before and after it) and compressed by Lokovic and Veach's greedy
+//!   algorithm: from the current vertex, the line is extended as far as a slope exists that
+//!   stays within `tolerance` of every vertex passed (the intersection of the slope intervals
+//!   the vertices allow); where the interval becomes empty, a vertex is emitted on the line
+//!   and the next segment starts there. Every channel must fit.
+//! - **Lookup**: binary search of the receiver's depth among the texel's vertices, linear
+//!   interpolation; the receiver's own surface is kept out by the shadow map's polygon offset
+//!   in the light pass.
+//!
+//! Memory grows with the fragments (the lists' pool, capacity as an option: a scene that needs
+//! more is an error that says how many), then shrinks to the compressed vertices, counted.
+//! Known failure: resolution; one function per texel, so thin occluders alias as in a shadow
+//! map (the lookup is not filtered between texels).
+
+use crate::frame::Frame;
+use crate::pipeline::*;
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::{Vec2, Vec3, Vec4};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Options of the deep shadow map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Map side in texels (per cube face for point lights). Default: 512.
+    pub size: u32,
+    /// Compression tolerance of the transmittance functions, in (0, 1). Default: 0.01.
+    pub tolerance: f32,
+    /// Fragments the lists may hold per view. Default: 16777216.
+    pub capacity: u32,
+    /// Constant polygon offset of the light pass. Default: 4 (the shadow map's).
+    pub units: f32,
+    /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
+    pub slope: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            size: 512,
+            tolerance: 0.01,
+            capacity: 1 << 24,
+            units: 4.0,
+            slope: 1.1,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "deep-shadow-map",
+        fields: vec![
+            Field::range(
+                "size",
+                "map side in texels (per cube face for point lights)",
+                16,
+                MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
+            Field::range(
+                "tolerance",
+                "compression tolerance of each texel's transmittance function, in (0, 1)",
+                1e-6,
+                0.999_999,
+                |o: &mut Options| &mut o.tolerance,
+            ),
+            Field::range(
+                "capacity",
+                "fragments the lists may hold per light view (a scene that needs more is an error)",
+                1,
+                1 << 28,
+                |o: &mut Options| &mut o.capacity,
+            ),
+            Field::range(
+                "units",
+                "constant polygon offset of the light pass",
+                -1e6,
+                1e6,
+                |o: &mut Options| &mut o.units,
+            ),
+            Field::range(
+                "slope",
+                "slope-scaled polygon offset of the light pass",
+                -1e3,
+                1e3,
+                |o: &mut Options| &mut o.slope,
+            ),
+        ],
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "deep-shadow-map",
+        summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
+        options: declaration().infos(),
+        sweep: &[&[], &[("tolerance", "0.1")]],
+        create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// A vertex of a texel's function.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Vertex {
+    /// Light-space depth.
+    pub depth: f32,
+    /// Transmittance per channel.
+    pub t: Vec3,
+}
+
+/// The step function of `frags` (depth, transmittance; in submission order), as vertices:
+/// two at every step (before and after).
+pub fn step_vertices(frags: &mut [(f32, Vec3)]) -> Vec<Vertex> {
+    frags.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut out = Vec::with_capacity(2 * frags.len() + 1);
+    let mut t = Vec3::ONE;
+    out.push(Vertex { depth: 0.0, t });
+    for &(d, f) in frags.iter() {
+        out.push(Vertex { depth: d, t });
+        t *= f;
+        out.push(Vertex { depth: d, t });
+    }
+    out
+}
+
+/// Lokovic and Veach's greedy compression: the fewest segments (greedily) that stay within
+/// `eps` of every vertex, in every channel.
+pub fn compress(v: &[Vertex], eps: f32) -> Vec<Vertex> {
+    let Some(&first) = v.first() else { return Vec::new() };
+    let mut out = vec![first];
+    let mut origin = first;
+    let mut lo = Vec3::splat(f32::NEG_INFINITY);
+    let mut hi = Vec3::splat(f32::INFINITY);
+    let mut last = first;
+    let mut i = 1;
+    while i < v.len() {
+        let p = v[i];
+        let dz = p.depth - origin.depth;
+        if dz <= 0.0 {
+            // A vertical step at the origin: it can only be kept as a vertex of its own.
+            if (p.t - origin.t).abs().max_element() > eps {
+                out.push(p);
+                origin = p;
+                lo = Vec3::splat(f32::NEG_INFINITY);
+                hi = Vec3::splat(f32::INFINITY);
+            }
+            last = p;
+            i += 1;
+            continue;
+        }
+        let nlo = lo.max((p.t - eps - origin.t) / dz);
+        let nhi = hi.min((p.t + eps - origin.t) / dz);
+        if nlo.cmple(nhi).all() {
+            lo = nlo;
+            hi = nhi;
+            last = p;
+            i += 1;
+            continue;
+        }
+        // The slopes left no room: end the segment at the last vertex that fitted, on the
+        // middle of the allowed slopes, and start again from there.
+        let ldz = last.depth - origin.depth;
+        let slope = if lo.x.is_finite() { (lo + hi) * 0.5 } else { Vec3::ZERO };
+        let end = if ldz > 0.0 {
+            Vertex {
+                depth: last.depth,
+                t: origin.t + slope * ldz,
+            }
+        } else {
+            last
+        };
+        out.push(end);
+        origin = end;
+        lo = Vec3::splat(f32::NEG_INFINITY);
+        hi = Vec3::splat(f32::INFINITY);
+        if ldz <= 0.0 {
+            // No progress possible from `last` itself: take `p` as a vertex.
+            out.push(p);
+            origin = p;
+            last = p;
+            i += 1;
+        }
+    }
+    // Close with the last vertex on the final segment.
+    let ldz = last.depth - origin.depth;
+    if ldz > 0.0 {
+        let slope = if lo.x.is_finite() { (lo + hi) * 0.5 } else { Vec3::ZERO };
+        out.push(Vertex {
+            depth: last.depth,
+            t: (origin.t + slope * ldz).clamp(Vec3::ZERO, Vec3::ONE),
+        });
+    }
+    out
+}
+
+/// The function's value at depth `z`: linear between the bracketing vertices, the last
+/// vertex's value behind all.
+pub fn evaluate(v: &[Vertex], z: f32) -> Vec3 {
+    let k = v.partition_point(|p| p.depth < z);
+    if k == 0 {
+        return v.first().map_or(Vec3::ONE, |p| p.t);
+    }
+    if k >= v.len() {
+        return v[v.len() - 1].t;
+    }
+    let (a, b) = (v[k - 1], v[k]);
+    let dz = b.depth - a.depth;
+    if dz <= 0.0 {
+        return a.t;
+    }
+    a.t + (b.t - a.t) * ((z - a.depth) / dz)
+}
+
+/// One light view's compressed functions: vertices per texel in one pool.
+struct Map {
+    view: LightView,
+    size: u32,
+    offsets: Vec<u32>,
+    vertices: Vec<Vertex>,
+    fragments: u64,
+}
+
+/// The deep shadow map (see the module docs).
+pub struct DeepShadowMap {
+    opts: Options,
+    maps: Vec<Map>,
+    coloured: bool,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl DeepShadowMap {
+    /// A deep shadow map with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<DeepShadowMap, String> {
+        declaration().check(&opts)?;
+        Ok(DeepShadowMap {
+            opts,
+            maps: Vec::new(),
+            coloured: false,
+            times: Vec::new(),
+        })
+    }
+
+    fn texel_of(&self, frame: &Frame, p: Vec3) -> Option<(usize, u32, u32, f32)> {
+        let f = light::face_of(self.maps.len(), &frame.light, p);
+        let m = &self.maps[f];
+        let (uv, z) = m.view.lookup(p)?;
+        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
+            return None;
+        }
+        let s = m.size;
+        Some((
+            f,
+            ((uv.x * s as f32) as u32).min(s - 1),
+            ((uv.y * s as f32) as u32).min(s - 1),
+            z.clamp(0.0, 1.0),
+        ))
+    }
+
+    fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
+        let m = &self.maps[f];
+        let i = (ty * m.size + tx) as usize;
+        &m.vertices[m.offsets[i] as usize..m.offsets[i + 1] as usize]
+    }
+}
+
+impl ShadowTechnique for DeepShadowMap {
+    fn name(&self) -> &'static str {
+        "deep-shadow-map"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = Instant::now();
+        let o = self.opts.clone();
+        let scene = frame.scene;
+        self.coloured = scene.materials.iter().any(|m| {
+            let t = m.transmittance_rgb();
+            t.x != t.y || t.y != t.z
+        });
+        let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
+        let transmit: Vec<Vec4> = casters
+            .object
+            .iter()
+            .map(|&ob| {
+                scene.materials[scene.objects[ob as usize].material]
+                    .transmittance_rgb()
+                    .extend(1.0)
+            })
+            .collect();
+        let state = RenderState {
+            offset: PolygonOffset {
+                units: o.units,
+                factor: o.slope,
+            },
+            depth: DepthState {
+                func: CompareFunc::Always,
+                write: false,
+                ..Default::default()
+            },
+            shading: Shading::Immediate,
+            ..Default::default()
+        };
+        self.maps.clear();
+        for view in light_views(frame, o.size) {
+            let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize).map_err(|e| e.to_string())?;
+            let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
+            p.draw(
+                &mut Targets::none().with_lists(&mut lists),
+                &state,
+                &casters.positions,
+                &casters.indices,
+                &TransformPositions(view.matrix),
+                &fs,
+            )
+            .map_err(|e| match e {
+                PipelineError::FragmentPoolFull { needed, .. } => format!(
+                    "technique 'deep-shadow-map': the scene needs {needed} fragments in one light view, more than capacity={} (raise it)",
+                    o.capacity
+                ),
+                e => e.to_string(),
+            })?;
+            // Per texel: sort, step function, compression (texels in parallel, gathered in
+            // order).
+            let n = o.size as usize;
+            let per_row: Vec<Vec<Vec<Vertex>>> = p.install(|| {
+                (0..n)
+                    .into_par_iter()
+                    .map(|y| {
+                        (0..n)
+                            .map(|x| {
+                                let mut frags: Vec<(f32, Vec3)> = lists
+                                    .iter(x as u32, y as u32)
+                                    .map(|nd| (nd.depth, nd.value.truncate()))
+                                    .collect();
+                                if frags.is_empty() {
+                                    return Vec::new();
+                                }
+                                compress(&step_vertices(&mut frags), o.tolerance)
+                            })
+                            .collect()
+                    })
+                    .collect()
+            });
+            let mut offsets = Vec::with_capacity(n * n + 1);
+            let mut vertices = Vec::new();
+            offsets.push(0u32);
+            for row in per_row {
+                for f in row {
+                    vertices.extend_from_slice(&f);
+                    offsets.push(vertices.len() as u32);
+                }
+            }
+            self.maps.push(Map {
+                view,
+                size: o.size,
+                offsets,
+                vertices,
+                fragments: lists.len() as u64,
+            });
+        }
+        let t1 = Instant::now();
+        let this = &*self;
+        let rgb: Vec<Vec3> = p.install(|| {
+            frame
+                .points()
+                .par_iter()
+                .map(|s| match s {
+                    None => Vec3::NAN,
+                    Some(s) => match this.texel_of(frame, s.position) {
+                        Some((f, tx, ty, z)) => {
+                            let v = this.function(f, tx, ty);
+                            if v.is_empty() {
+                                Vec3::ONE
+                            } else {
+                                evaluate(v, z)
+                            }
+                        }
+                        None => Vec3::ONE,
+                    },
+                })
+                .collect()
+        });
+        self.times = vec![
+            ("light pass and compression", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(if self.coloured {
+            Visibility::Rgb(rgb)
+        } else {
+            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
+        })
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let Some(s) = frame.point(x, y) else { return Vec::new() };
+        if self.maps.is_empty() {
+            return Vec::new();
+        }
+        let Some((f, tx, ty, z)) = self.texel_of(frame, s.position) else {
+            return vec![
+                Step::new("outside", "the point is outside the light's maps: lit"),
+                inspect::result(1.0),
+            ];
+        };
+        let v = self.function(f, tx, ty);
+        let mut st = Step::new(
+            "function",
+            "the texel's compressed transmittance function (depth, transmittance per channel)",
+        )
+        .int("view", f)
+        .vec2("texel", Vec2::new(tx as f32, ty as f32))
+        .int("vertices", v.len());
+        for (i, p) in v.iter().enumerate().take(32) {
+            st = st
+                .num(&format!("vertex {i} depth"), p.depth)
+                .vec3(&format!("vertex {i} T"), p.t);
+        }
+        let t = if v.is_empty() { Vec3::ONE } else { evaluate(v, z) };
+        let value = if self.coloured {
+            t.dot(crate::visibility::LUMINANCE)
+        } else {
+            t.x
+        };
+        vec![
+            st,
+            Step::new(
+                "lookup",
+                "binary search of the depth, linear interpolation between the two vertices",
+            )
+            .num("depth", z)
+            .vec3("transmittance", t),
+            inspect::result(value),
+        ]
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let frags: u64 = self.maps.iter().map(|m| m.fragments).sum();
+        let verts: usize = self.maps.iter().map(|m| m.vertices.len()).sum();
+        let texels: usize = self.maps.iter().map(|m| (m.size * m.size) as usize).sum();
+        vec![
+            ("fragments", frags as f64),
+            ("vertices", verts as f64),
+            // The lists' nodes before compression (what the pool held) and after.
+            (
+                "fragment-list bytes",
+                (frags as usize * std::mem::size_of::<ListNode>()) as f64,
+            ),
+            (
+                "light-space bytes",
+                (verts * std::mem::size_of::<Vertex>() + texels * 4) as f64,
+            ),
+        ]
+    }
+
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+        let mut out = Vec::new();
+        for (i, m) in self.maps.iter().enumerate() {
+            let n = (m.size * m.size) as usize;
+            let count: Vec<f32> = (0..n).map(|t| (m.offsets[t + 1] - m.offsets[t]) as f32).collect();
+            let hi = count.iter().copied().fold(1.0f32, f32::max);
+            out.push(Stage::Scalar {
+                name: format!("vertices_per_texel{i}"),
+                data: Surface::from_vec(m.size, m.size, count).map_err(|e| e.to_string())?,
+                lo: 0.0,
+                hi,
+            });
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compression_stays_within_the_tolerance_and_drops_vertices() {
+        // Many faint layers: a staircase a line fits within a coarse tolerance.
+        let mut frags: Vec<(f32, Vec3)> = (0..40).map(|k| (0.3 + 0.01 * k as f32, Vec3::splat(0.97))).collect();
+        let v = step_vertices(&mut frags);
+        for eps in [0.001, 0.01, 0.05] {
+            let c = compress(&v, eps);
+            for z in (0..=1000).map(|k| k as f32 / 1000.0) {
+                let (a, b) = (evaluate(&v, z), evaluate(&c, z));
+                assert!(
+                    (a - b).abs().max_element() <= eps * 2.0 + 1e-5,
+                    "eps {eps} at {z}: {a} vs {b}"
+                );
+            }
+            if eps >= 0.01 {
+                assert!(c.len() < v.len(), "eps {eps}: {} of {} vertices", c.len(), v.len());
+            }
+        }
+        assert!(compress(&v, 0.05).len() < compress(&v, 0.001).len());
+        // An opaque step stays a step.
+        let mut one = vec![(0.5, Vec3::ZERO)];
+        let c = compress(&step_vertices(&mut one), 0.01);
+        assert_eq!(evaluate(&c, 0.4), Vec3::ONE);
+        assert_eq!(evaluate(&c, 0.6), Vec3::ZERO);
+    }
+}
