@@ -179,7 +179,6 @@ pub fn info() -> TechniqueInfo {
         sweep: &[
             &[],
             &[("size", "256")],
-            &[("size", "1024")],
             &[("raster", "standard")],
             &[("samples", "4")],
         ],

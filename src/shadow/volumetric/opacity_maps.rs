@@ -121,7 +121,6 @@ pub fn info() -> TechniqueInfo {
             &[("slices", "4")],
             &[],
             &[("layout", "deep"), ("slices", "4")],
-            &[("layout", "deep")],
         ],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
     }
