@@ -296,10 +296,7 @@ impl ShadowTechnique for Avsm {
         let t0 = Instant::now();
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = scene.materials.iter().any(|m| {
-            let t = m.transmittance_rgb();
-            t.x != t.y || t.y != t.z
-        });
+        self.coloured = super::coloured(scene);
         // Casters in scene order, each triangle with its material's transmittance.
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
         let transmit: Vec<Vec3> = casters
@@ -363,29 +360,17 @@ impl ShadowTechnique for Avsm {
         }
         let t1 = Instant::now();
         // Lookup: each receiver's depth against its texel's curve.
-        let pts = frame.points();
         let this = &*self;
-        let rgb: Vec<Vec3> = p.install(|| {
-            use rayon::prelude::*;
-            pts.par_iter()
-                .map(|s| match s {
-                    None => Vec3::NAN,
-                    Some(s) => match this.curve_at(frame, s.position) {
-                        Some((_, _, z, c)) => c.at(z.clamp(0.0, 1.0)),
-                        None => Vec3::ONE,
-                    },
-                })
-                .collect()
+        let coloured = self.coloured;
+        let out = super::resolve(p, frame, coloured, |s| match this.curve_at(frame, s.position) {
+            Some((_, _, z, c)) => c.at(z.clamp(0.0, 1.0)),
+            None => Vec3::ONE,
         });
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
         ];
-        Ok(if self.coloured {
-            Visibility::Rgb(rgb)
-        } else {
-            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
-        })
+        Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
@@ -430,11 +415,7 @@ impl ShadowTechnique for Avsm {
             .int("nodes in front", c.nodes().partition_point(|n| n.depth < z))
             .vec3("transmittance", t),
         );
-        steps.push(inspect::result(if self.coloured {
-            t.dot(crate::visibility::LUMINANCE)
-        } else {
-            t.x
-        }));
+        steps.push(inspect::result(super::value(self.coloured, t)));
         steps
     }
 

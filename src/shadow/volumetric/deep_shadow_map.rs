@@ -285,10 +285,7 @@ impl ShadowTechnique for DeepShadowMap {
         let t0 = Instant::now();
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = scene.materials.iter().any(|m| {
-            let t = m.transmittance_rgb();
-            t.x != t.y || t.y != t.z
-        });
+        self.coloured = super::coloured(scene);
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
         let transmit: Vec<Vec4> = casters
             .object
@@ -372,35 +369,23 @@ impl ShadowTechnique for DeepShadowMap {
         }
         let t1 = Instant::now();
         let this = &*self;
-        let rgb: Vec<Vec3> = p.install(|| {
-            frame
-                .points()
-                .par_iter()
-                .map(|s| match s {
-                    None => Vec3::NAN,
-                    Some(s) => match this.texel_of(frame, s.position) {
-                        Some((f, tx, ty, z)) => {
-                            let v = this.function(f, tx, ty);
-                            if v.is_empty() {
-                                Vec3::ONE
-                            } else {
-                                evaluate(v, z)
-                            }
-                        }
-                        None => Vec3::ONE,
-                    },
-                })
-                .collect()
+        let coloured = self.coloured;
+        let out = super::resolve(p, frame, coloured, |s| match this.texel_of(frame, s.position) {
+            Some((f, tx, ty, z)) => {
+                let v = this.function(f, tx, ty);
+                if v.is_empty() {
+                    Vec3::ONE
+                } else {
+                    evaluate(v, z)
+                }
+            }
+            None => Vec3::ONE,
         });
         self.times = vec![
             ("light pass and compression", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
         ];
-        Ok(if self.coloured {
-            Visibility::Rgb(rgb)
-        } else {
-            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
-        })
+        Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
@@ -428,11 +413,7 @@ impl ShadowTechnique for DeepShadowMap {
                 .vec3(&format!("vertex {i} T"), p.t);
         }
         let t = if v.is_empty() { Vec3::ONE } else { evaluate(v, z) };
-        let value = if self.coloured {
-            t.dot(crate::visibility::LUMINANCE)
-        } else {
-            t.x
-        };
+        let value = super::value(self.coloured, t);
         vec![
             st,
             Step::new(

@@ -10,3 +10,48 @@ pub mod avsm;
 pub mod deep_shadow_map;
 pub mod opacity_maps;
 pub mod transparency_map;
+
+use crate::frame::Frame;
+use crate::pipeline::Pipeline;
+use crate::reference::SamplePoint;
+use crate::scene::Scene;
+use crate::visibility::{Visibility, LUMINANCE};
+use glam::Vec3;
+
+/// Whether some material of `scene` transmits a colour (different per channel): the
+/// volumetric techniques then return one transmittance per channel.
+pub fn coloured(scene: &Scene) -> bool {
+    scene.materials.iter().any(|m| {
+        let t = m.transmittance_rgb();
+        t.x != t.y || t.y != t.z
+    })
+}
+
+/// The lookup pass every volumetric technique ends with: `f` at each covered pixel's point,
+/// in parallel on `p`'s workers (NaN where no geometry); per channel if `coloured`, else the
+/// first channel (all three are equal then).
+pub fn resolve(p: &Pipeline, frame: &Frame, coloured: bool, f: impl Fn(&SamplePoint) -> Vec3 + Sync) -> Visibility {
+    use rayon::prelude::*;
+    let rgb: Vec<Vec3> = p.install(|| {
+        frame
+            .points()
+            .par_iter()
+            .map(|s| s.as_ref().map_or(Vec3::NAN, &f))
+            .collect()
+    });
+    if coloured {
+        Visibility::Rgb(rgb)
+    } else {
+        Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
+    }
+}
+
+/// A transmittance as the one value `inspect` reports: its luminance, or its first channel
+/// for grey scenes.
+pub fn value(coloured: bool, t: Vec3) -> f32 {
+    if coloured {
+        t.dot(LUMINANCE)
+    } else {
+        t.x
+    }
+}

@@ -213,10 +213,7 @@ impl ShadowTechnique for OpacityMaps {
             .iter()
             .map(|ob| scene.materials[ob.material].is_transparent())
             .collect();
-        self.coloured = scene.materials.iter().any(|m| {
-            let t = m.transmittance_rgb();
-            t.x != t.y || t.y != t.z
-        });
+        self.coloured = super::coloured(scene);
         let opaque = merged_casters(frame, &transparent.iter().map(|t| !t).collect::<Vec<_>>())?;
         let glass = merged_casters(frame, &transparent)?;
         // Optical depth per triangle (a fully opaque channel would be infinite: capped).
@@ -304,26 +301,15 @@ impl ShadowTechnique for OpacityMaps {
         }
         let t1 = Instant::now();
         let this = &*self;
-        let rgb: Vec<Vec3> = p.install(|| {
-            use rayon::prelude::*;
-            frame
-                .points()
-                .par_iter()
-                .map(|s| match s {
-                    None => Vec3::NAN,
-                    Some(s) => this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.8),
-                })
-                .collect()
+        let coloured = self.coloured;
+        let out = super::resolve(p, frame, coloured, |s| {
+            this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.8)
         });
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
         ];
-        Ok(if self.coloured {
-            Visibility::Rgb(rgb)
-        } else {
-            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
-        })
+        Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
@@ -337,11 +323,7 @@ impl ShadowTechnique for OpacityMaps {
                 inspect::result(1.0),
             ];
         };
-        let value = if self.coloured {
-            v.dot(crate::visibility::LUMINANCE)
-        } else {
-            v.x
-        };
+        let value = super::value(self.coloured, v);
         vec![
             Step::new(
                 "light-space position",

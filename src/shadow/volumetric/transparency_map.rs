@@ -154,10 +154,7 @@ impl ShadowTechnique for TransparencyMap {
             .iter()
             .map(|ob| scene.materials[ob.material].is_transparent())
             .collect();
-        self.coloured = scene.materials.iter().any(|m| {
-            let t = m.transmittance_rgb();
-            t.x != t.y || t.y != t.z
-        });
+        self.coloured = super::coloured(scene);
         let opaque = merged_casters(frame, &transparent.iter().map(|t| !t).collect::<Vec<_>>())?;
         let glass = merged_casters(frame, &transparent)?;
         let colours: Vec<Vec4> = glass
@@ -207,26 +204,15 @@ impl ShadowTechnique for TransparencyMap {
         }
         let t1 = Instant::now();
         let this = &*self;
-        let rgb: Vec<Vec3> = p.install(|| {
-            use rayon::prelude::*;
-            frame
-                .points()
-                .par_iter()
-                .map(|s| match s {
-                    None => Vec3::NAN,
-                    Some(s) => this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.6),
-                })
-                .collect()
+        let coloured = self.coloured;
+        let out = super::resolve(p, frame, coloured, |s| {
+            this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.6)
         });
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
         ];
-        Ok(if self.coloured {
-            Visibility::Rgb(rgb)
-        } else {
-            Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
-        })
+        Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
@@ -240,11 +226,7 @@ impl ShadowTechnique for TransparencyMap {
                 inspect::result(1.0),
             ];
         };
-        let value = if self.coloured {
-            v.dot(crate::visibility::LUMINANCE)
-        } else {
-            v.x
-        };
+        let value = super::value(self.coloured, v);
         vec![
             Step::new("light-space position", "the texel both maps are read at, and the point's depth")
                 .int("view", f)
