@@ -101,21 +101,13 @@ pub fn declaration() -> Declaration<Options> {
                 "forward (submission order) or reverse (each texel's fragments backwards: order dependence)",
                 |o: &mut Options| &mut o.order,
             ),
-            Field::range(
-                "units",
-                "constant polygon offset of the light pass",
-                -1e6,
-                1e6,
-                |o: &mut Options| &mut o.units,
-            ),
-            Field::range(
-                "slope",
-                "slope-scaled polygon offset of the light pass",
-                -1e3,
-                1e3,
-                |o: &mut Options| &mut o.slope,
-            ),
-        ],
+        ]
+        .into_iter()
+        .chain(super::offset_fields(
+            |o: &mut Options| &mut o.units,
+            |o: &mut Options| &mut o.slope,
+        ))
+        .collect(),
     }
 }
 

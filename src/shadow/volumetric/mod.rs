@@ -15,6 +15,7 @@ use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
+use crate::shadow::Field;
 use crate::visibility::{Visibility, LUMINANCE};
 use glam::Vec3;
 
@@ -54,4 +55,23 @@ pub fn value(coloured: bool, t: Vec3) -> f32 {
     } else {
         t.x
     }
+}
+
+/// The light pass's polygon offset as two option fields, `units` (constant, in depth steps)
+/// and `slope` (slope-scaled), with the shadow map's ranges: every volumetric technique keeps
+/// its casters' own fragments behind their surfaces this way.
+pub fn offset_fields<O: Clone + Default + 'static>(
+    units: fn(&mut O) -> &mut f32,
+    slope: fn(&mut O) -> &mut f32,
+) -> [Field<O>; 2] {
+    [
+        Field::range("units", "constant polygon offset of the light pass", -1e6, 1e6, units),
+        Field::range(
+            "slope",
+            "slope-scaled polygon offset of the light pass",
+            -1e3,
+            1e3,
+            slope,
+        ),
+    ]
 }

@@ -93,21 +93,13 @@ pub fn declaration() -> Declaration<Options> {
                 "uniform (opacity shadow maps) or deep (deep opacity maps: slices from the first depth)",
                 |o: &mut Options| &mut o.layout,
             ),
-            Field::range(
-                "units",
-                "constant polygon offset of the depth maps",
-                -1e6,
-                1e6,
-                |o: &mut Options| &mut o.units,
-            ),
-            Field::range(
-                "slope",
-                "slope-scaled polygon offset of the depth maps",
-                -1e3,
-                1e3,
-                |o: &mut Options| &mut o.slope,
-            ),
-        ],
+        ]
+        .into_iter()
+        .chain(super::offset_fields(
+            |o: &mut Options| &mut o.units,
+            |o: &mut Options| &mut o.slope,
+        ))
+        .collect(),
     }
 }
 

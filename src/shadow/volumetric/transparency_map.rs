@@ -48,29 +48,19 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "transparency-map",
-        fields: vec![
-            Field::range(
-                "size",
-                "map side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
-            Field::range(
-                "units",
-                "constant polygon offset of both maps",
-                -1e6,
-                1e6,
-                |o: &mut Options| &mut o.units,
-            ),
-            Field::range(
-                "slope",
-                "slope-scaled polygon offset of both maps",
-                -1e3,
-                1e3,
-                |o: &mut Options| &mut o.slope,
-            ),
-        ],
+        fields: vec![Field::range(
+            "size",
+            "map side in texels (per cube face for point lights)",
+            16,
+            MAX_DIMENSION,
+            |o: &mut Options| &mut o.size,
+        )]
+        .into_iter()
+        .chain(super::offset_fields(
+            |o: &mut Options| &mut o.units,
+            |o: &mut Options| &mut o.slope,
+        ))
+        .collect(),
     }
 }
 
