@@ -67,7 +67,8 @@ fn random(c: &mut Criterion) {
 
 /// Shadow techniques on the spheres scene (100k triangles, 1920x1080): shadow volumes whole
 /// and their silhouette extraction alone, the shadow map, the irregular z-buffer (1 and 4
-/// samples per pixel), AVSM (opaque casters only here) and the reference's hard visibility.
+/// samples per pixel), the volumetric techniques (opaque casters only here: their light
+/// passes and lookups at full size) and the reference's hard visibility.
 fn techniques(c: &mut Criterion) {
     use penumbra::shadow::{self, volume::silhouette};
     let p = Pipeline::new(threads()).unwrap();
@@ -97,6 +98,9 @@ fn techniques(c: &mut Criterion) {
         ("izb", "izb", vec![]),
         ("izb-4spp", "izb", izb4),
         ("avsm", "avsm", vec![]),
+        ("transparency-map", "transparency-map", vec![]),
+        ("opacity-maps", "opacity-maps", vec![]),
+        ("deep-shadow-map", "deep-shadow-map", vec![]),
     ] {
         let mut t = shadow::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
