@@ -86,6 +86,23 @@ impl Frame<'_> {
             .map(|p| p.is_some_and(|s| s.normal.dot(self.light.to_light(s.position)) > 0.0))
             .collect()
     }
+
+    /// The pixels of [`Frame::metric_mask`] whose visible surface is transparent (its material
+    /// has a transmittance): where a technique's shadow of transparent objects on themselves
+    /// and on each other is measured.
+    pub fn transparent_mask(&self) -> Vec<bool> {
+        let transparent: Vec<bool> = self
+            .scene
+            .objects
+            .iter()
+            .map(|o| self.scene.materials[o.material].is_transparent())
+            .collect();
+        self.metric_mask()
+            .into_iter()
+            .zip(self.gbuffer.object.data())
+            .map(|(m, &o)| m && o != NO_OBJECT && transparent[o as usize])
+            .collect()
+    }
 }
 
 struct GVs {

@@ -92,6 +92,10 @@ pub struct RunResult {
     pub settings: String,
     /// Errors against the reference.
     pub errors: Errors,
+    /// Errors over the pixels whose visible surface is transparent
+    /// ([`Frame::transparent_mask`]): the transmittance on the transparent objects themselves
+    /// (0 pixels in scenes without visible transparent surfaces).
+    pub transparent: Errors,
     /// Median milliseconds of the technique's visibility call.
     pub ms: f64,
     /// Worker threads.
@@ -236,6 +240,7 @@ pub fn render(
         if i == 0 {
             first = Some((
                 metrics::compare(&v, &r, &mask),
+                metrics::compare(&v, &r, &f.transparent_mask()),
                 ms,
                 FirstFrame {
                     width: f.width(),
@@ -249,7 +254,7 @@ pub fn render(
         }
         seq.push((v, r, mask));
     }
-    let (errors, ms, first) = first.expect("at least one frame");
+    let (errors, transparent, ms, first) = first.expect("at least one frame");
     let settings = sets
         .iter()
         .map(|(k, v)| format!("{k}={v}"))
@@ -260,6 +265,7 @@ pub fn render(
         technique: name.into(),
         settings,
         errors,
+        transparent,
         ms,
         threads: p.threads(),
         flicker: metrics::flicker(&seq),

@@ -61,11 +61,16 @@ fn technique_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
-contact deep-shadow-map [] 264f8a0a621b5ed8
-point_casters deep-shadow-map [] 4963da0d1b015b75
-planar deep-shadow-map [] 53067c7945199088
-cookie deep-shadow-map [] 28363364b0baaf95
-long_view deep-shadow-map [] 31e8d66c38255b25
+contact deep-shadow-map [] a9dd6ffed1c995b1
+contact deep-shadow-map [filter=nearest] 264f8a0a621b5ed8
+point_casters deep-shadow-map [] 5c8845f300fe21e6
+point_casters deep-shadow-map [filter=nearest] 4963da0d1b015b75
+planar deep-shadow-map [] bf66250e8b430bb8
+planar deep-shadow-map [filter=nearest] 53067c7945199088
+cookie deep-shadow-map [] 96fa409facbd0227
+cookie deep-shadow-map [filter=nearest] 28363364b0baaf95
+long_view deep-shadow-map [] 20f5c43da491eeef
+long_view deep-shadow-map [filter=nearest] 31e8d66c38255b25
 contact opacity-maps [slices=4] 264f8a0a621b5ed8
 contact opacity-maps [] 264f8a0a621b5ed8
 contact opacity-maps [layout=deep;slices=4] 264f8a0a621b5ed8

@@ -57,6 +57,13 @@ pub fn render(
         "rmse      {:.5}\nmae       {:.5}\nwrong     {:.3} %\npenumbra  {:.5} (rmse over {} pixels)",
         e.rmse, e.mae, e.wrong_pct, e.penumbra_rmse, e.penumbra_pixels
     );
+    if r.result.transparent.pixels > 0 {
+        let t = &r.result.transparent;
+        println!(
+            "on transparent surfaces: rmse {:.5}, wrong {:.3} % over {} pixels",
+            t.rmse, t.wrong_pct, t.pixels
+        );
+    }
     if !s.camera_path.is_empty() {
         println!("flicker   {:.5} over {} frames", r.result.flicker, s.camera_path.len());
     }

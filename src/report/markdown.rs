@@ -55,19 +55,24 @@ pub fn report_markdown(
 ) -> String {
     let mut s = String::from("# penumbra sweep\n\nEvery technique on every scene against the ray-traced reference. Time is the median of the technique's visibility pass; errors are over pixels covered by geometry and facing the light.\n\n![all scenes](chart_all.svg)\n\n");
     for (name, desc) in scenes {
-        let _ = write!(s, "## {name}\n\n{desc}\n\n![{name}](chart_{name}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        let _ = write!(s, "## {name}\n\n{desc}\n\n![{name}](chart_{name}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | transparent RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
         for r in results.iter().filter(|r| &r.scene == name) {
             let e = &r.errors;
             let img = thumbs(r).map(|t| format!("![]({t})")).unwrap_or_default();
             let _ = writeln!(
                 s,
-                "| {} | {:.2} | {:.4} | {:.4} | {:.3} | {:.4} | {:.4} | {img} |",
+                "| {} | {:.2} | {:.4} | {:.4} | {:.3} | {:.4} | {} | {:.4} | {img} |",
                 r.label(),
                 r.ms,
                 e.rmse,
                 e.mae,
                 e.wrong_pct,
                 e.penumbra_rmse,
+                if r.transparent.pixels > 0 {
+                    format!("{:.4}", r.transparent.rmse)
+                } else {
+                    "-".into()
+                },
                 r.flicker
             );
         }

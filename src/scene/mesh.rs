@@ -1,6 +1,6 @@
-//! Procedural meshes (plane, box, sphere, cylinder, heightfield) and OBJ loading (tobj).
-//! All are centred on the origin (the box and sphere around it, the plane and heightfield in
-//! y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
+//! Procedural meshes (plane, box, sphere, cylinder, heightfield, pleated sheet) and OBJ loading
+//! (tobj). All are centred on the origin (the box and sphere around it, the plane, heightfield
+//! and pleated sheet around y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
 
 use super::Mesh;
 use glam::{Vec2, Vec3};
@@ -182,6 +182,27 @@ pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {
         )
         .normalize();
     }
+    m
+}
+
+/// A pleated sheet: the plane of `size` (x, z) folded along x into `pleats` sine waves of
+/// height `amplitude`, `y = amplitude sin(2 pi pleats (x / size.x + 1/2))`, with `n` quads
+/// along x and `n / 4` (at least 1) along z; normals are the surface's exact ones.
+pub fn pleated(size: Vec2, n: u32, amplitude: f32, pleats: u32) -> Mesh {
+    let (nx, nz) = (n.max(1), (n / 4).max(1));
+    let k = TAU * pleats as f32 / size.x;
+    let mut m = Mesh::default();
+    for j in 0..=nz {
+        for i in 0..=nx {
+            let x = (i as f32 / nx as f32 - 0.5) * size.x;
+            let z = (j as f32 / nz as f32 - 0.5) * size.y;
+            let phase = k * (x + 0.5 * size.x);
+            m.positions.push(Vec3::new(x, amplitude * phase.sin(), z));
+            m.normals
+                .push(Vec3::new(-amplitude * k * phase.cos(), 1.0, 0.0).normalize());
+        }
+    }
+    grid_indices(&mut m, nx, nz);
     m
 }
 

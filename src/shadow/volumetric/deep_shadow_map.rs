@@ -15,13 +15,21 @@
 //! - **Lookup**: binary search of the receiver's depth among the texel's vertices, linear
 //!   interpolation; the receiver's own surface is kept out by the shadow map's polygon offset
 //!   in the light pass.
+//! - **Filtering between texels** (`filter=bilinear`, the default): Lokovic and Veach filter
+//!   the functions, not the depths: the transmittances of the four texels around the lookup
+//!   point, each evaluated at the receiver's depth, weighted bilinearly (their box filter over
+//!   the lookup's footprint, at the footprint of one texel). With opaque casters only this is
+//!   the 2x2 hardware PCF of the shadow map (`filter=pcf2`), bit for bit; `filter=nearest`
+//!   takes the nearest texel's function and is then the hard shadow map.
 //!
 //! Memory grows with the fragments (the lists' pool, capacity as an option: a scene that needs
 //! more is an error that says how many), then shrinks to the compressed vertices, counted.
 //! Known failure: resolution; one function per texel, so thin occluders alias as in a shadow
-//! map (the lookup is not filtered between texels).
+//! map (softened, not removed, by the bilinear filter).
 
+use crate::choice_enum;
 use crate::frame::Frame;
+use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
@@ -29,6 +37,17 @@ use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, V
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::time::Instant;
+
+choice_enum! {
+    /// How the lookup combines texels.
+    pub enum Filter {
+        /// The nearest texel's function.
+        Nearest = "nearest",
+        /// The four nearest texels' functions evaluated at the receiver's depth, weighted
+        /// bilinearly.
+        Bilinear = "bilinear",
+    }
+}
 
 /// Options of the deep shadow map.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +62,8 @@ pub struct Options {
     pub units: f32,
     /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
     pub slope: f32,
+    /// Filtering between texels. Default: bilinear.
+    pub filter: Filter,
 }
 
 impl Default for Options {
@@ -53,6 +74,7 @@ impl Default for Options {
             capacity: 1 << 24,
             units: 4.0,
             slope: 1.1,
+            filter: Filter::Bilinear,
         }
     }
 }
@@ -83,6 +105,11 @@ pub fn declaration() -> Declaration<Options> {
                 1 << 28,
                 |o: &mut Options| &mut o.capacity,
             ),
+            Field::new(
+                "filter",
+                "nearest (one texel's function) or bilinear (four texels' transmittances weighted bilinearly)",
+                |o: &mut Options| &mut o.filter,
+            ),
         ]
         .into_iter()
         .chain(super::offset_fields(
@@ -99,7 +126,7 @@ pub fn info() -> TechniqueInfo {
         name: "deep-shadow-map",
         summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
         options: declaration().infos(),
-        sweep: &[&[]],
+        sweep: &[&[], &[("filter", "nearest")]],
         create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
     }
 }
@@ -225,6 +252,16 @@ struct Map {
     fragments: u64,
 }
 
+/// Where one point reads the map.
+struct Lookup {
+    view: usize,
+    depth: f32,
+    /// Top-left, top-right, bottom-left, bottom-right (all four the same texel for nearest).
+    texels: [(u32, u32); 4],
+    /// The bilinear fraction, `None` for nearest.
+    frac: Option<Vec2>,
+}
+
 /// The deep shadow map (see the module docs).
 pub struct DeepShadowMap {
     opts: Options,
@@ -245,20 +282,67 @@ impl DeepShadowMap {
         })
     }
 
-    fn texel_of(&self, frame: &Frame, p: Vec3) -> Option<(usize, u32, u32, f32)> {
+    /// The lookup of point `p`: its view, depth, and the texels it reads with their weights
+    /// (one texel for `nearest`; for `bilinear` the 2x2 footprint of the shadow map's
+    /// hardware PCF, clamped to the map's edge, weights `(1 - fx)(1 - fy)`, `fx (1 - fy)`,
+    /// `(1 - fx) fy`, `fx fy`). `None` outside every view.
+    fn taps(&self, frame: &Frame, p: Vec3) -> Option<Lookup> {
         let f = light::face_of(self.maps.len(), &frame.light, p);
         let m = &self.maps[f];
         let (uv, z) = m.view.lookup(p)?;
-        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
+        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmple(Vec2::ONE).all()) {
             return None;
         }
         let s = m.size;
-        Some((
-            f,
-            ((uv.x * s as f32) as u32).min(s - 1),
-            ((uv.y * s as f32) as u32).min(s - 1),
-            z.clamp(0.0, 1.0),
-        ))
+        let z = z.clamp(0.0, 1.0);
+        Some(match self.opts.filter {
+            Filter::Nearest => {
+                let t = |c: f32| ((c * s as f32) as u32).min(s - 1);
+                Lookup {
+                    view: f,
+                    depth: z,
+                    texels: [(t(uv.x), t(uv.y)); 4],
+                    frac: None,
+                }
+            }
+            Filter::Bilinear => {
+                let (x, y, fx, fy) = footprint((s, s), uv);
+                let c = |v: i64| v.clamp(0, s as i64 - 1) as u32;
+                let (x0, x1, y0, y1) = (c(x), c(x + 1), c(y), c(y + 1));
+                Lookup {
+                    view: f,
+                    depth: z,
+                    texels: [(x0, y0), (x1, y0), (x0, y1), (x1, y1)],
+                    frac: Some(Vec2::new(fx, fy)),
+                }
+            }
+        })
+    }
+
+    /// The transmittance of texel `(tx, ty)` of view `f` at depth `z` (1 where the texel
+    /// holds no fragment).
+    fn at(&self, f: usize, (tx, ty): (u32, u32), z: f32) -> Vec3 {
+        let v = self.function(f, tx, ty);
+        if v.is_empty() {
+            Vec3::ONE
+        } else {
+            evaluate(v, z)
+        }
+    }
+
+    /// The filtered transmittance of a lookup.
+    fn transmittance(&self, l: &Lookup) -> Vec3 {
+        match l.frac {
+            None => self.at(l.view, l.texels[0], l.depth),
+            Some(fr) => {
+                let [a, b, c, d] = l.texels.map(|t| self.at(l.view, t, l.depth));
+                // The order of operations of the sampler's pcf2x2, so that opaque casters give
+                // its result bit for bit.
+                let top = a + (b - a) * fr.x;
+                let bottom = c + (d - c) * fr.x;
+                top + (bottom - top) * fr.y
+            }
+        }
     }
 
     fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
@@ -362,16 +446,9 @@ impl ShadowTechnique for DeepShadowMap {
         let t1 = Instant::now();
         let this = &*self;
         let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| match this.texel_of(frame, s.position) {
-            Some((f, tx, ty, z)) => {
-                let v = this.function(f, tx, ty);
-                if v.is_empty() {
-                    Vec3::ONE
-                } else {
-                    evaluate(v, z)
-                }
-            }
-            None => Vec3::ONE,
+        let out = super::resolve(p, frame, coloured, |s| {
+            this.taps(frame, s.position)
+                .map_or(Vec3::ONE, |l| this.transmittance(&l))
         });
         self.times = vec![
             ("light pass and compression", (t1 - t0).as_secs_f64() * 1e3),
@@ -385,37 +462,48 @@ impl ShadowTechnique for DeepShadowMap {
         if self.maps.is_empty() {
             return Vec::new();
         }
-        let Some((f, tx, ty, z)) = self.texel_of(frame, s.position) else {
+        let Some(l) = self.taps(frame, s.position) else {
             return vec![
                 Step::new("outside", "the point is outside the light's maps: lit"),
                 inspect::result(1.0),
             ];
         };
-        let v = self.function(f, tx, ty);
-        let mut st = Step::new(
-            "function",
-            "the texel's compressed transmittance function (depth, transmittance per channel)",
-        )
-        .int("view", f)
-        .vec2("texel", Vec2::new(tx as f32, ty as f32))
-        .int("vertices", v.len());
-        for (i, p) in v.iter().enumerate().take(32) {
-            st = st
-                .num(&format!("vertex {i} depth"), p.depth)
-                .vec3(&format!("vertex {i} T"), p.t);
-        }
-        let t = if v.is_empty() { Vec3::ONE } else { evaluate(v, z) };
-        let value = super::value(self.coloured, t);
-        vec![
-            st,
-            Step::new(
-                "lookup",
-                "binary search of the depth, linear interpolation between the two vertices",
+        let mut steps = Vec::new();
+        let taps = if l.frac.is_some() { 4 } else { 1 };
+        for (k, &(tx, ty)) in l.texels.iter().enumerate().take(taps) {
+            let v = self.function(l.view, tx, ty);
+            let mut st = Step::new(
+                "function",
+                "a texel's compressed transmittance function (depth, transmittance per channel)",
             )
-            .num("depth", z)
-            .vec3("transmittance", t),
-            inspect::result(value),
-        ]
+            .int("view", l.view)
+            .vec2("texel", Vec2::new(tx as f32, ty as f32))
+            .int("vertices", v.len());
+            // The vertices of the first texel (the others' are listed by their own pixels).
+            if k == 0 {
+                for (i, p) in v.iter().enumerate().take(32) {
+                    st = st
+                        .num(&format!("vertex {i} depth"), p.depth)
+                        .vec3(&format!("vertex {i} T"), p.t);
+                }
+            }
+            steps.push(st.vec3("T at the depth", self.at(l.view, (tx, ty), l.depth)));
+        }
+        let t = self.transmittance(&l);
+        let mut lookup = Step::new(
+            "lookup",
+            match l.frac {
+                None => "binary search of the depth in the nearest texel's function, linear interpolation between the two vertices",
+                Some(_) => "each texel's function at the depth (binary search, linear interpolation), the four weighted bilinearly",
+            },
+        )
+        .num("depth", l.depth);
+        if let Some(fr) = l.frac {
+            lookup = lookup.vec2("bilinear fraction", fr);
+        }
+        steps.push(lookup.vec3("transmittance", t));
+        steps.push(inspect::result(super::value(self.coloured, t)));
+        steps
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {
