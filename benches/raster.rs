@@ -1,13 +1,17 @@
 //! Criterion benchmarks of the pipeline: the spheres frame per mode and triangle count, and
 //! random triangles per size, depth-only and colour + depth; shadow techniques on the spheres
-//! scene. Throughput is reported in triangles (elements) per second; pixels/s are printed by
+//! scene; the volumetric techniques on the smoke scene. Throughput is reported in triangles (elements) per second; pixels/s are printed by
 //! `penumbra bench raster`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use penumbra::bench::*;
 use penumbra::pipeline::*;
 
+/// Worker threads from `PENUMBRA_THREADS` (0: all cores). Every group starts here, so this is
+/// also where the CLI's allocation policy is set: without it the large per-call buffers are
+/// returned to the kernel and page-faulted back in on every iteration.
 fn threads() -> usize {
+    penumbra::alloc::keep_freed_memory();
     std::env::var("PENUMBRA_THREADS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -111,5 +115,37 @@ fn techniques(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random, techniques);
+/// The volumetric techniques on `smoke` (300 semi-transparent billboards) at 1920x1080 with
+/// 1024² light maps: AVSM with 8 nodes, opacity maps with 16 slices, the deep shadow map and
+/// the coloured transparency map. Throughput in fragments through the light pass.
+fn volumetric(c: &mut Criterion) {
+    use penumbra::shadow;
+    let p = Pipeline::new(threads()).unwrap();
+    let mut g = c.benchmark_group(format!("smoke_techniques_{}t", p.threads()));
+    g.sample_size(10);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/smoke.toml");
+    let mut scene = penumbra::scene::file::load(&path).unwrap();
+    (scene.camera.width, scene.camera.height) = (1920, 1080);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    let size = || ("size".to_string(), "1024".to_string());
+    for (id, name, sets) in [
+        ("avsm-8", "avsm", vec![size()]),
+        ("opacity-maps-16", "opacity-maps", vec![size()]),
+        ("deep-shadow-map", "deep-shadow-map", vec![size()]),
+        ("transparency-map", "transparency-map", vec![size()]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        t.visibility(&p, &f).unwrap();
+        let frags = t
+            .counters()
+            .iter()
+            .find(|(n, _)| n.starts_with("fragments"))
+            .map_or(0, |c| c.1 as u64);
+        g.throughput(Throughput::Elements(frags.max(1)));
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques, volumetric);
 criterion_main!(benches);

@@ -8,7 +8,7 @@
 //! steady-state frames reuse warm pages.
 
 /// Makes glibc keep freed memory for reuse (no-op on other platforms). Call once at start-up,
-/// before large allocations; the CLI, tests and benchmarks do.
+/// before large allocations; the CLI and the benchmarks do.
 pub fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only changes allocator tuning parameters.

@@ -1258,4 +1258,21 @@ fn deep_shadow_maps_match_the_transmittance_and_bound_avsm() {
     let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), "1000".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap();
     assert!(e.contains("more than capacity=1000") && e.contains("needs"), "{e}");
+    // The number the error names is enough, and one fewer is not: the pool never holds more
+    // than its stated capacity.
+    let needed: String = e
+        .split("needs ")
+        .nth(1)
+        .unwrap()
+        .chars()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    let n: u64 = needed.parse().unwrap();
+    let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), needed.clone())]).unwrap();
+    t.visibility(&p, &f).unwrap();
+    let counter = |t: &dyn shadow::ShadowTechnique, name: &str| t.counters().iter().find(|c| c.0 == name).unwrap().1;
+    assert_eq!(counter(&*t, "fragments") as u64, n);
+    assert!(counter(&*t, "peak bytes") >= counter(&*t, "fragment-list bytes"));
+    let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), (n - 1).to_string())]).unwrap();
+    assert!(t.visibility(&p, &f).is_err());
 }

@@ -1,5 +1,6 @@
 //! `penumbra bench ...`: the spheres frame, random triangles, the reference's rays and a
-//! technique on the spheres scene, with per-stage times, counters and a JSON line.
+//! technique on the spheres scene (or a scene file), with per-stage times, counters and a JSON
+//! line.
 
 use super::{FrameArgs, RasterArgs, RaysArgs, TechniqueArgs};
 use penumbra::bench::*;
@@ -258,18 +259,36 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// `WIDTHxHEIGHT`, each side in 1..=MAX_RESOLUTION.
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let max = penumbra::scene::file::MAX_RESOLUTION;
+    let bad = || format!("--resolution '{s}': expected WIDTHxHEIGHT, each side in 1..={max}");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let side = |v: &str| v.trim().parse::<u32>().ok().filter(|v| (1..=max).contains(v));
+    Ok((side(w).ok_or_else(bad)?, side(h).ok_or_else(bad)?))
+}
+
 pub fn technique(a: TechniqueArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
     let sets = penumbra::shadow::parse_sets(&a.sets)?;
     let mut t = penumbra::shadow::create(&a.technique, &sets)?;
+    let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
-    let scene = spheres_as_scene(a.triangles);
+    let mut scene = match &a.scene {
+        Some(path) => super::scene::load(path)?.0,
+        None => spheres_as_scene(a.triangles),
+    };
+    if let Some((w, h)) = resolution {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
     let f = penumbra::frame::frame(&p, &scene, 0, 0)?;
     let tris = scene.triangles();
     println!(
-        "technique {} [{}] on spheres: {tris} triangles, {}x{}, {} threads",
+        "technique {} [{}] on {}: {tris} triangles, {}x{}, {} threads",
         a.technique,
         a.sets.join(" "),
+        scene.name,
         f.width(),
         f.height(),
         p.threads()
@@ -297,14 +316,27 @@ pub fn technique(a: TechniqueArgs) -> Result<(), String> {
         p.threads(),
         tris as f64 / ms / 1e3
     );
+    // The light-space passes (all but the lookup), for the fragments' insertion rate.
+    let mut light_ms = 0.0;
     for (name, list) in passes {
         let m = penumbra::metrics::median(list);
         println!("  {name:<18} {m:.3} ms");
         let _ = write!(json, ",\"ms_{}\":{m:.4}", name.replace(' ', "_"));
+        if !name.starts_with("lookup") {
+            light_ms += m;
+        }
     }
-    for (name, c) in t.counters() {
+    let counters = t.counters();
+    for (name, c) in &counters {
         println!("  {name:<18} {c}");
         let _ = write!(json, ",\"{}\":{c}", name.replace(' ', "_"));
+    }
+    if let Some((_, frags)) = counters.iter().find(|(n, _)| n.starts_with("fragments")) {
+        if light_ms > 0.0 {
+            let rate = frags / light_ms / 1e3;
+            println!("fragments {rate:.2} M/s through the light pass");
+            let _ = write!(json, ",\"mfragments_per_s\":{rate:.3}");
+        }
     }
     println!("throughput {:.2} Mtri/s", tris as f64 / ms / 1e3);
     println!("hash      {hash:016x}");

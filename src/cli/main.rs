@@ -143,6 +143,13 @@ struct TechniqueArgs {
     /// Target triangle count of the spheres scene.
     #[arg(long, default_value_t = 100_000)]
     triangles: usize,
+    /// A scene file to run instead of the spheres scene.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// The camera's resolution, WIDTHxHEIGHT (default: the scene's; the spheres scene's is
+    /// 1920x1080).
+    #[arg(long)]
+    resolution: Option<String>,
     #[command(flatten)]
     common: Common,
 }

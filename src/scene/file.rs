@@ -287,66 +287,67 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
                 ctx.err(s.clone(), &what, field, format!("{v} is outside 1..={max}"))
             }
         };
-        let mesh =
-            match o.mesh.as_str() {
-                "plane" => {
-                    let sz = size_vec(2, &[10.0, 10.0])?;
-                    mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
+        let mesh = match o.mesh.as_str() {
+            "plane" => {
+                let sz = size_vec(2, &[10.0, 10.0])?;
+                mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
+            }
+            "box" => {
+                let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
+                mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
+            }
+            "sphere" => mesh::sphere(
+                num(o.radius, "radius", 0.5)?,
+                count(o.stacks, "stacks", 24, 2048)?,
+                count(o.slices, "slices", 48, 4096)?,
+            ),
+            "cylinder" => mesh::cylinder(
+                num(o.radius, "radius", 0.5)?,
+                num(o.height, "height", 1.0)?,
+                count(o.segments, "segments", 32, 4096)?,
+            ),
+            "heightfield" => {
+                let sz = size_vec(2, &[20.0, 20.0])?;
+                let amp = o.amplitude.unwrap_or(1.0);
+                if !(amp.is_finite() && amp.abs() < 1e6) {
+                    return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
                 }
-                "box" => {
-                    let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
-                    mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
+                mesh::heightfield(
+                    Vec2::new(sz[0], sz[1]),
+                    count(o.subdivisions, "subdivisions", 64, 1024)?,
+                    amp,
+                    o.seed.unwrap_or(1),
+                )
+            }
+            "pleated" => {
+                let sz = size_vec(2, &[4.0, 2.0])?;
+                let amp = o.amplitude.unwrap_or(0.2);
+                if !(amp.is_finite() && amp.abs() < 1e6) {
+                    return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
                 }
-                "sphere" => mesh::sphere(
-                    num(o.radius, "radius", 0.5)?,
-                    count(o.stacks, "stacks", 24, 2048)?,
-                    count(o.slices, "slices", 48, 4096)?,
-                ),
-                "cylinder" => mesh::cylinder(
-                    num(o.radius, "radius", 0.5)?,
-                    num(o.height, "height", 1.0)?,
-                    count(o.segments, "segments", 32, 4096)?,
-                ),
-                "heightfield" => {
-                    let sz = size_vec(2, &[20.0, 20.0])?;
-                    let amp = o.amplitude.unwrap_or(1.0);
-                    if !(amp.is_finite() && amp.abs() < 1e6) {
-                        return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                    }
-                    mesh::heightfield(
-                        Vec2::new(sz[0], sz[1]),
-                        count(o.subdivisions, "subdivisions", 64, 1024)?,
-                        amp,
-                        o.seed.unwrap_or(1),
-                    )
-                }
-                "pleated" => {
-                    let sz = size_vec(2, &[4.0, 2.0])?;
-                    let amp = o.amplitude.unwrap_or(0.2);
-                    if !(amp.is_finite() && amp.abs() < 1e6) {
-                        return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                    }
-                    let pleats = count(o.pleats, "pleats", 6, 1024)?;
-                    mesh::pleated(
-                        Vec2::new(sz[0], sz[1]),
-                        count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
-                        amp,
-                        pleats,
-                    )
-                }
-                p if p.to_ascii_lowercase().ends_with(".obj") => {
-                    let full: PathBuf = dir.join(p);
-                    mesh::load_obj(&full).or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
-                }
-                other => return ctx.err(
+                let pleats = count(o.pleats, "pleats", 6, 1024)?;
+                mesh::pleated(
+                    Vec2::new(sz[0], sz[1]),
+                    count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
+                    amp,
+                    pleats,
+                )
+            }
+            p if p.to_ascii_lowercase().ends_with(".obj") => {
+                let full: PathBuf = dir.join(p);
+                mesh::load_obj(&full).or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
+            }
+            other => {
+                return ctx.err(
                     s,
                     &what,
                     "mesh",
                     format!(
                         "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated or a .obj path)"
                     ),
-                ),
-            };
+                )
+            }
+        };
         let t = finite3(o.translate.unwrap_or([0.0; 3]))
             .map_or_else(|| ctx.err(s.clone(), &what, "translate", "not finite"), Ok)?;
         let r = finite3(o.rotate.unwrap_or([0.0; 3]))

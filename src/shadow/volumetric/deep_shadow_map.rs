@@ -268,6 +268,9 @@ pub struct DeepShadowMap {
     maps: Vec<Map>,
     coloured: bool,
     times: Vec<(&'static str, f64)>,
+    /// Most bytes held at once while building: the finished views' functions plus one view's
+    /// lists (heads, tails, nodes) and its functions twice (per row, then pooled).
+    peak: usize,
 }
 
 impl DeepShadowMap {
@@ -279,6 +282,7 @@ impl DeepShadowMap {
             maps: Vec::new(),
             coloured: false,
             times: Vec::new(),
+            peak: 0,
         })
     }
 
@@ -386,6 +390,8 @@ impl ShadowTechnique for DeepShadowMap {
             ..Default::default()
         };
         self.maps.clear();
+        self.peak = 0;
+        let mut done = 0usize;
         for view in light_views(frame, o.size) {
             let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize).map_err(|e| e.to_string())?;
             let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
@@ -435,6 +441,11 @@ impl ShadowTechnique for DeepShadowMap {
                     offsets.push(vertices.len() as u32);
                 }
             }
+            let texels = (o.size * o.size) as usize;
+            let lists_bytes = texels * 8 + lists.len() * std::mem::size_of::<ListNode>();
+            let built = vertices.len() * std::mem::size_of::<Vertex>() + offsets.len() * 4;
+            self.peak = self.peak.max(done + lists_bytes + 2 * built);
+            done += built;
             self.maps.push(Map {
                 view,
                 size: o.size,
@@ -526,6 +537,13 @@ impl ShadowTechnique for DeepShadowMap {
                 "light-space bytes",
                 (verts * std::mem::size_of::<Vertex>() + texels * 4) as f64,
             ),
+            // What one view's pool may hold at most (the `capacity` option), and the most
+            // bytes held at once while building.
+            (
+                "pool capacity bytes",
+                (self.opts.capacity as usize * std::mem::size_of::<ListNode>()) as f64,
+            ),
+            ("peak bytes", self.peak as f64),
         ]
     }
 
