@@ -3,7 +3,7 @@
 //! reductions are combined in row order).
 
 use super::sampler::Filterable;
-use super::surface::Surface;
+use super::surface::{MipChain, Surface};
 use super::{Pipeline, PipelineError};
 use glam::{DVec4, Vec4};
 use rayon::prelude::*;
@@ -26,6 +26,77 @@ pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync
             .collect()
     });
     rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+}
+
+/// The min and max mip chains of a depth map (hierarchical min/max shadow maps, RTR 7.6):
+/// each texel of level i+1 the minimum (maximum) of the up to 2x2 texels below it, an odd last
+/// row or column folded into the previous texel. Rows in parallel; equal to
+/// [`MipChain::build`] with [`super::surface::min_f32`] and [`super::surface::max_f32`]
+/// without its level 0 (`base` itself is both chains' finest level; not copied).
+pub fn min_max_chains(p: &Pipeline, base: &Surface<f32>) -> (MipChain<f32>, MipChain<f32>) {
+    let mut mins: Vec<Surface<f32>> = Vec::new();
+    let mut maxs: Vec<Surface<f32>> = Vec::new();
+    loop {
+        let (lo, hi) = (mins.last().unwrap_or(base), maxs.last().unwrap_or(base));
+        let (w, h) = (lo.width(), lo.height());
+        if w == 1 && h == 1 {
+            break;
+        }
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let rows: Vec<(Vec<f32>, Vec<f32>)> = p.install(|| {
+            (0..nh)
+                .into_par_iter()
+                .map(|y| {
+                    let y0 = 2 * y;
+                    let y1 = if y == nh - 1 { h } else { (2 * y + 2).min(h) };
+                    // Even sizes: each output texel is exactly the 2x2 below it (two rows read
+                    // pairwise); otherwise the general fold with the last row and column.
+                    if w % 2 == 0 && h % 2 == 0 {
+                        let (wu, yu) = (w as usize, y0 as usize);
+                        let (ld, hd) = (lo.data(), hi.data());
+                        let (r0, r1) = (yu * wu..(yu + 1) * wu, (yu + 1) * wu..(yu + 2) * wu);
+                        let (l0, l1, h0, h1) = (&ld[r0.clone()], &ld[r1.clone()], &hd[r0], &hd[r1]);
+                        let a: Vec<f32> = l0
+                            .chunks_exact(2)
+                            .zip(l1.chunks_exact(2))
+                            .map(|(p, q)| p[0].min(p[1]).min(q[0]).min(q[1]))
+                            .collect();
+                        let b: Vec<f32> = h0
+                            .chunks_exact(2)
+                            .zip(h1.chunks_exact(2))
+                            .map(|(p, q)| p[0].max(p[1]).max(q[0]).max(q[1]))
+                            .collect();
+                        return (a, b);
+                    }
+                    (0..nw)
+                        .map(|x| {
+                            let x0 = 2 * x;
+                            let x1 = if x == nw - 1 { w } else { (2 * x + 2).min(w) };
+                            let (mut a, mut b) = (f32::INFINITY, f32::NEG_INFINITY);
+                            for yy in y0..y1.max(y0 + 1) {
+                                for xx in x0..x1.max(x0 + 1) {
+                                    a = a.min(lo.at(xx.min(w - 1), yy.min(h - 1)));
+                                    b = b.max(hi.at(xx.min(w - 1), yy.min(h - 1)));
+                                }
+                            }
+                            (a, b)
+                        })
+                        .unzip()
+                })
+                .collect()
+        });
+        let (mut a, mut b) = (
+            Vec::with_capacity((nw * nh) as usize),
+            Vec::with_capacity((nw * nh) as usize),
+        );
+        for (ra, rb) in rows {
+            a.extend(ra);
+            b.extend(rb);
+        }
+        mins.push(Surface::from_vec(nw, nh, a).expect("a level of a valid surface"));
+        maxs.push(Surface::from_vec(nw, nh, b).expect("a level of a valid surface"));
+    }
+    (MipChain::from_levels(mins), MipChain::from_levels(maxs))
 }
 
 /// Histogram of the finite texels in `[lo, hi)` over `bins` equal bins (values outside are not
@@ -179,6 +250,24 @@ mod tests {
         let sat = summed_area_table(&p, &s);
         let direct: f32 = (1..=3).flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32)).sum();
         assert_eq!(sat_box(&sat, 2, 1, 5, 3).x, direct as f64);
+    }
+
+    #[test]
+    fn min_max_chains_equal_the_sequential_chains_for_any_thread_count() {
+        use crate::pipeline::surface::{max_f32, min_f32};
+        let mut rng = crate::hash::SplitMix(9);
+        for (w, h) in [(37, 20), (64, 64), (1, 9)] {
+            let data: Vec<f32> = (0..w * h).map(|_| rng.next_f32()).collect();
+            let s = Surface::from_vec(w, h, data).unwrap();
+            let (lo, hi) = (MipChain::build(s.clone(), min_f32), MipChain::build(s.clone(), max_f32));
+            for t in [1, 2, 4] {
+                let (a, b) = min_max_chains(&Pipeline::new(t).unwrap(), &s);
+                assert!(
+                    a.levels() == &lo.levels()[1..] && b.levels() == &hi.levels()[1..],
+                    "{w}x{h}, {t} threads"
+                );
+            }
+        }
     }
 
     #[test]

@@ -311,6 +311,12 @@ impl<T: Texel> MipChain<T> {
         MipChain { levels }
     }
 
+    /// A chain from its levels, finest first (each half the previous, at least 1, down to
+    /// 1 x 1), as [`MipChain::build`] makes them.
+    pub(crate) fn from_levels(levels: Vec<Surface<T>>) -> Self {
+        MipChain { levels }
+    }
+
     /// Number of levels.
     pub fn level_count(&self) -> usize {
         self.levels.len()

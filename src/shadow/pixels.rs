@@ -18,3 +18,30 @@ pub fn per_pixel(p: &Pipeline, frame: &Frame, f: impl Fn(usize, usize) -> f32 + 
     });
     out
 }
+
+/// [`per_pixel`] for functions that also count their work: `f(x, y)` returns the value and a
+/// count, and the counts' total comes back beside the values (summed per row, then over rows
+/// in order: the same total for any thread count).
+pub fn per_pixel_counted(
+    p: &Pipeline,
+    frame: &Frame,
+    f: impl Fn(usize, usize) -> (f32, u64) + Sync,
+) -> (Vec<f32>, u64) {
+    let w = frame.width() as usize;
+    let mut out = vec![f32::NAN; w * frame.height() as usize];
+    let total = p.install(|| {
+        out.par_chunks_mut(w)
+            .enumerate()
+            .map(|(y, row)| {
+                let mut n = 0u64;
+                for (x, o) in row.iter_mut().enumerate() {
+                    let (v, c) = f(x, y);
+                    *o = v;
+                    n += c;
+                }
+                n
+            })
+            .sum::<u64>()
+    });
+    (out, total)
+}

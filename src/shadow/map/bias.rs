@@ -9,7 +9,7 @@
 use super::super::light::{project, LightView};
 use crate::reference::SamplePoint;
 use crate::scene::Light;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 /// The normal-offset lookup point (Holbert 2011): `s` moved along `normal` by `k` texels of
 /// `view` at `s`, times the sine of the angle between the normal and the light direction.
@@ -22,10 +22,9 @@ pub fn normal_offset(view: &LightView, light: &Light, s: &SamplePoint, k: f32) -
     s.position + s.normal * (k * view.texel_at(light, s.position) * sin)
 }
 
-/// Receiver-plane depth bias (Isidoro 2006): from the light-space (u, v, z) of this pixel and
-/// its right and lower neighbours (same surface), solve for dz/du and dz/dv and return the
-/// depth change across one texel, `(|dz/du| + |dz/dv|) / size`. Zero where the neighbours are
-/// missing or the Jacobian is singular.
+/// Receiver-plane depth bias (Isidoro 2006): the depth change across one texel,
+/// `(|dz/du| + |dz/dv|) / size` of [`receiver_plane_gradient`], at most 0.05; zero without a
+/// gradient.
 #[allow(clippy::too_many_arguments)]
 pub fn receiver_plane_bias(
     pts: &[Option<SamplePoint>],
@@ -37,6 +36,49 @@ pub fn receiver_plane_bias(
     m: &Mat4,
     size: u32,
 ) -> f32 {
+    match plane_slopes(pts, objs, w, h, x, y, m) {
+        Some(d) => {
+            let b = (d.x.abs() + d.y.abs()) / size as f32;
+            if b.is_finite() {
+                b.min(0.05)
+            } else {
+                0.0
+            }
+        }
+        None => 0.0,
+    }
+}
+
+/// The receiver plane's light-space depth gradient per shadow-map texel (Isidoro 2006): from
+/// the light-space (u, v, z) of this pixel and its right and lower neighbours (same surface),
+/// dz/du and dz/dv solved and divided by the map's `size`. `None` where the neighbours are
+/// missing, the Jacobian is singular or the result is not finite.
+#[allow(clippy::too_many_arguments)]
+pub fn receiver_plane_gradient(
+    pts: &[Option<SamplePoint>],
+    objs: &[u32],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+    m: &Mat4,
+    size: u32,
+) -> Option<Vec2> {
+    let g = plane_slopes(pts, objs, w, h, x, y, m)? / size as f32;
+    g.is_finite().then_some(g)
+}
+
+/// dz/du and dz/dv of the receiver's plane in light texture space (see
+/// [`receiver_plane_gradient`]).
+fn plane_slopes(
+    pts: &[Option<SamplePoint>],
+    objs: &[u32],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+    m: &Mat4,
+) -> Option<Vec2> {
     let own = objs[y * w + x];
     let at = |xx: usize, yy: usize| {
         if objs[yy * w + xx] == own {
@@ -45,7 +87,7 @@ pub fn receiver_plane_bias(
             None
         }
     };
-    let Some((uv0, z0)) = at(x, y) else { return 0.0 };
+    let (uv0, z0) = at(x, y)?;
     let nx = if x + 1 < w {
         at(x + 1, y)
     } else if x > 0 {
@@ -60,21 +102,14 @@ pub fn receiver_plane_bias(
     } else {
         None
     };
-    let (Some((uvx, zx)), Some((uvy, zy))) = (nx, ny) else {
-        return 0.0;
-    };
+    let ((uvx, zx), (uvy, zy)) = (nx?, ny?);
     let (du1, dz1) = (uvx - uv0, zx - z0);
     let (du2, dz2) = (uvy - uv0, zy - z0);
     let det = du1.x * du2.y - du2.x * du1.y;
     if det.abs() < 1e-20 {
-        return 0.0;
+        return None;
     }
     let dzdu = (dz1 * du2.y - dz2 * du1.y) / det;
     let dzdv = (du1.x * dz2 - du2.x * dz1) / det;
-    let b = (dzdu.abs() + dzdv.abs()) / size as f32;
-    if b.is_finite() {
-        b.min(0.05)
-    } else {
-        0.0
-    }
+    Some(Vec2::new(dzdu, dzdv))
 }

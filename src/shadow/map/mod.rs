@@ -3,4 +3,5 @@
 //! family (filtering, resolution) shares.
 
 pub mod bias;
+pub mod kernel;
 pub mod shadow_map;

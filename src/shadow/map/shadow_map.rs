@@ -11,20 +11,26 @@
 //! 1994; `midpoint`, the average of the two nearest layers, Woo 1992, by depth peeling; `id`,
 //! object ids instead of depth, Cournia 3.1.2); fitting of a directional light's frustum to
 //! the casters that can shadow visible receivers, with other casters culled (RTR fig. 7.11);
-//! and texel snapping so camera motion does not move the sampling grid.
+//! and texel snapping so camera motion does not move the sampling grid; and the lookup's
+//! filter: one comparison, 2x2 hardware PCF, or a wide PCF kernel of [`super::kernel`] (grid,
+//! tent, Poisson, rotated Poisson, spiral; width in texels or world units; receiver-plane
+//! depth and bias cone across the kernel; min/max hierarchy to skip the taps of kernels fully
+//! lit or shadowed), or the depths filtered before one comparison, the wrong order.
 //!
 //! Known failures: acne without bias, Peter Panning with too much, aliasing where the map is
 //! magnified, shimmering of fitted maps without snapping, light leaks of second-depth maps on
-//! open (two-sided) geometry, self-shadowing lost by id maps.
+//! open (two-sided) geometry, self-shadowing lost by id maps, acne of wide kernels without bias
+//! across the kernel, uniform penumbrae of fixed-width PCF.
 
-use super::bias::{normal_offset, receiver_plane_bias};
+use super::bias::{normal_offset, receiver_plane_bias, receiver_plane_gradient};
+use super::kernel::{Class, Kernel, MinMax, Pattern, Reference, MAX_TAPS};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
-use crate::shadow::pixels::per_pixel;
+use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
@@ -59,6 +65,33 @@ choice_enum! {
         None = "none",
         /// Hardware-style 2x2 PCF: four comparisons, bilinearly weighted.
         Pcf2 = "pcf2",
+        /// Bilinear filtering of the depths, then one comparison (the wrong order).
+        DepthBilinear = "depth-bilinear",
+        /// `n x n` 2x2 comparisons at whole-texel offsets, box weights (`kernel` = n).
+        Grid = "grid",
+        /// `n x n` 2x2 comparisons at whole-texel offsets, tent weights.
+        Tent = "tent",
+        /// A fixed Poisson disk of `taps` 2x2 comparisons, `kernel` texels wide.
+        Poisson = "poisson",
+        /// The Poisson disk rotated per pixel by a hashed angle.
+        Rotated = "rotated",
+        /// A Vogel spiral rotated by interleaved gradient noise (Jimenez 2014).
+        Spiral = "spiral",
+    }
+}
+
+impl Filter {
+    /// The PCF kernel pattern of the wide filters.
+    pub fn pattern(self) -> Option<Pattern> {
+        match self {
+            Filter::None | Filter::Pcf2 => None,
+            Filter::DepthBilinear => Some(Pattern::DepthBilinear),
+            Filter::Grid => Some(Pattern::Grid),
+            Filter::Tent => Some(Pattern::Tent),
+            Filter::Poisson => Some(Pattern::Poisson),
+            Filter::Rotated => Some(Pattern::Rotated),
+            Filter::Spiral => Some(Pattern::Spiral),
+        }
     }
 }
 
@@ -85,6 +118,19 @@ pub struct Options {
     pub snap: bool,
     /// Lookup filter. Default: none.
     pub filter: Filter,
+    /// Wide filters: kernel width in texels (grid and tent: taps per axis, made odd). Default: 5.
+    pub kernel: f32,
+    /// Wide filters: kernel width in world units at the receiver instead (0: use `kernel`).
+    /// Default: 0.
+    pub world: f32,
+    /// Poisson, rotated and spiral filters: taps (1 to 256). Default: 16.
+    pub taps: u32,
+    /// Wide filters: bias cone slope (Burley 2006), the reference moved toward the light by
+    /// `cone` times each tap's distance from the centre. Default: 0.
+    pub cone: f32,
+    /// Wide filters: classify kernels as fully lit or shadowed from min/max mip chains of the
+    /// map and skip their taps (identical result). Default: false.
+    pub hierarchy: bool,
 }
 
 impl Default for Options {
@@ -100,6 +146,11 @@ impl Default for Options {
             fit: FitTo::Scene,
             snap: false,
             filter: Filter::None,
+            kernel: 5.0,
+            world: 0.0,
+            taps: 16,
+            cone: 0.0,
+            hierarchy: false,
         }
     }
 }
@@ -162,8 +213,37 @@ pub fn declaration() -> Declaration<Options> {
             ),
             Field::new(
                 "filter",
-                "none (one comparison) or pcf2 (2x2 hardware PCF)",
+                "none (one comparison), pcf2 (2x2 hardware PCF), depth-bilinear (depths filtered, then compared: wrong), grid, tent, poisson, rotated or spiral (wide PCF kernels)",
                 |o: &mut Options| &mut o.filter,
+            ),
+            Field::range(
+                "kernel",
+                "wide filters: kernel width in texels (grid and tent: taps per axis, made odd)",
+                1.0,
+                MAX_DIMENSION as f32,
+                |o: &mut Options| &mut o.kernel,
+            ),
+            Field::range(
+                "world",
+                "wide filters: kernel width in world units at the receiver (0: use kernel)",
+                0.0,
+                1e6,
+                |o: &mut Options| &mut o.world,
+            ),
+            Field::range("taps", "poisson, rotated and spiral filters: taps", 1, MAX_TAPS, |o: &mut Options| {
+                &mut o.taps
+            }),
+            Field::range(
+                "cone",
+                "wide filters: bias cone slope (Burley), depth toward the light per unit of tap distance",
+                0.0,
+                100.0,
+                |o: &mut Options| &mut o.cone,
+            ),
+            Field::new(
+                "hierarchy",
+                "wide filters: skip the taps of kernels a min/max mip chain shows fully lit or shadowed",
+                |o: &mut Options| &mut o.hierarchy,
             ),
         ],
     }
@@ -194,6 +274,24 @@ pub fn info() -> TechniqueInfo {
             &[("fit", "receivers")],
             &[("fit", "receivers"), ("snap", "true")],
             &[("filter", "pcf2")],
+            &[("filter", "depth-bilinear")],
+            &[("filter", "grid")],
+            &[("filter", "grid"), ("hierarchy", "true")],
+            &[("filter", "tent")],
+            &[("filter", "grid"), ("kernel", "9")],
+            &[
+                ("filter", "grid"),
+                ("kernel", "9"),
+                ("receiver", "true"),
+                ("units", "0"),
+                ("slope", "0"),
+            ],
+            &[("filter", "grid"), ("kernel", "9"), ("cone", "2")],
+            &[("filter", "poisson")],
+            &[("filter", "poisson"), ("taps", "64")],
+            &[("filter", "rotated")],
+            &[("filter", "spiral")],
+            &[("filter", "poisson"), ("world", "0.1")],
         ],
         create: |pairs| Ok(Box::new(ShadowMap::new(declaration().parse(pairs)?)?)),
     }
@@ -209,6 +307,10 @@ pub struct ShadowMap {
     culled: usize,
     /// The fitted view of the last run (directional lights fitted to receivers), for `stages`.
     fitted: Option<LightView>,
+    /// Last run with `hierarchy`: the maps' min/max chains.
+    minmax: Vec<MinMax>,
+    /// Last run: bilinear taps of all lookups, and lookups the hierarchy classified.
+    taps: u64,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -216,12 +318,20 @@ impl ShadowMap {
     /// A shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<ShadowMap, String> {
         declaration().check(&opts)?;
+        if opts.filter.pattern().is_some() && opts.kernel > opts.size as f32 {
+            return Err(format!(
+                "technique 'shadow-map': option kernel={} is wider than the map (size={})",
+                opts.kernel, opts.size
+            ));
+        }
         Ok(ShadowMap {
             opts,
             maps: Vec::new(),
             ids: Vec::new(),
             culled: 0,
             fitted: None,
+            minmax: Vec::new(),
+            taps: 0,
             times: Vec::new(),
         })
     }
@@ -288,15 +398,19 @@ impl ShadowMap {
             };
             self.maps.push((map, view));
         }
+        self.minmax.clear();
+        if o.hierarchy && o.filter.pattern().is_some() {
+            self.minmax = self.maps.iter().map(|(m, _)| MinMax::new(p, m)).collect();
+        }
         Ok(())
     }
 
-    /// Pass 2 at one pixel: the lookup, every step reported to `t`.
+    /// Pass 2 at one pixel: the lookup and its bilinear taps, every step reported to `t`.
     #[inline(always)]
-    fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> f32 {
+    fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
-        let Some(s) = pts[y * w + x] else { return f32::NAN };
+        let Some(s) = pts[y * w + x] else { return (f32::NAN, 0) };
         let o = &self.opts;
         let light = &frame.light;
         let face = light::face_of(self.maps.len(), light, s.position);
@@ -323,7 +437,7 @@ impl ShadowMap {
         }
         let Some((uv, z)) = view.lookup(pos) else {
             t.step(|| Step::new("behind the light", "the point is behind the view's eye: lit"));
-            return 1.0;
+            return (1.0, 0);
         };
         let size = map.width();
         t.step(|| {
@@ -350,9 +464,13 @@ impl ShadowMap {
                 .flag("inside the map", inside)
                 .flag("lit", lit)
             });
-            return if lit { 1.0 } else { 0.0 };
+            return (if lit { 1.0 } else { 0.0 }, 1);
         }
         let mut z = z;
+        let mut gradient = Vec2::ZERO;
+        if o.receiver && o.filter.pattern().is_some() {
+            gradient = receiver_plane_gradient(pts, objs, w, h, x, y, &view.matrix, size).unwrap_or(Vec2::ZERO);
+        }
         if o.receiver {
             let b = receiver_plane_bias(pts, objs, w, h, x, y, &view.matrix, size);
             z -= b;
@@ -375,12 +493,65 @@ impl ShadowMap {
             .num("polygon offset units", o.units)
             .num("polygon offset slope", o.slope)
         });
-        let v = match o.filter {
-            Filter::Pcf2 => sampler.pcf2x2(map, uv, z),
-            Filter::None => sampler.nearest(map, uv, z),
+        let Some(pattern) = o.filter.pattern() else {
+            let v = match o.filter {
+                Filter::Pcf2 => sampler.pcf2x2(map, uv, z),
+                _ => sampler.nearest(map, uv, z),
+            };
+            t.step(|| texel_steps(map, uv, z, o.filter));
+            return (v, 1);
         };
-        t.step(|| texel_steps(map, uv, z, o.filter));
-        v
+        // Wide kernels (RTR 7.5): the width in texels (from world units at the point if asked),
+        // the reference per tap (receiver plane, bias cone), then the hierarchy or the taps.
+        let width = if o.world > 0.0 {
+            (o.world / view.texel_at(light, pos)).clamp(1.0, size as f32)
+        } else {
+            o.kernel
+        };
+        let kernel = Kernel {
+            pattern,
+            taps: o.taps,
+            width,
+        };
+        let cone = if o.cone > 0.0 {
+            // Depth change of one texel's world size toward the light, times the slope.
+            let step = view.texel_at(light, pos);
+            match view.lookup(pos + light.to_light(pos) * step) {
+                Some((_, zl)) => o.cone * (zl - z).min(0.0),
+                None => 0.0,
+            }
+        } else {
+            0.0
+        };
+        let r = Reference { z, gradient, cone };
+        if let Some(mm) = self.minmax.get(face) {
+            let (lo, hi) = r.range(kernel.extent());
+            let class = mm.classify(uv, kernel.extent() + 1.0, lo, hi);
+            t.step(|| {
+                Step::new(
+                    "min/max hierarchy",
+                    "the kernel's footprint in the min/max chains: fully lit or shadowed skips the taps",
+                )
+                .num("lowest reference", lo)
+                .num("highest reference", hi)
+                .text(
+                    "class",
+                    match class {
+                        Class::Lit => "lit",
+                        Class::Shadowed => "shadowed",
+                        Class::Mixed => "mixed",
+                    },
+                )
+            });
+            match class {
+                Class::Lit => return (1.0, 1),
+                Class::Shadowed => return (0.0, 1),
+                Class::Mixed => {}
+            }
+        }
+        let f = kernel.filter(map, uv, &r, x as u32, y as u32);
+        t.step(|| kernel.explain(map, uv, &r, x as u32, y as u32));
+        (f.value, f.taps as u64)
     }
 }
 
@@ -390,16 +561,11 @@ fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, filter: Filter) -> Step {
     let mut step = Step::new(
         "comparison",
         match filter {
-            Filter::None => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
             Filter::Pcf2 => "four texels compared, then weighted bilinearly by the fraction (hardware PCF)",
+            _ => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
         },
     );
     let texels: Vec<(i64, i64, f32)> = match filter {
-        Filter::None => {
-            let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);
-            let ty = ((uv.y * h as f32).floor() as i64).clamp(0, h - 1);
-            vec![(tx, ty, 1.0)]
-        }
         Filter::Pcf2 => {
             let (x, y, fx, fy) = footprint((w as u32, h as u32), uv);
             step = step.vec2("fraction", Vec2::new(fx, fy));
@@ -412,6 +578,11 @@ fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, filter: Filter) -> Step {
             .iter()
             .map(|&(dx, dy, wt)| ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1), wt))
             .collect()
+        }
+        _ => {
+            let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);
+            let ty = ((uv.y * h as f32).floor() as i64).clamp(0, h - 1);
+            vec![(tx, ty, 1.0)]
         }
     };
     for (i, (tx, ty, wt)) in texels.into_iter().enumerate() {
@@ -436,7 +607,8 @@ impl ShadowTechnique for ShadowMap {
         let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
         let this = &*self;
-        let out = per_pixel(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        let (out, taps) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        self.taps = taps;
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
             ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
@@ -457,7 +629,7 @@ impl ShadowTechnique for ShadowMap {
                 .text("layer", self.opts.layer.as_str())
                 .int("casters culled by fitting", self.culled)
         });
-        let v = self.lookup(frame, x as usize, y as usize, &mut t);
+        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
         t.0.push(inspect::result(v));
         t.0
     }
@@ -468,7 +640,12 @@ impl ShadowTechnique for ShadowMap {
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let texels: usize = self.maps.iter().map(|(m, _)| m.data().len()).sum();
-        vec![("map texels", texels as f64), ("casters culled", self.culled as f64)]
+        vec![
+            ("map texels", texels as f64),
+            ("casters culled", self.culled as f64),
+            // Bilinear taps (a hardware 2x2 comparison each; one per classified kernel).
+            ("taps", self.taps as f64),
+        ]
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {

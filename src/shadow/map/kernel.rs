@@ -1,0 +1,565 @@
+//! Percentage-closer filtering kernels shared by the shadow-map family (RTR 7.5; the CS300 and
+//! Cesium slides): every kernel compares first and filters the 0/1 results, except
+//! [`Pattern::DepthBilinear`], which filters the depths and compares once, the wrong way the
+//! Cesium slides show ("not exactly correct"), kept so that the difference can be seen.
+//!
+//! - **Grid** and **tent**: `n x n` hardware 2x2 comparisons (bilinear taps) at whole-texel
+//!   offsets `-(n/2)..=n/2`, equally weighted (box) or weighted `n/2 + 1 - |k|` per axis (tent).
+//!   All taps share one bilinear fraction, so the sum collapses to `(n + 1)^2` texel
+//!   comparisons with separable weights: a gather of 2x2 texels serves four taps, as
+//!   `textureGather` does (16 texels in 4 gathers for a 4x4 footprint).
+//! - **Poisson**: taps of a Poisson disk of radius `r` texels, each a hardware 2x2 comparison;
+//!   16 taps are the disk commonly used with PCSS, other counts a best-candidate disk from a
+//!   fixed seed. **Rotated**: the same disk rotated per pixel by an angle hashed from the
+//!   pixel's coordinates (aliasing turned into noise; never a thread-local random generator).
+//!   **Spiral**: a Vogel (golden-angle) spiral rotated by Jimenez's interleaved gradient noise
+//!   of the pixel, "halfway between dithering and random" (RTR 7.6, Jimenez 2014).
+//! - **Bias across the kernel**: with a receiver-plane gradient (Isidoro 2006) each tap
+//!   compares against the receiver's plane at its offset, `z + dz/dtexel . offset`; with the
+//!   bias cone (Burley 2006, RTR fig. 7.24) against `z` moved toward the light in proportion to
+//!   the tap's distance from the centre.
+//!
+//! A filter returns `lit / total`, the lit weights summed in the same order as all weights
+//! (and a 2x2 comparison of four passing texels is exactly 1), so a kernel whose taps all pass
+//! returns exactly 1 and one whose taps all fail exactly 0: the hierarchical min/max
+//! classification ([`MinMax`]) can skip the taps and still give the identical result.
+
+use crate::choice_enum;
+use crate::hash::SplitMix;
+use crate::pipeline::compute::min_max_chains;
+use crate::pipeline::sampler::{footprint, sample_bilinear, Address};
+use crate::pipeline::{MipChain, Pipeline, Surface};
+use crate::shadow::inspect::Step;
+use glam::Vec2;
+use std::sync::OnceLock;
+
+/// Most taps a kernel may have.
+pub const MAX_TAPS: u32 = 256;
+
+choice_enum! {
+    /// The sampling pattern of a PCF kernel.
+    pub enum Pattern {
+        /// Bilinear filtering of the depths, then one comparison (wrong: shown for contrast).
+        DepthBilinear = "depth-bilinear",
+        /// `n x n` bilinear taps at whole-texel offsets, equal weights (box).
+        Grid = "grid",
+        /// `n x n` bilinear taps weighted by a tent per axis.
+        Tent = "tent",
+        /// A fixed Poisson disk of bilinear taps.
+        Poisson = "poisson",
+        /// The Poisson disk rotated per pixel by a hashed angle.
+        Rotated = "rotated",
+        /// A Vogel spiral rotated by interleaved gradient noise (Jimenez 2014).
+        Spiral = "spiral",
+    }
+}
+
+/// The 16-point Poisson disk commonly used with PCSS (in [-1, 1]^2; a few points lie beyond
+/// the unit circle, as in the original set).
+pub const POISSON16: [Vec2; 16] = [
+    Vec2::new(-0.942_016_24, -0.399_062_16),
+    Vec2::new(0.945_586_1, -0.768_907_25),
+    Vec2::new(-0.094_184_1, -0.929_388_7),
+    Vec2::new(0.344_959_38, 0.293_877_6),
+    Vec2::new(-0.915_885_8, 0.457_714_32),
+    Vec2::new(-0.815_442_3, -0.879_124_64),
+    Vec2::new(-0.382_775_43, 0.276_768_45),
+    Vec2::new(0.974_844, 0.756_483_8),
+    Vec2::new(0.443_233_25, -0.975_115_54),
+    Vec2::new(0.537_429_8, -0.473_734_2),
+    Vec2::new(-0.264_969_1, -0.418_930_23),
+    Vec2::new(0.791_975_14, 0.190_901_88),
+    Vec2::new(-0.241_888_4, 0.997_065_07),
+    Vec2::new(-0.814_099_55, 0.914_375_9),
+    Vec2::new(0.199_841_26, 0.786_413_7),
+    Vec2::new(0.143_831_61, -0.141_007_9),
+];
+
+/// A Poisson disk of `n` points in the unit disk: [`POISSON16`] for 16, otherwise Mitchell's
+/// best-candidate algorithm (each point the farthest of `10 k` uniform candidates from the
+/// points so far) from a fixed seed, so the same on every run and machine.
+pub fn poisson_disk(n: u32) -> &'static [Vec2] {
+    static DISKS: OnceLock<Vec<Vec<Vec2>>> = OnceLock::new();
+    let disks = DISKS.get_or_init(|| {
+        (0..=MAX_TAPS)
+            .map(|n| {
+                if n == 16 {
+                    POISSON16.to_vec()
+                } else {
+                    best_candidate(n as usize)
+                }
+            })
+            .collect()
+    });
+    &disks[n.min(MAX_TAPS) as usize]
+}
+
+fn best_candidate(n: usize) -> Vec<Vec2> {
+    let mut rng = SplitMix(0x5eed_d15c + n as u64);
+    let mut pts: Vec<Vec2> = Vec::with_capacity(n);
+    let mut point = || loop {
+        let p = Vec2::new(rng.next_f32(), rng.next_f32()) * 2.0 - Vec2::ONE;
+        if p.length_squared() <= 1.0 {
+            return p;
+        }
+    };
+    while pts.len() < n {
+        let k = pts.len();
+        let mut best = (point(), -1.0f32);
+        for _ in 0..(10 * k).max(1) {
+            let c = point();
+            let d = pts.iter().map(|q| q.distance_squared(c)).fold(f32::INFINITY, f32::min);
+            if d > best.1 {
+                best = (c, d);
+            }
+        }
+        pts.push(best.0);
+    }
+    pts
+}
+
+/// Jimenez's interleaved gradient noise of pixel `(x, y)`, in [0, 1) (Jimenez 2014).
+pub fn interleaved_gradient_noise(x: u32, y: u32) -> f32 {
+    let f = 0.067_110_56 * x as f32 + 0.005_837_15 * y as f32;
+    (52.982_918 * f.fract()).fract()
+}
+
+/// A rotation angle in [0, 2 pi) hashed from pixel `(x, y)` (SplitMix64 of its coordinates).
+pub fn pixel_angle(x: u32, y: u32) -> f32 {
+    SplitMix(((y as u64) << 32) | x as u64).next_f32() * std::f32::consts::TAU
+}
+
+/// The `n`-point Vogel spiral unturned (`phi = 0`), computed once per count.
+pub fn spiral(n: u32) -> &'static [Vec2] {
+    static SPIRALS: OnceLock<Vec<Vec<Vec2>>> = OnceLock::new();
+    let all = SPIRALS.get_or_init(|| {
+        (0..=MAX_TAPS)
+            .map(|n| (0..n).map(|i| vogel(i, n, 0.0)).collect())
+            .collect()
+    });
+    &all[n.min(MAX_TAPS) as usize]
+}
+
+/// Point `i` of an `n`-point Vogel spiral in the unit disk turned by `phi`.
+pub fn vogel(i: u32, n: u32, phi: f32) -> Vec2 {
+    const GOLDEN_ANGLE: f32 = 2.399_963_2;
+    let r = ((i as f32 + 0.5) / n as f32).sqrt();
+    let a = i as f32 * GOLDEN_ANGLE + phi;
+    Vec2::new(a.cos(), a.sin()) * r
+}
+
+/// What each tap compares against: the centre's depth, the receiver plane's depth change per
+/// texel of offset, and the bias cone's depth change per texel of distance from the centre.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct Reference {
+    /// Reference depth at the kernel's centre.
+    pub z: f32,
+    /// Receiver-plane depth gradient, per texel in x and y (Isidoro 2006).
+    pub gradient: Vec2,
+    /// Bias cone: depth added per texel of distance from the centre (negative: toward the
+    /// light).
+    pub cone: f32,
+}
+
+impl Reference {
+    /// A plain reference depth.
+    pub fn flat(z: f32) -> Reference {
+        Reference {
+            z,
+            ..Default::default()
+        }
+    }
+
+    /// Whether every tap compares against the same depth.
+    pub fn is_flat(&self) -> bool {
+        self.gradient == Vec2::ZERO && self.cone == 0.0
+    }
+
+    /// The reference depth of a tap `d` texels from the centre.
+    #[inline]
+    pub fn at(&self, d: Vec2) -> f32 {
+        self.z + self.gradient.dot(d) + self.cone * d.length()
+    }
+
+    /// The lowest and highest reference over a kernel of radius `r` texels.
+    pub fn range(&self, r: f32) -> (f32, f32) {
+        let spread = self.gradient.x.abs() * r + self.gradient.y.abs() * r;
+        let cone = self.cone * r * std::f32::consts::SQRT_2;
+        (self.z - spread + cone.min(0.0), self.z + spread + cone.max(0.0))
+    }
+}
+
+/// A PCF kernel: pattern, tap count (Poisson family) and size.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Kernel {
+    /// Sampling pattern.
+    pub pattern: Pattern,
+    /// Taps of the Poisson, rotated and spiral patterns.
+    pub taps: u32,
+    /// Width in texels: grid and tent use `n` taps per axis, the nearest odd whole number at or
+    /// above 1; the disks have radius `width / 2`.
+    pub width: f32,
+}
+
+/// One filtered lookup: the visibility and the work it did.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Filtered {
+    /// Fraction of the kernel lit.
+    pub value: f32,
+    /// Bilinear taps (hardware 2x2 comparisons, or one bilinear depth fetch).
+    pub taps: u32,
+}
+
+impl Kernel {
+    /// Taps per axis of the grid and tent patterns: the nearest odd whole number to `width`,
+    /// at least 1.
+    pub fn grid_n(&self) -> u32 {
+        let n = self.width.round().max(1.0) as u32;
+        (n | 1).min(2 * MAX_TAPS + 1)
+    }
+
+    /// The largest offset of a tap from the centre along either axis, in texels (what a
+    /// footprint must cover).
+    pub fn extent(&self) -> f32 {
+        match self.pattern {
+            Pattern::Poisson | Pattern::Rotated if self.taps == 16 => self.radius() * std::f32::consts::SQRT_2,
+            _ => self.radius(),
+        }
+    }
+
+    /// Half the kernel's extent in texels (the disks' radius; the grid's `n / 2`).
+    pub fn radius(&self) -> f32 {
+        match self.pattern {
+            Pattern::DepthBilinear => 0.0,
+            Pattern::Grid | Pattern::Tent => (self.grid_n() / 2) as f32,
+            _ => 0.5 * self.width,
+        }
+    }
+
+    /// The tap offsets in texels and weights at pixel `(x, y)` (the pixel turns the rotated and
+    /// spiral patterns), for the Poisson family and for grids and tents compared tap by tap.
+    pub fn taps_at(&self, x: u32, y: u32, out: &mut Vec<(Vec2, f32)>) {
+        out.clear();
+        let r = self.radius();
+        match self.pattern {
+            Pattern::DepthBilinear => out.push((Vec2::ZERO, 1.0)),
+            Pattern::Grid | Pattern::Tent => {
+                let n = self.grid_n() as i32;
+                let h = n / 2;
+                for j in -h..=h {
+                    for i in -h..=h {
+                        let w = match self.pattern {
+                            Pattern::Tent => ((h + 1 - i.abs()) * (h + 1 - j.abs())) as f32,
+                            _ => 1.0,
+                        };
+                        out.push((Vec2::new(i as f32, j as f32), w));
+                    }
+                }
+            }
+            Pattern::Poisson => out.extend(poisson_disk(self.taps).iter().map(|&p| (p * r, 1.0))),
+            Pattern::Rotated => {
+                let (s, c) = pixel_angle(x, y).sin_cos();
+                out.extend(
+                    poisson_disk(self.taps)
+                        .iter()
+                        .map(|&p| (Vec2::new(c * p.x - s * p.y, s * p.x + c * p.y) * r, 1.0)),
+                );
+            }
+            Pattern::Spiral => {
+                let (s, c) = (interleaved_gradient_noise(x, y) * std::f32::consts::TAU).sin_cos();
+                out.extend(
+                    spiral(self.taps)
+                        .iter()
+                        .map(|&p| (Vec2::new(c * p.x - s * p.y, s * p.x + c * p.y) * r, 1.0)),
+                );
+            }
+        }
+    }
+
+    /// The kernel's visibility at `uv` of `map` for pixel `(x, y)`, lit outside the map. Flat
+    /// grids and tents take the separable path (texel comparisons with collapsed weights);
+    /// everything else compares tap by tap with each tap's own reference.
+    pub fn filter(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32) -> Filtered {
+        if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) {
+            return Filtered { value: 1.0, taps: 0 };
+        }
+        let size = Vec2::new(map.width() as f32, map.height() as f32);
+        match self.pattern {
+            Pattern::DepthBilinear => {
+                let d = sample_bilinear(map, uv, Address::Clamp);
+                Filtered {
+                    value: if r.z <= d { 1.0 } else { 0.0 },
+                    taps: 1,
+                }
+            }
+            Pattern::Grid | Pattern::Tent if r.is_flat() => {
+                let n = self.grid_n();
+                Filtered {
+                    value: separable(map, uv, r.z, &axis_weights(self.pattern, n)),
+                    taps: n * n,
+                }
+            }
+            _ => TAPS.with(|t| {
+                let mut taps = t.borrow_mut();
+                self.taps_at(x, y, &mut taps);
+                let (mut lit, mut total) = (0.0f32, 0.0f32);
+                for &(d, w) in taps.iter() {
+                    lit += w * bilinear_compare(map, uv + d / size, r.at(d));
+                    total += w;
+                }
+                Filtered {
+                    value: lit / total,
+                    taps: taps.len() as u32,
+                }
+            }),
+        }
+    }
+}
+
+impl Kernel {
+    /// `inspect`'s account of one filtered lookup: the kernel, and each tap (at most 32) with
+    /// its offset, reference depth and result.
+    pub fn explain(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32) -> Step {
+        let mut taps = Vec::new();
+        self.taps_at(x, y, &mut taps);
+        let size = Vec2::new(map.width() as f32, map.height() as f32);
+        let mut st = Step::new(
+            "kernel",
+            match self.pattern {
+                Pattern::DepthBilinear => {
+                    "the four nearest depths filtered bilinearly, then one comparison (the wrong order)"
+                }
+                Pattern::Grid => "n x n hardware 2x2 comparisons at whole-texel offsets, equal weights",
+                Pattern::Tent => "n x n hardware 2x2 comparisons at whole-texel offsets, tent weights",
+                Pattern::Poisson => "hardware 2x2 comparisons on a fixed Poisson disk",
+                Pattern::Rotated => "hardware 2x2 comparisons on a Poisson disk rotated by the pixel's hashed angle",
+                Pattern::Spiral => "hardware 2x2 comparisons on a Vogel spiral rotated by interleaved gradient noise",
+            },
+        )
+        .text("pattern", self.pattern.as_str())
+        .int("taps", taps.len())
+        .num("width in texels", self.width)
+        .num("reference depth", r.z)
+        .vec2("receiver-plane gradient per texel", r.gradient)
+        .num("bias cone per texel", r.cone);
+        if self.pattern == Pattern::DepthBilinear {
+            return st.num("filtered depth", sample_bilinear(map, uv, Address::Clamp));
+        }
+        for (i, &(d, w)) in taps.iter().enumerate().take(32) {
+            st = st
+                .vec2(&format!("tap {i} offset"), d)
+                .num(&format!("tap {i} weight"), w)
+                .num(&format!("tap {i} reference"), r.at(d))
+                .num(&format!("tap {i} lit"), bilinear_compare(map, uv + d / size, r.at(d)));
+        }
+        st
+    }
+}
+
+thread_local! {
+    /// Scratch tap list per worker (contents never outlive one call).
+    static TAPS: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// One hardware 2x2 comparison (lit if `z <= depth`, texels clamped to the edge, lit outside
+/// the map), with the sampler's order of operations.
+#[inline]
+pub fn bilinear_compare(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
+    crate::pipeline::sampler::CompareSampler::default().pcf2x2(map, uv, z)
+}
+
+/// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps.
+fn axis_weights(pattern: Pattern, n: u32) -> Vec<f32> {
+    let h = (n / 2) as i32;
+    (-h..=h)
+        .map(|k| match pattern {
+            Pattern::Tent => (h + 1 - k.abs()) as f32,
+            _ => 1.0,
+        })
+        .collect()
+}
+
+/// The `n + 1` texel weights along one axis of `n` bilinear taps with tap weights `t` and
+/// bilinear fraction `f`: texel `j` gets `t[j] (1 - f) + t[j - 1] f`.
+fn texel_weights(t: &[f32], f: f32, out: &mut [f32]) {
+    let n = t.len();
+    for (j, o) in out.iter_mut().enumerate().take(n + 1) {
+        let a = if j < n { t[j] * (1.0 - f) } else { 0.0 };
+        let b = if j > 0 { t[j - 1] * f } else { 0.0 };
+        *o = a + b;
+    }
+}
+
+/// Separable PCF over `(n + 1)^2` texels: `lit / total`, both summed in the same order.
+fn separable(map: &Surface<f32>, uv: Vec2, z: f32, t: &[f32]) -> f32 {
+    let (w, h) = (map.width() as i64, map.height() as i64);
+    let (x, y, fx, fy) = footprint((map.width(), map.height()), uv);
+    let n = t.len();
+    let r = (n / 2) as i64;
+    let mut wx = [0.0f32; 2 * MAX_TAPS as usize + 3];
+    let mut wy = [0.0f32; 2 * MAX_TAPS as usize + 3];
+    texel_weights(t, fx, &mut wx[..n + 1]);
+    texel_weights(t, fy, &mut wy[..n + 1]);
+    let d = map.data();
+    let (mut lit, mut total) = (0.0f32, 0.0f32);
+    for (j, &wyj) in wy.iter().enumerate().take(n + 1) {
+        let yy = (y - r + j as i64).clamp(0, h - 1) as usize;
+        let row = &d[yy * w as usize..(yy + 1) * w as usize];
+        let (mut rl, mut rt) = (0.0f32, 0.0f32);
+        for (i, &wxi) in wx.iter().enumerate().take(n + 1) {
+            let xx = (x - r + i as i64).clamp(0, w - 1) as usize;
+            if z <= row[xx] {
+                rl += wxi;
+            }
+            rt += wxi;
+        }
+        lit += wyj * rl;
+        total += wyj * rt;
+    }
+    lit / total
+}
+
+/// Hierarchical min/max shadow map (RTR 7.6): min and max mip chains of a depth map, built by
+/// the pipeline's reduction (from half the map's size down; the map is level 0). A kernel whose highest reference is at or before the minimum
+/// depth of its footprint is fully lit; one whose lowest reference is beyond the maximum is
+/// fully shadowed; either needs one lookup instead of its taps.
+pub struct MinMax {
+    /// The map's size.
+    pub size: (u32, u32),
+    /// Minimum depth per texel of levels 1, 2, ... (half the map's size first).
+    pub min: MipChain<f32>,
+    /// Maximum depth per texel of levels 1, 2, ...
+    pub max: MipChain<f32>,
+}
+
+/// What the hierarchy says of a kernel.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Class {
+    /// Every tap passes.
+    Lit,
+    /// Every tap fails.
+    Shadowed,
+    /// The taps must be compared.
+    Mixed,
+}
+
+impl MinMax {
+    /// The chains of `map`.
+    pub fn new(p: &Pipeline, map: &Surface<f32>) -> MinMax {
+        let (min, max) = min_max_chains(p, map);
+        MinMax {
+            size: (map.width(), map.height()),
+            min,
+            max,
+        }
+    }
+
+    /// Classifies a kernel of radius `radius` texels at `uv` whose references lie in
+    /// `[lo, hi]`: from the one level where the footprint (every texel a bilinear tap can
+    /// read, one texel of margin) spans at most 2x2 texels. A footprint that leaves the map is
+    /// mixed (its taps meet the border).
+    pub fn classify(&self, uv: Vec2, radius: f32, lo: f32, hi: f32) -> Class {
+        let (w, h) = (self.size.0 as f32, self.size.1 as f32);
+        let (cx, cy) = (uv.x * w - 0.5, uv.y * h - 0.5);
+        let (x0, x1) = ((cx - radius).floor(), (cx + radius).floor() + 1.0);
+        let (y0, y1) = ((cy - radius).floor(), (cy + radius).floor() + 1.0);
+        // Tap coordinates themselves outside [0, 1] read the border.
+        let (u0, u1) = (uv.x - radius / w, uv.x + radius / w);
+        let (v0, v1) = (uv.y - radius / h, uv.y + radius / h);
+        if !(u0 >= 0.0 && u1 <= 1.0 && v0 >= 0.0 && v1 <= 1.0 && x0.is_finite() && y0.is_finite()) {
+            return Class::Mixed;
+        }
+        let clamp = |v: f32, hi: f32| v.clamp(0.0, hi - 1.0) as u32;
+        let (x0, x1, y0, y1) = (clamp(x0, w), clamp(x1, w), clamp(y0, h), clamp(y1, h));
+        // Level l of the chain is 2^l texels of the map per texel (the chain starts at l = 1).
+        let levels = self.min.level_count();
+        if levels == 0 {
+            return Class::Mixed;
+        }
+        let mut l = 1;
+        while l < levels && ((x1 >> l) - (x0 >> l) > 1 || (y1 >> l) - (y0 >> l) > 1) {
+            l += 1;
+        }
+        let (mn, mx) = (&self.min.levels()[l - 1], &self.max.levels()[l - 1]);
+        let (lw, lh) = (mn.width() - 1, mn.height() - 1);
+        let (mut dmin, mut dmax) = (f32::INFINITY, f32::NEG_INFINITY);
+        for ty in (y0 >> l).min(lh)..=(y1 >> l).min(lh) {
+            for tx in (x0 >> l).min(lw)..=(x1 >> l).min(lw) {
+                dmin = dmin.min(mn.at(tx, ty));
+                dmax = dmax.max(mx.at(tx, ty));
+            }
+        }
+        if hi <= dmin {
+            Class::Lit
+        } else if lo > dmax {
+            Class::Shadowed
+        } else {
+            Class::Mixed
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disks_are_deterministic_and_inside_the_unit_disk() {
+        for n in [1, 16, 32, 64, 256] {
+            let d = poisson_disk(n);
+            assert_eq!(d.len(), n as usize);
+            // The classic 16 lie in [-1, 1]^2 (some beyond the unit circle), the others in the disk.
+            let r = if n == 16 { std::f32::consts::SQRT_2 } else { 1.0 };
+            assert!(d.iter().all(|p| p.length() <= r + 1e-6));
+            assert_eq!(d, best_or_classic(n).as_slice());
+        }
+        // Well spread: no two of 32 points closer than a fifth of the radius.
+        let d = poisson_disk(32);
+        for (i, a) in d.iter().enumerate() {
+            for b in &d[i + 1..] {
+                assert!(a.distance(*b) > 0.2, "{a} {b}");
+            }
+        }
+        assert!((0..64).all(|i| vogel(i, 64, 0.3).length() <= 1.0));
+        let n = interleaved_gradient_noise(17, 5);
+        assert!((0.0..1.0).contains(&n));
+    }
+
+    fn best_or_classic(n: u32) -> Vec<Vec2> {
+        if n == 16 {
+            POISSON16.to_vec()
+        } else {
+            best_candidate(n as usize)
+        }
+    }
+
+    #[test]
+    fn grids_and_tents_match_their_tap_by_tap_sums() {
+        // A random depth map; the separable path equals the tap-by-tap path up to rounding.
+        let mut rng = SplitMix(3);
+        let data: Vec<f32> = (0..64 * 64).map(|_| rng.next_f32()).collect();
+        let map = Surface::from_vec(64, 64, data).unwrap();
+        for pattern in [Pattern::Grid, Pattern::Tent] {
+            for width in [1.0, 3.0, 5.0, 7.0] {
+                let k = Kernel {
+                    pattern,
+                    taps: 16,
+                    width,
+                };
+                for _ in 0..50 {
+                    let uv = Vec2::new(rng.next_f32(), rng.next_f32()) * 0.8 + Vec2::splat(0.1);
+                    let z = rng.next_f32();
+                    let fast = k.filter(&map, uv, &Reference::flat(z), 0, 0).value;
+                    // A tiny gradient forces the tap-by-tap path.
+                    let r = Reference {
+                        z,
+                        gradient: Vec2::new(1e-30, 0.0),
+                        cone: 0.0,
+                    };
+                    let slow = k.filter(&map, uv, &r, 0, 0).value;
+                    assert!((fast - slow).abs() < 1e-5, "{pattern:?} {width}: {fast} vs {slow}");
+                }
+            }
+        }
+    }
+}
