@@ -1384,3 +1384,30 @@ fn bad_kernel_options_are_errors() {
     .unwrap();
     assert!(e.contains("wider than the map"), "{e}");
 }
+
+/// A scene, a technique and its option set.
+type Case<'a> = (&'a str, &'a str, &'a [(&'a str, &'a str)]);
+
+#[test]
+fn wide_kernels_and_filtered_deep_maps_are_identical_for_1_2_4_threads() {
+    let cases: &[Case] = &[
+        ("contact", "shadow-map", &[("filter", "rotated")]),
+        ("contact", "shadow-map", &[("filter", "spiral"), ("hierarchy", "true")]),
+        (
+            "grazing",
+            "shadow-map",
+            &[("filter", "tent"), ("receiver", "true"), ("cone", "2")],
+        ),
+        ("curtain", "deep-shadow-map", &[]),
+    ];
+    for (scene, technique, sets) in cases {
+        let one = visibility_of(scene, technique, sets, 1).hash();
+        for threads in [2, 4] {
+            assert_eq!(
+                one,
+                visibility_of(scene, technique, sets, threads).hash(),
+                "{scene} {technique} {sets:?}: 1 vs {threads} threads"
+            );
+        }
+    }
+}
