@@ -33,6 +33,7 @@ pub struct GBuffer {
 }
 
 /// Everything a technique gets: the scene, the light, the camera and its G-buffer.
+#[derive(Clone)]
 pub struct Frame<'a> {
     /// The scene.
     pub scene: &'a Scene,
@@ -49,6 +50,12 @@ pub struct Frame<'a> {
 }
 
 impl Frame<'_> {
+    /// The same camera and G-buffer lit by `light` instead (techniques that sample an area
+    /// light with many point lights run their hard passes on these).
+    pub fn with_light(&self, light: Light) -> Self {
+        Frame { light, ..self.clone() }
+    }
+
     /// Image width.
     pub fn width(&self) -> u32 {
         self.camera.width

@@ -176,6 +176,17 @@ pub enum AreaShape {
     },
 }
 
+impl AreaShape {
+    /// The light's width for penumbra estimates (PCSS's `w_light`): a disk's or sphere's
+    /// diameter, a rectangle's mean side.
+    pub fn width(&self) -> f32 {
+        match *self {
+            AreaShape::Disk { radius } | AreaShape::Sphere { radius } => 2.0 * radius,
+            AreaShape::Rectangle { width, height } => 0.5 * (width + height),
+        }
+    }
+}
+
 /// What kind of light.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum LightKind {

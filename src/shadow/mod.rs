@@ -116,6 +116,8 @@ pub fn registry() -> Vec<TechniqueInfo> {
     vec![
         reference::info(),
         map::shadow_map::info(),
+        map::pcss::info(),
+        map::multi_sample::info(),
         volume::shadow_volume::info(),
         planar::projected::info(),
         planar::cookie::info(),

@@ -50,6 +50,23 @@ impl LightView {
         }
     }
 
+    /// Distance along the view's axis of a point at map depth `z` (in [0, 1]): from the eye
+    /// for perspective views (the depth unprojected), from a fixed plane for orthographic
+    /// ones (only differences of distances mean something there).
+    #[inline]
+    pub fn distance(&self, z: f32) -> f32 {
+        let (r2, r3) = (self.matrix.row(2), self.matrix.row(3));
+        if self.perspective {
+            // A perspective projection's depth row is `-a * (w row) + b * e_w`, so
+            // `z = -a + b / w` and `w` (the distance along the axis) is `b / (z + a)`.
+            let a = -r2.truncate().dot(r3.truncate()) / r3.truncate().length_squared();
+            let b = r2.w + a * r3.w;
+            b / (z + a)
+        } else {
+            (z - r2.w) / r2.truncate().length()
+        }
+    }
+
     /// Whether the view's handedness is mirrored (cube faces): winding flips, so a pass that
     /// culls faces must swap front and back.
     pub fn mirrored(&self) -> bool {
@@ -290,4 +307,36 @@ pub fn fitted_overview(p: &Pipeline, frame: &Frame, fitted: &LightView) -> Resul
         super::overview::draw_segment(&mut img, c[i], c[(i + 1) % 4], [230, 40, 40, 255]);
     }
     Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distance_unprojects_map_depth() {
+        // A perspective view: points at known distances along the axis come back.
+        let eye = Vec3::new(1.0, 4.0, -2.0);
+        let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+        let m = Mat4::perspective_rh(1.2, 1.0, 0.05, 40.0) * Mat4::look_at_rh(eye, eye + dir, up_for(dir));
+        let v = LightView {
+            matrix: m,
+            texel: 0.001,
+            perspective: true,
+        };
+        for d in [0.1f32, 1.0, 7.5, 30.0] {
+            let (_, z) = v.lookup(eye + dir * d).unwrap();
+            assert!((v.distance(z) - d).abs() < 1e-3 * d, "{d}: {}", v.distance(z));
+        }
+        // Orthographic: differences of distances are world distances.
+        let o = LightView {
+            matrix: Mat4::orthographic_rh(-5.0, 5.0, -5.0, 5.0, 1.0, 30.0)
+                * Mat4::look_at_rh(eye, eye + dir, up_for(dir)),
+            texel: 0.01,
+            perspective: false,
+        };
+        let (_, z1) = o.lookup(eye + dir * 3.0).unwrap();
+        let (_, z2) = o.lookup(eye + dir * 8.0 + Vec3::X * 0.0).unwrap();
+        assert!((o.distance(z2) - o.distance(z1) - 5.0).abs() < 1e-4);
+    }
 }

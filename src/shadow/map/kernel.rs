@@ -477,7 +477,7 @@ impl MinMax {
             return Class::Mixed;
         }
         let mut l = 1;
-        while l < levels && ((x1 >> l) - (x0 >> l) > 1 || (y1 >> l) - (y0 >> l) > 1) {
+        while l < levels && ((x1 >> l) - (x0 >> l) > 3 || (y1 >> l) - (y0 >> l) > 3) {
             l += 1;
         }
         let (mn, mx) = (&self.min.levels()[l - 1], &self.max.levels()[l - 1]);

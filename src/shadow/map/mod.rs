@@ -4,4 +4,6 @@
 
 pub mod bias;
 pub mod kernel;
+pub mod multi_sample;
+pub mod pcss;
 pub mod shadow_map;

@@ -155,97 +155,110 @@ impl Default for Options {
     }
 }
 
-/// The option declaration (`--set`, `penumbra list`, the constructor's check).
-pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "shadow-map",
-        fields: vec![
+/// The declaration of the map options the shadow-map family shares (size, format, bias,
+/// fitting, bias cone, hierarchy), for an options struct whose [`Options`] is reached by
+/// `|o| path`: `shadow_map_fields!(Options, |o| o)` here, `|o| o.map` in techniques that hold
+/// one.
+#[macro_export]
+macro_rules! shadow_map_fields {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        use $crate::shadow::Field;
+        vec![
             Field::range(
                 "size",
                 "map side in texels (a cube map has six faces of this size)",
                 16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
+                $crate::pipeline::MAX_DIMENSION,
+                |$x: &mut $o| &mut $($path)+.size,
             ),
-            Field::new("format", "depth storage: f32, u24 or u16", |o: &mut Options| {
-                &mut o.format
-            }),
+            Field::new("format", "depth storage: f32, u24 or u16", |$x: &mut $o| &mut $($path)+.format),
             Field::range(
                 "units",
                 "constant polygon offset, in units of the format's resolvable depth step",
                 -1e6,
                 1e6,
-                |o: &mut Options| &mut o.units,
+                |$x: &mut $o| &mut $($path)+.units,
             ),
             Field::range(
                 "slope",
                 "slope-scaled polygon offset factor",
                 -1e3,
                 1e3,
-                |o: &mut Options| &mut o.slope,
+                |$x: &mut $o| &mut $($path)+.slope,
             ),
             Field::range(
                 "normal",
                 "normal-offset bias: texels along the normal, times sin(angle to the light)",
                 0.0,
                 100.0,
-                |o: &mut Options| &mut o.normal,
+                |$x: &mut $o| &mut $($path)+.normal,
             ),
             Field::new(
                 "receiver",
-                "receiver-plane depth bias (one texel of the receiver's depth slope)",
-                |o: &mut Options| &mut o.receiver,
-            ),
-            Field::new(
-                "layer",
-                "first, second (back faces), midpoint (two nearest layers) or id (object ids)",
-                |o: &mut Options| &mut o.layer,
+                "receiver-plane depth bias (one texel of the receiver's depth slope; across wide kernels, the receiver's plane)",
+                |$x: &mut $o| &mut $($path)+.receiver,
             ),
             Field::new(
                 "fit",
                 "directional lights: scene bounds, or receivers (casters that shadow visible receivers)",
-                |o: &mut Options| &mut o.fit,
+                |$x: &mut $o| &mut $($path)+.fit,
             ),
             Field::new(
                 "snap",
                 "snap the fitted frustum to whole texels (against shimmering)",
-                |o: &mut Options| &mut o.snap,
+                |$x: &mut $o| &mut $($path)+.snap,
             ),
-            Field::new(
-                "filter",
-                "none (one comparison), pcf2 (2x2 hardware PCF), depth-bilinear (depths filtered, then compared: wrong), grid, tent, poisson, rotated or spiral (wide PCF kernels)",
-                |o: &mut Options| &mut o.filter,
-            ),
-            Field::range(
-                "kernel",
-                "wide filters: kernel width in texels (grid and tent: taps per axis, made odd)",
-                1.0,
-                MAX_DIMENSION as f32,
-                |o: &mut Options| &mut o.kernel,
-            ),
-            Field::range(
-                "world",
-                "wide filters: kernel width in world units at the receiver (0: use kernel)",
-                0.0,
-                1e6,
-                |o: &mut Options| &mut o.world,
-            ),
-            Field::range("taps", "poisson, rotated and spiral filters: taps", 1, MAX_TAPS, |o: &mut Options| {
-                &mut o.taps
-            }),
             Field::range(
                 "cone",
                 "wide filters: bias cone slope (Burley), depth toward the light per unit of tap distance",
                 0.0,
                 100.0,
-                |o: &mut Options| &mut o.cone,
+                |$x: &mut $o| &mut $($path)+.cone,
             ),
             Field::new(
                 "hierarchy",
                 "wide filters: skip the taps of kernels a min/max mip chain shows fully lit or shadowed",
-                |o: &mut Options| &mut o.hierarchy,
+                |$x: &mut $o| &mut $($path)+.hierarchy,
             ),
-        ],
+        ]
+    }};
+}
+
+/// The option declaration (`--set`, `penumbra list`, the constructor's check).
+pub fn declaration() -> Declaration<Options> {
+    let mut fields = crate::shadow_map_fields!(Options, |o| o);
+    fields.extend([
+        Field::new(
+            "layer",
+            "first, second (back faces), midpoint (two nearest layers) or id (object ids)",
+            |o: &mut Options| &mut o.layer,
+        ),
+        Field::new(
+            "filter",
+            "none (one comparison), pcf2 (2x2 hardware PCF), depth-bilinear (depths filtered, then compared: wrong), grid, tent, poisson, rotated or spiral (wide PCF kernels)",
+            |o: &mut Options| &mut o.filter,
+        ),
+        Field::range(
+            "kernel",
+            "wide filters: kernel width in texels (grid and tent: taps per axis, made odd)",
+            1.0,
+            MAX_DIMENSION as f32,
+            |o: &mut Options| &mut o.kernel,
+        ),
+        Field::range(
+            "world",
+            "wide filters: kernel width in world units at the receiver (0: use kernel)",
+            0.0,
+            1e6,
+            |o: &mut Options| &mut o.world,
+        ),
+        Field::range("taps", "poisson, rotated and spiral filters: taps", 1, MAX_TAPS, |o: &mut Options| {
+            &mut o.taps
+        }),
+    ]);
+    Declaration {
+        technique: "shadow-map",
+        fields,
     }
 }
 
@@ -347,7 +360,7 @@ impl ShadowMap {
     }
 
     /// Pass 1: the light's map(s) of `frame`.
-    fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
+    pub(crate) fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
         let o = &self.opts;
         let fit = light::fit(frame, o.size, o.fit == FitTo::Receivers, o.snap);
         self.culled = fit.culled;
@@ -408,9 +421,48 @@ impl ShadowMap {
     /// Pass 2 at one pixel: the lookup and its bilinear taps, every step reported to `t`.
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = match self.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => return (v, n),
+            Prepared::At(at) => at,
+        };
+        let o = &self.opts;
+        let (map, view) = &self.maps[at.face];
+        let Some(pattern) = o.filter.pattern() else {
+            let sampler = CompareSampler::default();
+            let v = match o.filter {
+                Filter::Pcf2 => sampler.pcf2x2(map, at.uv, at.r.z),
+                _ => sampler.nearest(map, at.uv, at.r.z),
+            };
+            t.step(|| texel_steps(map, at.uv, at.r.z, o.filter));
+            return (v, 1);
+        };
+        // Wide kernels (RTR 7.5): the width in texels (from world units at the point if asked),
+        // then the hierarchy or the taps.
+        let width = if o.world > 0.0 {
+            (o.world / view.texel_at(&frame.light, at.pos)).clamp(1.0, map.width() as f32)
+        } else {
+            o.kernel
+        };
+        let kernel = Kernel {
+            pattern,
+            taps: o.taps,
+            width,
+        };
+        self.filter(&at, &kernel, x, y, t)
+    }
+
+    /// The lookup up to its filter: the view that sees pixel `(x, y)`, its map position and
+    /// the reference depth with every bias applied (normal offset, receiver plane, polygon
+    /// offset in the map, quantization; for wide filters the receiver-plane gradient and the
+    /// bias cone across the kernel). Pixels without geometry, behind the light or decided by
+    /// the id map are [`Prepared::Done`]. The soft techniques of the family filter from here.
+    #[inline(always)]
+    pub(crate) fn prepare(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Prepared {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
-        let Some(s) = pts[y * w + x] else { return (f32::NAN, 0) };
+        let Some(s) = pts[y * w + x] else {
+            return Prepared::Done(f32::NAN, 0);
+        };
         let o = &self.opts;
         let light = &frame.light;
         let face = light::face_of(self.maps.len(), light, s.position);
@@ -437,7 +489,7 @@ impl ShadowMap {
         }
         let Some((uv, z)) = view.lookup(pos) else {
             t.step(|| Step::new("behind the light", "the point is behind the view's eye: lit"));
-            return (1.0, 0);
+            return Prepared::Done(1.0, 0);
         };
         let size = map.width();
         t.step(|| {
@@ -464,7 +516,7 @@ impl ShadowMap {
                 .flag("inside the map", inside)
                 .flag("lit", lit)
             });
-            return (if lit { 1.0 } else { 0.0 }, 1);
+            return Prepared::Done(if lit { 1.0 } else { 0.0 }, 1);
         }
         let mut z = z;
         let mut gradient = Vec2::ZERO;
@@ -483,7 +535,6 @@ impl ShadowMap {
             });
         }
         let z = o.format.quantize(z.clamp(0.0, 1.0));
-        let sampler = CompareSampler::default();
         t.step(|| {
             Step::new(
                 "reference depth",
@@ -493,27 +544,7 @@ impl ShadowMap {
             .num("polygon offset units", o.units)
             .num("polygon offset slope", o.slope)
         });
-        let Some(pattern) = o.filter.pattern() else {
-            let v = match o.filter {
-                Filter::Pcf2 => sampler.pcf2x2(map, uv, z),
-                _ => sampler.nearest(map, uv, z),
-            };
-            t.step(|| texel_steps(map, uv, z, o.filter));
-            return (v, 1);
-        };
-        // Wide kernels (RTR 7.5): the width in texels (from world units at the point if asked),
-        // the reference per tap (receiver plane, bias cone), then the hierarchy or the taps.
-        let width = if o.world > 0.0 {
-            (o.world / view.texel_at(light, pos)).clamp(1.0, size as f32)
-        } else {
-            o.kernel
-        };
-        let kernel = Kernel {
-            pattern,
-            taps: o.taps,
-            width,
-        };
-        let cone = if o.cone > 0.0 {
+        let cone = if o.cone > 0.0 && o.filter.pattern().is_some() {
             // Depth change of one texel's world size toward the light, times the slope.
             let step = view.texel_at(light, pos);
             match view.lookup(pos + light.to_light(pos) * step) {
@@ -523,36 +554,77 @@ impl ShadowMap {
         } else {
             0.0
         };
-        let r = Reference { z, gradient, cone };
-        if let Some(mm) = self.minmax.get(face) {
+        Prepared::At(At {
+            face,
+            uv,
+            pos,
+            r: Reference { z, gradient, cone },
+        })
+    }
+
+    /// A wide kernel at a prepared lookup: one lookup in the min/max hierarchy when it
+    /// classifies the kernel (fully lit or shadowed), otherwise the kernel's taps.
+    #[inline(always)]
+    pub(crate) fn filter(&self, at: &At, kernel: &Kernel, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let map = &self.maps[at.face].0;
+        let r = &at.r;
+        if let Some(mm) = self.minmax.get(at.face) {
             let (lo, hi) = r.range(kernel.extent());
-            let class = mm.classify(uv, kernel.extent() + 1.0, lo, hi);
-            t.step(|| {
-                Step::new(
-                    "min/max hierarchy",
-                    "the kernel's footprint in the min/max chains: fully lit or shadowed skips the taps",
-                )
-                .num("lowest reference", lo)
-                .num("highest reference", hi)
-                .text(
-                    "class",
-                    match class {
-                        Class::Lit => "lit",
-                        Class::Shadowed => "shadowed",
-                        Class::Mixed => "mixed",
-                    },
-                )
-            });
+            let class = mm.classify(at.uv, kernel.extent() + 1.0, lo, hi);
+            t.step(|| class_step(lo, hi, class));
             match class {
                 Class::Lit => return (1.0, 1),
                 Class::Shadowed => return (0.0, 1),
                 Class::Mixed => {}
             }
         }
-        let f = kernel.filter(map, uv, &r, x as u32, y as u32);
-        t.step(|| kernel.explain(map, uv, &r, x as u32, y as u32));
+        let f = kernel.filter(map, at.uv, r, x as u32, y as u32);
+        t.step(|| kernel.explain(map, at.uv, r, x as u32, y as u32));
         (f.value, f.taps as u64)
     }
+
+    /// The min/max chains of the last run's maps (with `hierarchy` and a wide filter).
+    pub(crate) fn hierarchy(&self, face: usize) -> Option<&MinMax> {
+        self.minmax.get(face)
+    }
+}
+
+/// A lookup prepared up to its filter ([`ShadowMap::prepare`]).
+pub(crate) enum Prepared {
+    /// Decided without filtering: the value and the taps it took.
+    Done(f32, u64),
+    /// Where to filter.
+    At(At),
+}
+
+/// The map position of one pixel's lookup.
+pub(crate) struct At {
+    /// The light view (cube face) that sees the point.
+    pub face: usize,
+    /// Texture coordinate in that view's map.
+    pub uv: Vec2,
+    /// The lookup point (after the normal offset).
+    pub pos: glam::Vec3,
+    /// The reference depth and its change across a kernel.
+    pub r: Reference,
+}
+
+/// `inspect`'s account of a min/max classification.
+pub(crate) fn class_step(lo: f32, hi: f32, class: Class) -> Step {
+    Step::new(
+        "min/max hierarchy",
+        "the kernel's footprint in the min/max chains: fully lit or shadowed skips the taps",
+    )
+    .num("lowest reference", lo)
+    .num("highest reference", hi)
+    .text(
+        "class",
+        match class {
+            Class::Lit => "lit",
+            Class::Shadowed => "shadowed",
+            Class::Mixed => "mixed",
+        },
+    )
 }
 
 /// The texels a lookup compared, with their stored depths and outcomes (for `inspect`).

@@ -1,0 +1,319 @@
+//! The multi-sample area light (the CS300 slides; Heckbert and Herf 1997; RTR 7.1): the area
+//! light replaced by `samples` point lights spread over it, a hard shadow from each, averaged.
+//! `v = (1 / N) sum_i v_i`, where `v_i` is the hard visibility from sample point `i`: a shadow
+//! map (a cube map from the point, 2x2 PCF) or, with `method=volumes`, an exact stencil
+//! shadow-volume pass. It converges to the area light's visibility as `N` grows, at `N` times
+//! the cost of one hard shadow: the honest baseline every soft technique must beat at equal
+//! time.
+//!
+//! The points are a Hammersley set over the unit square, `((i + 1/2) / N, radical_inverse_2(i))`
+//! (stratified for any `N`, the same on every run), taken onto the light: a disk by the
+//! concentric map (Shirley and Chiu 1997), a rectangle by its sides; a sphere light by the
+//! disk of its radius facing its direction (the sphere's silhouette seen from afar). Point,
+//! spot and directional lights have no area: one sample, the hard shadow.
+//!
+//! Known failures: banding, `N` overlapping copies of the hard shadow, where a penumbra is
+//! wider than `N`'s spacing allows (few samples, large lights); each map's own bias and
+//! aliasing, repeated `N` times.
+
+use super::shadow_map::{self, ShadowMap};
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::{Pipeline, Rgba8, Surface};
+use crate::reference::concentric_disk;
+use crate::scene::{AreaShape, Light, LightKind};
+use crate::shadow::inspect::{self, Step};
+use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::{Vec2, Vec3};
+
+choice_enum! {
+    /// How each sample's hard shadow is computed.
+    pub enum Method {
+        /// A shadow map (cube map) per sample point.
+        Maps = "maps",
+        /// A stencil shadow-volume pass per sample point (exact hard shadows).
+        Volumes = "volumes",
+    }
+}
+
+/// Most samples.
+pub const MAX_SAMPLES: u32 = 1024;
+
+/// Options of the multi-sample area light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Point lights over the area light (1 to 1024). Default: 16.
+    pub samples: u32,
+    /// Hard shadow per sample. Default: maps.
+    pub method: Method,
+    /// Maps: side of each cube face in texels. Default: 1024.
+    pub size: u32,
+    /// Maps: 2x2 PCF (false: one comparison). Default: true.
+    pub pcf: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            samples: 16,
+            method: Method::Maps,
+            size: 1024,
+            pcf: true,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    Declaration {
+        technique: "multi-sample",
+        fields: vec![
+            Field::range(
+                "samples",
+                "point lights over the area light",
+                1,
+                MAX_SAMPLES,
+                |o: &mut Options| &mut o.samples,
+            ),
+            Field::new(
+                "method",
+                "hard shadow per sample: maps (cube shadow maps) or volumes (stencil shadow volumes, exact)",
+                |o: &mut Options| &mut o.method,
+            ),
+            Field::range(
+                "size",
+                "maps: side of each cube face in texels",
+                16,
+                crate::pipeline::MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
+            Field::new("pcf", "maps: 2x2 PCF (false: one comparison)", |o: &mut Options| {
+                &mut o.pcf
+            }),
+        ],
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "multi-sample",
+        summary:
+            "N hard shadows from points over the area light, averaged (Heckbert and Herf): converges to the reference",
+        options: declaration().infos(),
+        sweep: &[
+            &[("samples", "4")],
+            &[],
+            &[("samples", "64"), ("size", "512")],
+            &[("samples", "16"), ("method", "volumes")],
+        ],
+        create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// Van der Corput's radical inverse in base 2.
+fn radical_inverse(i: u32) -> f32 {
+    (i.reverse_bits() as f64 / 4_294_967_296.0) as f32
+}
+
+/// The `n` sample points of `light` (see the module docs); one, its centre, without an area.
+pub fn sample_points(light: &Light, n: u32) -> Vec<Vec3> {
+    let LightKind::Area(shape) = light.kind else {
+        return vec![light.position];
+    };
+    let (t1, t2) = light.tangents();
+    (0..n)
+        .map(|i| {
+            let u = Vec2::new((i as f32 + 0.5) / n as f32, radical_inverse(i));
+            let q = match shape {
+                AreaShape::Disk { radius } | AreaShape::Sphere { radius } => concentric_disk(u) * radius,
+                AreaShape::Rectangle { width, height } => (u - Vec2::splat(0.5)) * Vec2::new(width, height),
+            };
+            light.position + t1 * q.x + t2 * q.y
+        })
+        .collect()
+}
+
+/// The multi-sample area light (see the module docs).
+pub struct MultiSample {
+    opts: Options,
+    map: ShadowMap,
+    volume: ShadowVolume,
+    points: Vec<Vec3>,
+    taps: f64,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl MultiSample {
+    /// The technique with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<MultiSample, String> {
+        declaration().check(&opts)?;
+        Ok(MultiSample {
+            map: ShadowMap::new(Self::map_options(&opts))?,
+            volume: ShadowVolume::new(shadow_volume::Options::default())?,
+            opts,
+            points: Vec::new(),
+            taps: 0.0,
+            times: Vec::new(),
+        })
+    }
+
+    fn map_options(o: &Options) -> shadow_map::Options {
+        shadow_map::Options {
+            size: o.size,
+            filter: if o.pcf {
+                shadow_map::Filter::Pcf2
+            } else {
+                shadow_map::Filter::None
+            },
+            ..Default::default()
+        }
+    }
+
+    /// The sample points of the last run.
+    pub fn points(&self) -> &[Vec3] {
+        &self.points
+    }
+
+    /// The light of sample point `q`: a point light there, with the area light's intensity.
+    fn point_light(light: &Light, q: Vec3) -> Light {
+        Light {
+            kind: LightKind::Point,
+            position: q,
+            ..*light
+        }
+    }
+}
+
+impl ShadowTechnique for MultiSample {
+    fn name(&self) -> &'static str {
+        "multi-sample"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        self.points = sample_points(&frame.light, self.opts.samples);
+        let mut sampled = frame.with_light(frame.light);
+        let mut sum = vec![0.0f32; frame.points().len()];
+        let mut times: Vec<(&'static str, f64)> = Vec::new();
+        self.taps = 0.0;
+        for &q in &self.points {
+            sampled.light = match frame.light.kind {
+                LightKind::Area(_) => Self::point_light(&frame.light, q),
+                _ => frame.light,
+            };
+            let t: &mut dyn ShadowTechnique = match self.opts.method {
+                Method::Maps => &mut self.map,
+                Method::Volumes => &mut self.volume,
+            };
+            let Visibility::Scalar(v) = t.visibility(p, &sampled)? else {
+                return Err("technique 'multi-sample': a sample's hard shadow was not scalar".into());
+            };
+            // The same order of additions at every pixel for any thread count.
+            for (s, v) in sum.iter_mut().zip(&v) {
+                *s += v;
+            }
+            for (name, ms) in t.timings() {
+                match times.iter_mut().find(|(n, _)| *n == name) {
+                    Some(e) => e.1 += ms,
+                    None => times.push((name, ms)),
+                }
+            }
+            self.taps += t.counters().iter().find(|c| c.0 == "taps").map_or(0.0, |c| c.1);
+        }
+        let n = self.points.len() as f32;
+        sum.iter_mut().for_each(|s| *s /= n);
+        self.times = times;
+        Ok(Visibility::Scalar(sum))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut steps = vec![Step::new(
+            "samples",
+            "point lights over the area light (a Hammersley set), each a hard shadow, averaged",
+        )
+        .int("samples", self.points.len())
+        .text("method", self.opts.method.as_str())];
+        if self.points.is_empty() {
+            return steps;
+        }
+        // Each sample's hard visibility at the pixel, recomputed on one worker (at most 32).
+        let Ok(p) = Pipeline::new(1) else { return steps };
+        let i = (y * frame.width() + x) as usize;
+        let mut sampled = frame.with_light(frame.light);
+        let mut sum = 0.0f32;
+        for (k, &q) in self.points.iter().enumerate() {
+            sampled.light = match frame.light.kind {
+                LightKind::Area(_) => Self::point_light(&frame.light, q),
+                _ => frame.light,
+            };
+            let v = match self.opts.method {
+                Method::Maps => {
+                    ShadowMap::new(Self::map_options(&self.opts)).map(|t| Box::new(t) as Box<dyn ShadowTechnique>)
+                }
+                Method::Volumes => {
+                    ShadowVolume::new(Default::default()).map(|t| Box::new(t) as Box<dyn ShadowTechnique>)
+                }
+            }
+            .and_then(|mut t| t.visibility(&p, &sampled))
+            .map(|v| v.value(i))
+            .unwrap_or(f32::NAN);
+            sum += v;
+            if k < 32 {
+                steps.push(
+                    Step::new("sample", "one point light's hard shadow at this pixel")
+                        .int("sample", k)
+                        .vec3("position", q)
+                        .num("visibility", v),
+                );
+            }
+        }
+        steps.push(inspect::result(sum / self.points.len() as f32));
+        steps
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let mut c = vec![("samples", self.points.len() as f64)];
+        if self.opts.method == Method::Maps {
+            let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
+            c.push(("map texels per sample", texels as f64));
+            c.push(("taps", self.taps));
+        }
+        c
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        // The sample points on the light (unit square of the light's tangents, 256 x 256).
+        const N: u32 = 256;
+        let mut img = Surface::new(N, N, [24u8, 24, 32, 255] as Rgba8).map_err(|e| e.to_string())?;
+        let (t1, t2) = frame.light.tangents();
+        let extent = match frame.light.kind {
+            LightKind::Area(s) => s.width().max(1e-6),
+            _ => 1.0,
+        };
+        for &q in &self.points {
+            let d = q - frame.light.position;
+            let uv = Vec2::new(d.dot(t1), d.dot(t2)) / (1.2 * extent) + Vec2::splat(0.5);
+            let (px, py) = ((uv.x * N as f32) as i64, (uv.y * N as f32) as i64);
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let (x, y) = (px + dx, py + dy);
+                if (0..N as i64).contains(&x) && (0..N as i64).contains(&y) {
+                    img.set(x as u32, y as u32, [250, 220, 90, 255]);
+                }
+            }
+        }
+        let mut v = vec![Stage::Color {
+            name: "light_samples".into(),
+            data: img,
+        }];
+        if self.opts.method == Method::Maps {
+            // The last sample's maps.
+            v.extend(self.map.stages(p, frame)?);
+        }
+        Ok(v)
+    }
+}

@@ -1,0 +1,473 @@
+//! Percentage-closer soft shadows (Fernando 2005; RTR 7.6, eq. 7.6 and fig. 7.25): one shadow
+//! map from the light's centre, and per pixel three steps.
+//!
+//! 1. **Blocker search.** The texels that can hold casters between the receiver and the
+//!    light lie inside the cone from the receiver to the light's extent. At the nearest
+//!    caster of the map (distance `d_min` from the light) that cone is
+//!    `w_light (d_r - d_min) / d_r` wide, so the search disk is that width in the map's
+//!    texels there: `w_light (d_r - d_min) / (d_r d_min texel)` for a light at a point (the
+//!    texel grows with distance), `(d_r - d_min) 2 tan(angle / 2) / texel` for a directional
+//!    light of angular diameter `angle`. `blockers` taps of a Poisson disk (rotated or spiral
+//!    with those filters) read the raw depths; a tap nearer than the reference is a blocker.
+//! 2. **Penumbra estimate.** No blocker: lit; every tap a blocker: umbra (the classic early
+//!    outs). Otherwise the blockers' distances from the light, unprojected from the map's
+//!    depth ([`LightView::distance`]), are averaged to `d_o`, and RTR eq. 7.6 gives the
+//!    penumbra width at the receiver, `w_penumbra = w_light (d_r - d_o) / d_o` (directional:
+//!    `(d_r - d_o) 2 tan(angle / 2)`), taken to texels at the receiver's distance.
+//! 3. **Filtering.** A PCF disk of `taps` hardware 2x2 comparisons that wide
+//!    ([`super::kernel`]), with the shadow map's receiver-plane bias and bias cone across it.
+//!
+//! With `hierarchy`, min/max mip chains of the map ([`super::kernel::MinMax`]) classify the
+//! search disk (no blocker or all blockers: one lookup) and the filter disk (fully lit or in
+//! umbra) and skip their taps; the image is identical.
+//!
+//! The light's width is the scene's area light (a disk's or sphere's diameter, a
+//! rectangle's mean side) times `light`; point and spot lights have none, so PCSS gives their
+//! hard shadow; a directional light has the angular diameter `angle` (default 0: hard). A
+//! width of zero skips the search and filters with one 2x2 comparison: exactly the
+//! `shadow-map [filter=pcf2]` image with the same map options.
+//!
+//! Known failures: the average-blocker assumption (RTR: "a street lamp and a distant
+//! mountain"): where occluders at two heights cover the search disk, the average lies between
+//! them and the penumbra is wrong for both; the search disk's 16 taps miss thin blockers; the
+//! all-blockers early out turns a penumbra into umbra when the filter disk is narrower than
+//! the search disk but still crosses an edge; and the estimate is quantized by the map's
+//! resolution (contact-hardening shadows use a mip chain against that).
+
+use super::kernel::{Class, Kernel, Pattern, MAX_TAPS};
+use super::shadow_map::{self, At, Prepared, ShadowMap};
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::{Pipeline, Surface};
+use crate::scene::LightKind;
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::LightView;
+use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::Vec2;
+
+choice_enum! {
+    /// The disk PCSS searches and filters with.
+    pub enum Disk {
+        /// A fixed Poisson disk (16 taps: the disk commonly used with PCSS).
+        Poisson = "poisson",
+        /// The Poisson disk rotated per pixel by a hashed angle.
+        Rotated = "rotated",
+        /// A Vogel spiral rotated by interleaved gradient noise (Jimenez 2014).
+        Spiral = "spiral",
+    }
+}
+
+impl Disk {
+    /// The kernel pattern.
+    pub fn pattern(self) -> Pattern {
+        match self {
+            Disk::Poisson => Pattern::Poisson,
+            Disk::Rotated => Pattern::Rotated,
+            Disk::Spiral => Pattern::Spiral,
+        }
+    }
+}
+
+/// Options of PCSS.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The shadow map and its bias (the shadow map's options; its `layer`, `filter`, `kernel`,
+    /// `world` and `taps` are not used). Default: the shadow map's defaults.
+    pub map: shadow_map::Options,
+    /// The light's width as a multiple of the scene's area light (0: a hard shadow).
+    /// Default: 1.
+    pub light: f32,
+    /// Directional lights: angular diameter in degrees (the sun: 0.53). Default: 0 (hard).
+    pub angle: f32,
+    /// Blocker-search taps (1 to 256). Default: 16.
+    pub blockers: u32,
+    /// Filter taps (1 to 256). Default: 16.
+    pub taps: u32,
+    /// The disk of both steps. Default: poisson.
+    pub disk: Disk,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            map: shadow_map::Options::default(),
+            light: 1.0,
+            angle: 0.0,
+            blockers: 16,
+            taps: 16,
+            disk: Disk::Poisson,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    fields.extend([
+        Field::range(
+            "light",
+            "the light's width as a multiple of the scene's area light (0: hard shadow)",
+            0.0,
+            1e3,
+            |o: &mut Options| &mut o.light,
+        ),
+        Field::range(
+            "angle",
+            "directional lights: angular diameter in degrees (0: hard shadow)",
+            0.0,
+            90.0,
+            |o: &mut Options| &mut o.angle,
+        ),
+        Field::range("blockers", "blocker-search taps", 1, MAX_TAPS, |o: &mut Options| {
+            &mut o.blockers
+        }),
+        Field::range("taps", "filter taps", 1, MAX_TAPS, |o: &mut Options| &mut o.taps),
+        Field::new(
+            "disk",
+            "poisson, rotated (per-pixel hashed angle) or spiral (interleaved gradient noise)",
+            |o: &mut Options| &mut o.disk,
+        ),
+    ]);
+    Declaration {
+        technique: "pcss",
+        fields,
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "pcss",
+        summary:
+            "percentage-closer soft shadows (Fernando 2005): blocker search, penumbra by RTR eq. 7.6, PCF that wide",
+        options: declaration().infos(),
+        sweep: &[
+            &[],
+            &[("hierarchy", "true")],
+            &[("blockers", "32"), ("taps", "64")],
+            &[("disk", "rotated")],
+            &[("disk", "spiral"), ("taps", "32")],
+            &[("size", "512")],
+            &[("receiver", "true"), ("units", "0"), ("slope", "0")],
+            &[("angle", "1")],
+        ],
+        create: |pairs| Ok(Box::new(Pcss::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// One pixel's blocker search and penumbra estimate.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Search disk width in texels.
+    pub search: f32,
+    /// Taps that found a blocker, of `taps`.
+    pub found: u32,
+    /// Search taps read (1 when the hierarchy classified the disk).
+    pub taps: u32,
+    /// The receiver's distance from the light along the view axis.
+    pub receiver: f32,
+    /// The blockers' average distance (NaN without blockers).
+    pub blocker: f32,
+    /// Penumbra width in texels (0 without blockers; the search width in umbra).
+    pub penumbra: f32,
+    /// What decided the search: mixed (filter), lit (no blocker) or shadowed (all blockers).
+    pub class: Class,
+}
+
+/// Percentage-closer soft shadows (see the module docs).
+pub struct Pcss {
+    opts: Options,
+    map: ShadowMap,
+    /// Per light view of the last run: the nearest caster's distance from the light.
+    nearest: Vec<f32>,
+    /// The light's width (world units; for directional lights `2 tan(angle / 2)`).
+    width: f32,
+    taps: u64,
+    early: u64,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl Pcss {
+    /// PCSS with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Pcss, String> {
+        declaration().check(&opts)?;
+        let map = ShadowMap::new(shadow_map::Options {
+            // A wide filter, so that the map prepares the kernel's receiver plane and cone and
+            // builds the hierarchy when asked.
+            filter: shadow_map::Filter::Poisson,
+            ..opts.map.clone()
+        })
+        .map_err(|e| e.replace("'shadow-map'", "'pcss'"))?;
+        Ok(Pcss {
+            opts,
+            map,
+            nearest: Vec::new(),
+            width: 0.0,
+            taps: 0,
+            early: 0,
+            times: Vec::new(),
+        })
+    }
+
+    /// The light's width for `frame` (see the module docs).
+    fn light_width(&self, frame: &Frame) -> f32 {
+        match frame.light.kind {
+            LightKind::Area(shape) => shape.width() * self.opts.light,
+            LightKind::Directional => 2.0 * (self.opts.angle.to_radians() * 0.5).tan(),
+            LightKind::Point | LightKind::Spot { .. } => 0.0,
+        }
+    }
+
+    /// A width in world units at distance `d` from the light, in texels of `view`.
+    fn texels(view: &LightView, world: f32, d: f32) -> f32 {
+        if view.perspective {
+            world / (view.texel * d.max(1e-6))
+        } else {
+            world / view.texel
+        }
+    }
+
+    /// Steps 1 and 2 at a prepared lookup.
+    fn estimate(&self, at: &At, x: usize, y: usize) -> Estimate {
+        let (map, view) = &self.map.maps()[at.face];
+        let size = map.width() as f32;
+        let d_r = view.distance(at.r.z);
+        let d_min = self.nearest[at.face].min(d_r);
+        // The cone from the receiver to the light at the nearest caster (see the module docs).
+        let search = if view.perspective {
+            Self::texels(view, self.width * (d_r - d_min) / d_r.max(1e-6), d_min)
+        } else {
+            Self::texels(view, (d_r - d_min) * self.width, d_r)
+        }
+        .clamp(1.0, size);
+        let kernel = Kernel {
+            pattern: self.opts.disk.pattern(),
+            taps: self.opts.blockers,
+            width: search,
+        };
+        let mut e = Estimate {
+            search,
+            found: 0,
+            taps: 1,
+            receiver: d_r,
+            blocker: f32::NAN,
+            penumbra: 0.0,
+            class: Class::Mixed,
+        };
+        if let Some(mm) = self.map.hierarchy(at.face) {
+            let (lo, hi) = at.r.range(kernel.extent());
+            e.class = mm.classify(at.uv, kernel.extent() + 1.0, lo, hi);
+            if e.class != Class::Mixed {
+                e.found = if e.class == Class::Shadowed {
+                    self.opts.blockers
+                } else {
+                    0
+                };
+                e.penumbra = if e.class == Class::Shadowed { search } else { 0.0 };
+                return e;
+            }
+        }
+        let inv = Vec2::ONE / size;
+        let (mut sum, mut found, mut n) = (0.0f32, 0u32, 0u32);
+        SEARCH.with(|t| {
+            let mut taps = t.borrow_mut();
+            kernel.taps_at(x as u32, y as u32, &mut taps);
+            n = taps.len() as u32;
+            for &(d, _) in taps.iter() {
+                let uv = at.uv + d * inv;
+                if !(uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0) {
+                    continue;
+                }
+                let depth = map.at((uv.x * size) as u32, (uv.y * size) as u32);
+                if depth < at.r.at(d) {
+                    sum += view.distance(depth);
+                    found += 1;
+                }
+            }
+        });
+        e.taps = n;
+        e.found = found;
+        if found == 0 {
+            e.class = Class::Lit;
+            return e;
+        }
+        if found == n {
+            e.class = Class::Shadowed;
+            e.penumbra = search;
+            return e;
+        }
+        // RTR eq. 7.6: w_penumbra = w_light (d_r - d_o) / d_o.
+        let d_o = sum / found as f32;
+        e.blocker = d_o;
+        e.penumbra = if view.perspective {
+            Self::texels(view, self.width * (d_r - d_o).max(0.0) / d_o.max(1e-6), d_r)
+        } else {
+            Self::texels(view, (d_r - d_o).max(0.0) * self.width, d_r)
+        }
+        .min(size);
+        e
+    }
+
+    /// The three steps at one pixel: visibility and taps (blocker search plus filter), every
+    /// step reported to `t`; the count's bit 32 marks an early out.
+    #[inline(always)]
+    fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = match self.map.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => return (v, n),
+            Prepared::At(at) => at,
+        };
+        let map = &self.map.maps()[at.face].0;
+        if self.width <= 0.0 {
+            t.step(|| {
+                Step::new(
+                    "hard",
+                    "the light has no width: one 2x2 comparison, the hard shadow map's",
+                )
+            });
+            return (super::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
+        }
+        let e = self.estimate(&at, x, y);
+        t.step(|| {
+            Step::new(
+                "blocker search",
+                "taps of the search disk nearer than the reference are blockers (Fernando 2005)",
+            )
+            .num("light width", self.width)
+            .num("receiver distance", e.receiver)
+            .num("nearest caster distance", self.nearest[at.face])
+            .num("search width in texels", e.search)
+            .int("taps", e.taps)
+            .int("blockers found", e.found)
+            .text(
+                "decided by",
+                match (e.class, e.taps) {
+                    (Class::Mixed, _) => "the taps: filter",
+                    (Class::Lit, 1) => "the hierarchy: no blocker, lit",
+                    (Class::Shadowed, 1) => "the hierarchy: all blockers, umbra",
+                    (Class::Lit, _) => "no blocker: lit",
+                    (Class::Shadowed, _) => "all blockers: umbra",
+                },
+            )
+        });
+        match e.class {
+            Class::Lit => return (1.0, e.taps as u64 | 1 << 32),
+            Class::Shadowed => return (0.0, e.taps as u64 | 1 << 32),
+            Class::Mixed => {}
+        }
+        t.step(|| {
+            Step::new(
+                "penumbra estimate",
+                "RTR eq. 7.6: w_penumbra = w_light (d_receiver - d_blocker) / d_blocker, in texels at the receiver",
+            )
+            .num("average blocker distance", e.blocker)
+            .num("penumbra width in texels", e.penumbra)
+        });
+        let kernel = Kernel {
+            pattern: self.opts.disk.pattern(),
+            taps: self.opts.taps,
+            width: e.penumbra,
+        };
+        let (v, n) = self.map.filter(&at, &kernel, x, y, t);
+        (v, n + e.taps as u64)
+    }
+}
+
+thread_local! {
+    /// Scratch search taps per worker.
+    static SEARCH: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl ShadowTechnique for Pcss {
+    fn name(&self) -> &'static str {
+        "pcss"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = std::time::Instant::now();
+        self.map.light_pass(p, frame)?;
+        self.width = self.light_width(frame);
+        self.nearest = self
+            .map
+            .maps()
+            .iter()
+            .map(|(m, v)| v.distance(m.data().iter().copied().fold(1.0f32, f32::min)))
+            .collect();
+        let t1 = std::time::Instant::now();
+        let this = &*self;
+        let (out, count) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        self.taps = count & 0xffff_ffff;
+        self.early = count >> 32;
+        self.times = vec![
+            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut t = Steps::default();
+        if self.map.maps().is_empty() {
+            return t.0;
+        }
+        t.step(|| {
+            Step::new("map", "the light pass of the last run")
+                .int("views", self.map.maps().len())
+                .int("size", self.opts.map.size)
+                .num("light width", self.width)
+                .flag("hierarchy", self.opts.map.hierarchy)
+        });
+        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
+        t.0.push(inspect::result(v));
+        t.0
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
+        vec![
+            ("map texels", texels as f64),
+            // Search taps (raw depth reads) plus filter taps (2x2 comparisons); one per
+            // kernel the hierarchy classified.
+            ("taps", self.taps as f64),
+            ("early outs", self.early as f64),
+        ]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v = self.map.stages(p, frame)?;
+        if self.map.maps().is_empty() || self.width <= 0.0 {
+            return Ok(v);
+        }
+        let est = |x: usize, y: usize| match self.map.prepare(frame, x, y, &mut NoTrace) {
+            Prepared::At(at) => Some(self.estimate(&at, x, y)),
+            Prepared::Done(..) => None,
+        };
+        let (w, h) = (frame.width(), frame.height());
+        let penumbra = per_pixel(p, frame, |x, y| est(x, y).map_or(f32::NAN, |e| e.penumbra));
+        let blockers = per_pixel(p, frame, |x, y| {
+            est(x, y).map_or(f32::NAN, |e| e.found as f32 / self.opts.blockers as f32)
+        });
+        let hi = penumbra
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(1.0f32, f32::max);
+        v.push(Stage::Scalar {
+            name: "penumbra_texels".into(),
+            data: Surface::from_vec(w, h, penumbra).map_err(|e| e.to_string())?,
+            lo: 0.0,
+            hi,
+        });
+        v.push(Stage::Scalar {
+            name: "blocker_fraction".into(),
+            data: Surface::from_vec(w, h, blockers).map_err(|e| e.to_string())?,
+            lo: 0.0,
+            hi: 1.0,
+        });
+        Ok(v)
+    }
+}
