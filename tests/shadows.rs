@@ -109,7 +109,7 @@ fn registry_rejects_unknown_names_and_bad_values() {
     assert!(shadow::parse_sets(&["size".into()]).is_err());
     for t in shadow::registry() {
         assert!(!t.sweep.is_empty(), "{} declares sweep sets", t.name);
-        for set in t.sweep {
+        for set in t.sweep.iter().chain(t.extended) {
             let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
             assert!(
                 shadow::create(t.name, &sets).is_ok(),

@@ -116,6 +116,9 @@ struct SweepArgs {
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
     out: PathBuf,
+    /// Also run every technique's extended option sets (variants and slow settings).
+    #[arg(long)]
+    all: bool,
 }
 
 #[derive(Subcommand)]
@@ -256,6 +259,7 @@ fn main() -> ExitCode {
                 threads: 0,
                 reps: 3,
                 out: PathBuf::from("out/sweep"),
+                all: false,
             })
         }
         Some(Cmd::Render(a)) => scene::render(&a.scene, &a.technique, &a.sets, a.threads, a.reps, &a.out),
@@ -268,6 +272,7 @@ fn main() -> ExitCode {
             threads: a.threads,
             reps: a.reps,
             out: a.out,
+            all: a.all,
         }),
         Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),
         Some(Cmd::List) => export::list(),

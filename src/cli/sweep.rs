@@ -21,6 +21,8 @@ pub struct SweepOpts {
     pub reps: usize,
     /// Output folder.
     pub out: PathBuf,
+    /// Also run every technique's extended option sets.
+    pub all: bool,
 }
 
 /// `penumbra sweep`.
@@ -53,7 +55,8 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
     };
     let mut jobs: Vec<(&str, Vec<(String, String)>)> = Vec::new();
     for t in reg.iter().filter(|t| names.contains(&t.name)) {
-        for set in t.sweep {
+        let extended: &[&[(&str, &str)]] = if o.all { t.extended } else { &[] };
+        for set in t.sweep.iter().chain(extended) {
             jobs.push((
                 t.name,
                 set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),

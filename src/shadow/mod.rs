@@ -102,8 +102,10 @@ pub struct TechniqueInfo {
     pub summary: &'static str,
     /// Its options (from its [`Declaration`]).
     pub options: Vec<OptionInfo>,
-    /// Option sets the sweep runs (each a list of `key=value`).
+    /// Option sets the sweep runs (each a list of `key=value`): a representative few.
     pub sweep: &'static [&'static [(&'static str, &'static str)]],
+    /// More option sets that only `penumbra sweep --all` runs (variants and slow settings).
+    pub extended: &'static [&'static [(&'static str, &'static str)]],
     /// Constructor from `key=value` settings (parsed by the technique's [`Declaration`]).
     pub create: Constructor,
 }

@@ -53,6 +53,7 @@ pub fn info() -> TechniqueInfo {
         summary: "BVH ray tracer: exact hard visibility; area lights by stratified sampling (ground truth)",
         options: declaration().infos(),
         sweep: &[&[]],
+        extended: &[],
         create: |pairs| Ok(Box::new(RefTechnique::new(declaration().parse(pairs)?)?)),
     }
 }

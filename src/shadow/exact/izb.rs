@@ -182,6 +182,7 @@ pub fn info() -> TechniqueInfo {
             &[("raster", "standard")],
             &[("samples", "4")],
         ],
+        extended: &[],
         create: |pairs| Ok(Box::new(Izb::new(declaration().parse(pairs)?)?)),
     }
 }

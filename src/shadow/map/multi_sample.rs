@@ -103,10 +103,15 @@ pub fn info() -> TechniqueInfo {
             "N hard shadows from points over the area light, averaged (Heckbert and Herf): converges to the reference",
         options: declaration().infos(),
         sweep: &[
-            &[("samples", "4")],
+            &[("samples", "4"), ("size", "512")],
+            &[("samples", "16"), ("size", "512")],
+            &[("samples", "16"), ("method", "volumes")],
+        ],
+        extended: &[
             &[],
             &[("samples", "64"), ("size", "512")],
-            &[("samples", "16"), ("method", "volumes")],
+            &[("samples", "256"), ("size", "512")],
+            &[("samples", "64"), ("method", "volumes")],
         ],
         create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
     }

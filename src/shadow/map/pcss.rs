@@ -144,11 +144,13 @@ pub fn info() -> TechniqueInfo {
         options: declaration().infos(),
         sweep: &[
             &[],
-            &[("hierarchy", "true")],
             &[("blockers", "32"), ("taps", "64")],
             &[("disk", "rotated")],
-            &[("disk", "spiral"), ("taps", "32")],
             &[("size", "512")],
+        ],
+        extended: &[
+            &[("hierarchy", "true")],
+            &[("disk", "spiral"), ("taps", "32")],
             &[("receiver", "true"), ("units", "0"), ("slope", "0")],
             &[("angle", "1")],
         ],

@@ -86,6 +86,7 @@ pub fn info() -> TechniqueInfo {
         summary: "projective shadow texture (RTR 7.2): occluder mask projected from the light; no self-shadowing, shadows cast backward",
         options: declaration().infos(),
         sweep: &[&[], &[("filter", "bilinear")]],
+        extended: &[],
         create: |pairs| Ok(Box::new(Cookie::new(declaration().parse(pairs)?)?)),
     }
 }

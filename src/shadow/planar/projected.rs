@@ -95,6 +95,7 @@ pub fn info() -> TechniqueInfo {
         summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
         options: declaration().infos(),
         sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
+        extended: &[],
         create: |pairs| Ok(Box::new(Planar::new(declaration().parse(pairs)?)?)),
     }
 }

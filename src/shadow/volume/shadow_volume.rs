@@ -84,6 +84,7 @@ pub fn info() -> TechniqueInfo {
         summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
         options: declaration().infos(),
         sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],
+        extended: &[],
         create: |pairs| Ok(Box::new(ShadowVolume::new(declaration().parse(pairs)?)?)),
     }
 }

@@ -118,6 +118,7 @@ pub fn info() -> TechniqueInfo {
         summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
         options: declaration().infos(),
         sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
+        extended: &[],
         create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
     }
 }

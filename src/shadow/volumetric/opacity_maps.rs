@@ -114,6 +114,7 @@ pub fn info() -> TechniqueInfo {
             &[],
             &[("layout", "deep"), ("slices", "4")],
         ],
+        extended: &[],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
     }
 }

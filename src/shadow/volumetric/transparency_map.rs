@@ -71,6 +71,7 @@ pub fn info() -> TechniqueInfo {
         summary: "coloured transparency map (RTR 7.8): opaque depth map plus the nearest transparent surface's depth and colour; one layer only, transparent receivers wrong",
         options: declaration().infos(),
         sweep: &[&[], &[("size", "512")]],
+        extended: &[],
         create: |pairs| Ok(Box::new(TransparencyMap::new(declaration().parse(pairs)?)?)),
     }
 }
