@@ -1400,6 +1400,7 @@ fn wide_kernels_and_filtered_deep_maps_are_identical_for_1_2_4_threads() {
         ),
         ("curtain", "deep-shadow-map", &[]),
         ("overlap", "pcss", &[("disk", "rotated"), ("hierarchy", "true")]),
+        ("pergola", "chs", &[]),
         ("pergola", "multi-sample", &[("samples", "8"), ("size", "256")]),
     ];
     for (scene, technique, sets) in cases {
@@ -1504,6 +1505,7 @@ fn contact_hardening_beats_every_fixed_width_pcf() {
     // there or too narrow far away. Measured: PCSS 0.0512; Poisson PCF 0.241 (2 texels),
     // 0.122 (16), 0.0612 (32, the best), 0.110 (48), 0.211 (96).
     let pcss = errors("contact", "pcss", &[]).penumbra_rmse;
+    let chs = errors("contact", "chs", &[]).penumbra_rmse;
     let mut best = f64::MAX;
     for width in ["2", "4", "8", "16", "32", "48", "64", "96"] {
         let e = errors(
@@ -1517,6 +1519,8 @@ fn contact_hardening_beats_every_fixed_width_pcf() {
     }
     eprintln!("pcss {pcss} best fixed {best}");
     assert!(pcss < 0.92 * best, "pcss {pcss}, best fixed width {best}");
+    // CHS measured 0.0392.
+    assert!(chs < 0.75 * best, "chs {chs}, best fixed width {best}");
 }
 
 #[test]
@@ -1601,4 +1605,51 @@ fn bad_soft_shadow_options_are_errors() {
 
 fn counter(t: &dyn shadow::ShadowTechnique, name: &str) -> f64 {
     t.counters().iter().find(|c| c.0 == name).unwrap().1
+}
+
+/// Contact-hardening shadows: PCSS on a min/max mip chain, the filter's level from the
+/// penumbra.
+#[test]
+fn chs_matches_the_area_light_better_than_pcss_and_is_the_hard_map_without_a_width() {
+    // Measured penumbra RMSE: contact 0.0392 (PCSS 0.0512), overlap 0.0575 (0.0942),
+    // pergola 0.1206 (0.1457).
+    for (scene, bound) in [("contact", 0.045), ("overlap", 0.066), ("pergola", 0.135)] {
+        let chs = errors(scene, "chs", &[]).penumbra_rmse;
+        let pcss = errors(scene, "pcss", &[]).penumbra_rmse;
+        assert!(
+            chs < bound && chs < pcss,
+            "{scene}: chs {chs} (bound {bound}), pcss {pcss}"
+        );
+    }
+    let p = Pipeline::new(2).unwrap();
+    let s = load(Path::new("fixtures/scenes/contact.toml")).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let hash = |t: &str, sets: &[(&str, &str)]| {
+        let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap().hash()
+    };
+    assert_eq!(
+        hash("chs", &[("light", "0")]),
+        hash("shadow-map", &[("filter", "pcf2"), ("receiver", "true")])
+    );
+    for (k, v) in [("kernel", "0"), ("kernel", "16"), ("light", "-1")] {
+        let e = shadow::create("chs", &[(k.into(), v.into())]).err().unwrap();
+        assert!(e.contains("technique 'chs'") && e.contains("outside"), "{k}={v}: {e}");
+    }
+}
+
+#[test]
+fn penumbra_error_over_map_sizes_512_to_4096() {
+    // Both take their widths from world units, so neither penumbra follows the map's
+    // resolution much. Measured on contact (512, 1024, 2048, 4096): PCSS 0.0501-0.0524, CHS
+    // 0.0392-0.0478 (its 512 map's coarse levels blur).
+    for (t, bound) in [("pcss", 0.005), ("chs", 0.012)] {
+        let e: Vec<f64> = ["512", "1024", "2048", "4096"]
+            .iter()
+            .map(|n| errors("contact", t, &[("size", n)]).penumbra_rmse)
+            .collect();
+        let spread = e.iter().copied().fold(f64::MIN, f64::max) - e.iter().copied().fold(f64::MAX, f64::min);
+        eprintln!("{t}: {e:?} spread {spread}");
+        assert!(spread < bound, "{t}: {e:?}");
+    }
 }

@@ -119,6 +119,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         reference::info(),
         map::shadow_map::info(),
         map::pcss::info(),
+        map::chs::info(),
         map::multi_sample::info(),
         volume::shadow_volume::info(),
         planar::projected::info(),

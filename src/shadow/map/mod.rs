@@ -3,6 +3,7 @@
 //! family (filtering, resolution) shares.
 
 pub mod bias;
+pub mod chs;
 pub mod kernel;
 pub mod multi_sample;
 pub mod pcss;

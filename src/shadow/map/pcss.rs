@@ -212,37 +212,13 @@ impl Pcss {
         })
     }
 
-    /// The light's width for `frame` (see the module docs).
-    fn light_width(&self, frame: &Frame) -> f32 {
-        match frame.light.kind {
-            LightKind::Area(shape) => shape.width() * self.opts.light,
-            LightKind::Directional => 2.0 * (self.opts.angle.to_radians() * 0.5).tan(),
-            LightKind::Point | LightKind::Spot { .. } => 0.0,
-        }
-    }
-
-    /// A width in world units at distance `d` from the light, in texels of `view`.
-    fn texels(view: &LightView, world: f32, d: f32) -> f32 {
-        if view.perspective {
-            world / (view.texel * d.max(1e-6))
-        } else {
-            world / view.texel
-        }
-    }
-
     /// Steps 1 and 2 at a prepared lookup.
     fn estimate(&self, at: &At, x: usize, y: usize) -> Estimate {
         let (map, view) = &self.map.maps()[at.face];
         let size = map.width() as f32;
         let d_r = view.distance(at.r.z);
         let d_min = self.nearest[at.face].min(d_r);
-        // The cone from the receiver to the light at the nearest caster (see the module docs).
-        let search = if view.perspective {
-            Self::texels(view, self.width * (d_r - d_min) / d_r.max(1e-6), d_min)
-        } else {
-            Self::texels(view, (d_r - d_min) * self.width, d_r)
-        }
-        .clamp(1.0, size);
+        let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
         let kernel = Kernel {
             pattern: self.opts.disk.pattern(),
             taps: self.opts.blockers,
@@ -302,12 +278,7 @@ impl Pcss {
         // RTR eq. 7.6: w_penumbra = w_light (d_r - d_o) / d_o.
         let d_o = sum / found as f32;
         e.blocker = d_o;
-        e.penumbra = if view.perspective {
-            Self::texels(view, self.width * (d_r - d_o).max(0.0) / d_o.max(1e-6), d_r)
-        } else {
-            Self::texels(view, (d_r - d_o).max(0.0) * self.width, d_r)
-        }
-        .min(size);
+        e.penumbra = penumbra_texels(view, self.width, d_r, d_o).min(size);
         e
     }
 
@@ -375,6 +346,53 @@ impl Pcss {
     }
 }
 
+/// The light's width for PCSS-style estimates: the scene's area light (a disk's or sphere's
+/// diameter, a rectangle's mean side) times `scale`; `2 tan(angle / 2)` for a directional
+/// light of angular diameter `angle` degrees; 0 for point and spot lights.
+pub(crate) fn light_width(frame: &Frame, scale: f32, angle: f32) -> f32 {
+    match frame.light.kind {
+        LightKind::Area(shape) => shape.width() * scale,
+        LightKind::Directional => 2.0 * (angle.to_radians() * 0.5).tan(),
+        LightKind::Point | LightKind::Spot { .. } => 0.0,
+    }
+}
+
+/// Per light view: the nearest caster's distance from the light (the map's least depth).
+pub(crate) fn nearest_casters(maps: &[(Surface<f32>, LightView)]) -> Vec<f32> {
+    maps.iter()
+        .map(|(m, v)| v.distance(m.data().iter().copied().fold(1.0f32, f32::min)))
+        .collect()
+}
+
+/// A width in world units at distance `d` from the light, in texels of `view`.
+fn texels(view: &LightView, world: f32, d: f32) -> f32 {
+    if view.perspective {
+        world / (view.texel * d.max(1e-6))
+    } else {
+        world / view.texel
+    }
+}
+
+/// The blocker search width in texels: the cone from a receiver at distance `d_r` to a light
+/// of width `w` (directional: `2 tan(angle / 2)`), cut at the nearest caster `d_min`.
+pub(crate) fn search_texels(view: &LightView, w: f32, d_r: f32, d_min: f32) -> f32 {
+    if view.perspective {
+        texels(view, w * (d_r - d_min) / d_r.max(1e-6), d_min)
+    } else {
+        texels(view, (d_r - d_min) * w, d_r)
+    }
+}
+
+/// RTR eq. 7.6, `w_penumbra = w_light (d_r - d_o) / d_o` (directional:
+/// `(d_r - d_o) 2 tan(angle / 2)`), in texels at the receiver.
+pub(crate) fn penumbra_texels(view: &LightView, w: f32, d_r: f32, d_o: f32) -> f32 {
+    if view.perspective {
+        texels(view, w * (d_r - d_o).max(0.0) / d_o.max(1e-6), d_r)
+    } else {
+        texels(view, (d_r - d_o).max(0.0) * w, d_r)
+    }
+}
+
 thread_local! {
     /// Scratch search taps per worker.
     static SEARCH: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
@@ -388,13 +406,8 @@ impl ShadowTechnique for Pcss {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
         self.map.light_pass(p, frame)?;
-        self.width = self.light_width(frame);
-        self.nearest = self
-            .map
-            .maps()
-            .iter()
-            .map(|(m, v)| v.distance(m.data().iter().copied().fold(1.0f32, f32::min)))
-            .collect();
+        self.width = light_width(frame, self.opts.light, self.opts.angle);
+        self.nearest = nearest_casters(self.map.maps());
         let t1 = std::time::Instant::now();
         let this = &*self;
         let (out, count) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));

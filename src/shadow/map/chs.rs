@@ -1,0 +1,373 @@
+//! Contact-hardening shadows (AMD CHS; Sikachev et al., RTR 7.6): PCSS's three steps on a
+//! mip chain of the shadow map, so that the work per pixel is fixed and the penumbra is set
+//! in world units, not by the map's resolution.
+//!
+//! 1. **Blocker search, 8x8 in 16 gathers.** The search width `S` (texels of the base map)
+//!    is PCSS's cone at the nearest caster ([`super::pcss`]). The search reads the 8x8 texels
+//!    around the point at the level `L_s = ceil(log2(S / 8))` of the *minimum* chain (the
+//!    pipeline's reduction, [`super::kernel::MinMax`]): 16 gathers of 2x2. A texel is a
+//!    blocker if its minimum depth is nearer than the receiver's plane anywhere in its block
+//!    (`z + g . d - (|g_x| + |g_y|) 2^L / 2` with `g` the receiver-plane gradient, Isidoro
+//!    2006), and the blockers' distances are averaged.
+//! 2. **Penumbra.** RTR eq. 7.6 as in PCSS: `w_penumbra = w_light (d_r - d_o) / d_o`, `P`
+//!    texels at the receiver.
+//! 3. **Filtering at the penumbra's level.** A `kernel x kernel` grid of 2x2 comparisons at
+//!    the fractional level `L_f = log2(P / kernel)`: sharp levels (the base map) where the
+//!    penumbra is narrow, coarse ones where it is wide, blended between the two nearest levels
+//!    so the width varies smoothly. A coarse level compares against both chains, the minimum
+//!    (which widens shadows by up to a texel of the level) and the maximum (which narrows
+//!    them), and averages the two, so an edge stays where it is.
+//!
+//! Known failures: PCSS's average-blocker assumption; the minimum chain's blockers are the
+//! nearest caster of each block, so the average leans toward the light and the penumbra
+//! toward too wide where a block mixes casters; the coarse levels' blocks blur small
+//! shadows and lose thin occluders in wide penumbrae.
+
+use super::kernel::{Kernel, MinMax, Pattern, Reference};
+use super::pcss::Estimate;
+use super::shadow_map::{self, At, Prepared, ShadowMap};
+use crate::frame::Frame;
+use crate::pipeline::{Pipeline, Surface};
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::LightView;
+use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use glam::Vec2;
+
+/// Taps per axis of the blocker search (8x8 texels in 16 gathers).
+pub const SEARCH: u32 = 8;
+
+/// Options of contact-hardening shadows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The shadow map and its bias (the shadow map's options; its `layer`, `filter`,
+    /// `kernel`, `world`, `taps` and `hierarchy` are not used). Default: the shadow map's
+    /// defaults with the receiver-plane bias on, which the coarse levels need.
+    pub map: shadow_map::Options,
+    /// The light's width as a multiple of the scene's area light (0: a hard shadow).
+    /// Default: 1.
+    pub light: f32,
+    /// Directional lights: angular diameter in degrees. Default: 0 (hard).
+    pub angle: f32,
+    /// Filter taps per axis at the penumbra's level (odd, 1 to 15). Default: 7.
+    pub kernel: u32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            map: shadow_map::Options {
+                receiver: true,
+                ..Default::default()
+            },
+            light: 1.0,
+            angle: 0.0,
+            kernel: 7,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    fields.retain(|f| f.key != "hierarchy");
+    fields.extend([
+        Field::range(
+            "light",
+            "the light's width as a multiple of the scene's area light (0: hard shadow)",
+            0.0,
+            1e3,
+            |o: &mut Options| &mut o.light,
+        ),
+        Field::range(
+            "angle",
+            "directional lights: angular diameter in degrees (0: hard shadow)",
+            0.0,
+            90.0,
+            |o: &mut Options| &mut o.angle,
+        ),
+        Field::range(
+            "kernel",
+            "filter taps per axis at the penumbra's mip level (made odd)",
+            1,
+            15,
+            |o: &mut Options| &mut o.kernel,
+        ),
+    ]);
+    Declaration {
+        technique: "chs",
+        fields,
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "chs",
+        summary:
+            "contact-hardening shadows (AMD): PCSS on a min/max mip chain, 8x8 search, filter level from the penumbra",
+        options: declaration().infos(),
+        sweep: &[&[], &[("size", "512")]],
+        extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
+        create: |pairs| Ok(Box::new(Chs::new(declaration().parse(pairs)?)?)),
+    }
+}
+
+/// Contact-hardening shadows (see the module docs).
+pub struct Chs {
+    opts: Options,
+    map: ShadowMap,
+    chains: Vec<MinMax>,
+    nearest: Vec<f32>,
+    width: f32,
+    taps: u64,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl Chs {
+    /// CHS with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Chs, String> {
+        declaration().check(&opts)?;
+        let map = ShadowMap::new(shadow_map::Options {
+            filter: shadow_map::Filter::Grid,
+            hierarchy: false,
+            ..opts.map.clone()
+        })
+        .map_err(|e| e.replace("'shadow-map'", "'chs'"))?;
+        Ok(Chs {
+            opts,
+            map,
+            chains: Vec::new(),
+            nearest: Vec::new(),
+            width: 0.0,
+            taps: 0,
+            times: Vec::new(),
+        })
+    }
+
+    /// Level `l` of the minimum (`max == false`) or maximum chain of view `face`; level 0 is
+    /// the map itself.
+    fn level(&self, face: usize, l: usize, max: bool) -> &Surface<f32> {
+        if l == 0 {
+            return &self.map.maps()[face].0;
+        }
+        let c = &self.chains[face];
+        let chain = if max { &c.max } else { &c.min };
+        &chain.levels()[(l - 1).min(chain.level_count() - 1)]
+    }
+
+    fn levels(&self, face: usize) -> usize {
+        self.chains[face].min.level_count() + 1
+    }
+
+    /// Steps 1 and 2 (the search on the minimum chain and the penumbra estimate).
+    fn estimate(&self, at: &At) -> (Estimate, usize) {
+        let view: &LightView = &self.map.maps()[at.face].1;
+        let size = self.map.maps()[at.face].0.width() as f32;
+        let d_r = view.distance(at.r.z);
+        let d_min = self.nearest[at.face].min(d_r);
+        let search = super::pcss::search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
+        let ls = ((search / SEARCH as f32).log2().ceil().max(0.0) as usize).min(self.levels(at.face) - 1);
+        let lvl = self.level(at.face, ls, false);
+        let scale = (1u32 << ls) as f32;
+        let (lw, lh) = (lvl.width() as i64, lvl.height() as i64);
+        // The 8x8 texels around the point at level ls: 16 gathers of 2x2.
+        let c = at.uv * Vec2::new(lw as f32, lh as f32);
+        let (x0, y0) = (
+            (c.x - SEARCH as f32 / 2.0).round() as i64,
+            (c.y - SEARCH as f32 / 2.0).round() as i64,
+        );
+        let slack = (at.r.gradient.x.abs() + at.r.gradient.y.abs()) * scale * 0.5;
+        let (mut sum, mut found) = (0.0f32, 0u32);
+        for j in 0..SEARCH as i64 {
+            for i in 0..SEARCH as i64 {
+                let (x, y) = (x0 + i, y0 + j);
+                if x < 0 || y < 0 || x >= lw || y >= lh {
+                    continue;
+                }
+                // The texel block's centre, in base texels from the point.
+                let d = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - c) * scale;
+                let depth = lvl.at(x as u32, y as u32);
+                if depth < at.r.at(d) - slack {
+                    sum += view.distance(depth);
+                    found += 1;
+                }
+            }
+        }
+        let mut e = Estimate {
+            search,
+            found,
+            taps: SEARCH * SEARCH,
+            receiver: d_r,
+            blocker: f32::NAN,
+            penumbra: 0.0,
+            class: super::kernel::Class::Mixed,
+        };
+        if found == 0 {
+            e.class = super::kernel::Class::Lit;
+            return (e, ls);
+        }
+        let d_o = sum / found as f32;
+        e.blocker = d_o;
+        e.penumbra = super::pcss::penumbra_texels(view, self.width, d_r, d_o).min(size);
+        (e, ls)
+    }
+
+    /// PCF of the kernel at level `l` (both chains averaged above level 0).
+    fn pcf_at(&self, at: &At, l: usize, x: usize, y: usize) -> (f32, u32) {
+        let scale = (1u32 << l) as f32;
+        let r = Reference {
+            z: at.r.z,
+            gradient: at.r.gradient * scale,
+            cone: at.r.cone * scale,
+        };
+        let k = Kernel {
+            pattern: Pattern::Grid,
+            taps: 16,
+            width: self.opts.kernel as f32,
+        };
+        let lo = k.filter(self.level(at.face, l, false), at.uv, &r, x as u32, y as u32);
+        if l == 0 {
+            return (lo.value, lo.taps);
+        }
+        let hi = k.filter(self.level(at.face, l, true), at.uv, &r, x as u32, y as u32);
+        (0.5 * (lo.value + hi.value), lo.taps + hi.taps)
+    }
+
+    #[inline(always)]
+    fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = match self.map.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => return (v, n),
+            Prepared::At(at) => at,
+        };
+        if self.width <= 0.0 {
+            t.step(|| Step::new("hard", "the light has no width: one 2x2 comparison"));
+            let map = &self.map.maps()[at.face].0;
+            return (super::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
+        }
+        let (e, ls) = self.estimate(&at);
+        t.step(|| {
+            Step::new(
+                "blocker search",
+                "8x8 texels of the minimum chain at the level whose 8 texels span the search width",
+            )
+            .num("search width in texels", e.search)
+            .int("search level", ls)
+            .int("blockers found", e.found)
+            .num("receiver distance", e.receiver)
+            .num("average blocker distance", e.blocker)
+        });
+        if e.found == 0 {
+            return (1.0, e.taps as u64);
+        }
+        // The fractional level where the kernel spans the penumbra.
+        let lf = (e.penumbra / self.opts.kernel as f32)
+            .log2()
+            .max(0.0)
+            .min((self.levels(at.face) - 1) as f32);
+        let (l0, frac) = (lf.floor() as usize, lf.fract());
+        let (v0, n0) = self.pcf_at(&at, l0, x, y);
+        let (v, n) = if frac > 0.0 && l0 + 1 < self.levels(at.face) {
+            let (v1, n1) = self.pcf_at(&at, l0 + 1, x, y);
+            (v0 + (v1 - v0) * frac, n0 + n1)
+        } else {
+            (v0, n0)
+        };
+        t.step(|| {
+            Step::new(
+                "filter",
+                "a kernel x kernel grid of 2x2 comparisons at the penumbra's level, blended with the next level",
+            )
+            .num("penumbra width in texels", e.penumbra)
+            .num("filter level", lf)
+            .num("visibility at the finer level", v0)
+            .num("visibility", v)
+        });
+        (v, (n + e.taps) as u64)
+    }
+}
+
+impl ShadowTechnique for Chs {
+    fn name(&self) -> &'static str {
+        "chs"
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let t0 = std::time::Instant::now();
+        self.map.light_pass(p, frame)?;
+        self.width = super::pcss::light_width(frame, self.opts.light, self.opts.angle);
+        self.nearest = super::pcss::nearest_casters(self.map.maps());
+        let t1 = std::time::Instant::now();
+        self.chains = self.map.maps().iter().map(|(m, _)| MinMax::new(p, m)).collect();
+        let t2 = std::time::Instant::now();
+        let this = &*self;
+        let (out, taps) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        self.taps = taps;
+        self.times = vec![
+            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
+            ("min/max chains", (t2 - t1).as_secs_f64() * 1e3),
+            ("lookup pass", t2.elapsed().as_secs_f64() * 1e3),
+        ];
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let mut t = Steps::default();
+        if self.map.maps().is_empty() {
+            return t.0;
+        }
+        t.step(|| {
+            Step::new("map", "the light pass of the last run and its min/max chains")
+                .int("views", self.map.maps().len())
+                .int("size", self.opts.map.size)
+                .int("levels", self.levels(0))
+                .num("light width", self.width)
+        });
+        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
+        t.0.push(inspect::result(v));
+        t.0
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
+        vec![("map texels", texels as f64), ("taps", self.taps as f64)]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v = self.map.stages(p, frame)?;
+        if self.map.maps().is_empty() || self.width <= 0.0 {
+            return Ok(v);
+        }
+        // The filter level per pixel, and the min chain's levels 1-3 of the first view.
+        let level = per_pixel(p, frame, |x, y| match self.map.prepare(frame, x, y, &mut NoTrace) {
+            Prepared::At(at) => {
+                let (e, _) = self.estimate(&at);
+                if e.found == 0 {
+                    f32::NAN
+                } else {
+                    (e.penumbra / self.opts.kernel as f32).log2().max(0.0)
+                }
+            }
+            Prepared::Done(..) => f32::NAN,
+        });
+        v.push(Stage::Scalar {
+            name: "filter_level".into(),
+            data: Surface::from_vec(frame.width(), frame.height(), level).map_err(|e| e.to_string())?,
+            lo: 0.0,
+            hi: (self.levels(0) - 1) as f32,
+        });
+        for l in 1..4.min(self.levels(0)) {
+            v.push(Stage::Scalar {
+                name: format!("min_level{l}"),
+                data: self.level(0, l, false).clone(),
+                lo: 0.0,
+                hi: 1.0,
+            });
+        }
+        Ok(v)
+    }
+}
