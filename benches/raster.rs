@@ -147,5 +147,50 @@ fn volumetric(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random, techniques, volumetric);
+/// Soft shadows from one map on the spheres scene (a 2-degree sun for PCSS and CHS; 2048²
+/// maps), against the 2x2 and 5x5 PCF maps; and on `pergola` at 1920x1080 under its
+/// rectangle light, with the multi-sample area light as the baseline.
+fn soft(c: &mut Criterion) {
+    use penumbra::shadow;
+    let p = Pipeline::new(threads()).unwrap();
+    let kv = |k: &str, v: &str| (k.to_string(), v.to_string());
+    let mut g = c.benchmark_group(format!("spheres_soft_{}t", p.threads()));
+    g.sample_size(10);
+    let scene = spheres_as_scene(100_000);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    for (id, name, sets) in [
+        ("pcf2", "shadow-map", vec![kv("filter", "pcf2")]),
+        ("pcf-grid-5", "shadow-map", vec![kv("filter", "grid")]),
+        ("pcss", "pcss", vec![kv("angle", "2")]),
+        (
+            "pcss-hierarchy",
+            "pcss",
+            vec![kv("angle", "2"), kv("hierarchy", "true")],
+        ),
+        ("chs", "chs", vec![kv("angle", "2")]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+    let mut g = c.benchmark_group(format!("pergola_soft_{}t", p.threads()));
+    g.sample_size(10);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/pergola.toml");
+    let mut scene = penumbra::scene::file::load(&path).unwrap();
+    (scene.camera.width, scene.camera.height) = (1920, 1080);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    for (id, name, sets) in [
+        ("pcf2", "shadow-map", vec![kv("filter", "pcf2")]),
+        ("pcss", "pcss", vec![]),
+        ("chs", "chs", vec![]),
+        ("multi-sample-16", "multi-sample", vec![kv("size", "512")]),
+        ("multi-sample-16-volumes", "multi-sample", vec![kv("method", "volumes")]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques, volumetric, soft);
 criterion_main!(benches);

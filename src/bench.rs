@@ -2,7 +2,8 @@
 //!
 //! - the **spheres frame**: a shadow-mapped frame that other renderers (Mesa's llvmpipe) can
 //!   run identically: ground plane, 8 x 8 UV spheres, a directional light with a fitted
-//!   orthographic depth pass, then a 1920 x 1080 camera pass with 2x2 or 5x5 hardware PCF;
+//!   orthographic depth pass, then a 1920 x 1080 camera pass with 2x2 or 5x5 hardware PCF, or
+//!   the classic PCSS shader ([`pcss_shadow`]);
 //! - **random triangles**: `T` triangles of about `A` pixels each at 1920 x 1080, depth-only
 //!   or colour + depth, for triangles/s and pixels/s.
 
@@ -23,6 +24,9 @@ pub enum FrameMode {
     Pcf2,
     /// 25 comparisons on a 5 x 5 texel grid.
     Pcf5,
+    /// The classic PCSS shader, fixed so that any renderer runs the same frame
+    /// ([`pcss_shadow`]).
+    Pcss,
 }
 
 impl std::str::FromStr for FrameMode {
@@ -32,6 +36,7 @@ impl std::str::FromStr for FrameMode {
             ("depth", FrameMode::Depth),
             ("pcf2", FrameMode::Pcf2),
             ("pcf5", FrameMode::Pcf5),
+            ("pcss", FrameMode::Pcss),
         ];
         crate::pipeline::state::parse_choice(s, "frame mode", &modes)
     }
@@ -118,6 +123,67 @@ impl VertexProgram for CameraVs {
     }
 }
 
+/// Blocker-search disk radius of the frame's PCSS shader, in texels.
+pub const PCSS_SEARCH_TEXELS: f32 = 16.0;
+/// Depth bias of its blocker search (map depth units).
+pub const PCSS_SEARCH_BIAS: f32 = 0.0015;
+/// Texels of filter radius per unit of map depth between receiver and blockers.
+pub const PCSS_PENUMBRA_SCALE: f32 = 400.0;
+
+/// The frame benchmark's PCSS shader (Fernando 2005 with the constants commonly used with
+/// it), at map position `uv` and depth `z`: 16 raw-depth taps of [`POISSON16`] scaled to 16
+/// texels (nearest texel, clamped to the edge); a tap nearer than `z - 0.0015` is a blocker.
+/// No blocker: lit. Otherwise the filter radius `r = clamp((z - 0.0015 - mean blocker depth)
+/// * 400, 1, 16)` texels and 16 hardware 2x2 comparisons against `z` on the same disk scaled
+/// to `r`, averaged. `tools/llvmpipe_bench.py` runs the same shader in GLSL.
+///
+/// [`POISSON16`]: crate::shadow::map::kernel::POISSON16
+#[inline]
+pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
+    use crate::shadow::map::kernel::{bilinear_compare4, lanes_index};
+    let size = map.width() as f32;
+    let last = Vec4::splat(size - 1.0);
+    let reference = z - PCSS_SEARCH_BIAS;
+    let (dx, dy) = poisson16_lanes();
+    let d = map.data();
+    let ws = map.width() as usize;
+    // Four taps at a time, each lane's operations those of one tap; sums in tap order.
+    let (mut sum, mut found) = (0.0f32, 0u32);
+    let k = Vec4::splat(PCSS_SEARCH_TEXELS / size);
+    for q in 0..4 {
+        let tx = ((Vec4::splat(uv.x) + dx[q] * k) * size).floor().clamp(Vec4::ZERO, last);
+        let ty = ((Vec4::splat(uv.y) + dy[q] * k) * size).floor().clamp(Vec4::ZERO, last);
+        let (tx, ty) = (lanes_index(tx), lanes_index(ty));
+        let depth = Vec4::from_array(std::array::from_fn(|i| d[ty[i] * ws + tx[i]]));
+        let blocker = depth.cmplt(Vec4::splat(reference));
+        let kept = Vec4::select(blocker, depth, Vec4::ZERO);
+        sum = sum + kept.x + kept.y + kept.z + kept.w;
+        found += blocker.bitmask().count_ones();
+    }
+    if found == 0 {
+        return 1.0;
+    }
+    let r = ((reference - sum / found as f32) * PCSS_PENUMBRA_SCALE).clamp(1.0, PCSS_SEARCH_TEXELS);
+    let s = Vec4::splat(r / size);
+    let mut lit = 0.0f32;
+    for q in 0..4 {
+        let v = bilinear_compare4(map, Vec4::splat(uv.x) + dx[q] * s, Vec4::splat(uv.y) + dy[q] * s, z);
+        lit = lit + v.x + v.y + v.z + v.w;
+    }
+    lit / 16.0
+}
+
+/// [`crate::shadow::map::kernel::POISSON16`] as four lanes of x and four of y.
+#[inline(always)]
+fn poisson16_lanes() -> ([Vec4; 4], [Vec4; 4]) {
+    use crate::shadow::map::kernel::POISSON16 as P;
+    let lane = |q: usize, f: fn(Vec2) -> f32| Vec4::new(f(P[4 * q]), f(P[4 * q + 1]), f(P[4 * q + 2]), f(P[4 * q + 3]));
+    (
+        std::array::from_fn(|q| lane(q, |p| p.x)),
+        std::array::from_fn(|q| lane(q, |p| p.y)),
+    )
+}
+
 struct CameraFs<'a> {
     map: &'a Surface<f32>,
     to_light: Vec3,
@@ -134,6 +200,7 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let uv = Vec2::new(l.x * 0.5 + 0.5, 0.5 - l.y * 0.5);
         let shadow = match self.mode {
             FrameMode::Pcf5 => self.sampler.pcf_grid(self.map, uv, l.z, 5),
+            FrameMode::Pcss => pcss_shadow(self.map, uv, l.z),
             _ => self.sampler.pcf2x2(self.map, uv, l.z),
         };
         Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))
@@ -161,6 +228,9 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let (u, v, z) = map_coords4(f);
         let shadow = match self.mode {
             FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, z, 5),
+            FrameMode::Pcss => Vec4::from_array(std::array::from_fn(|i| {
+                pcss_shadow(self.map, Vec2::new(u[i], v[i]), z[i])
+            })),
             _ => self.sampler.pcf2x2_4(self.map, u, v, z),
         };
         let k = Vec4::splat(0.15) + Vec4::splat(0.85) * ndl * shadow;
@@ -483,4 +553,60 @@ pub fn export_raster(
         if color { "color" } else { "depth" }
     );
     export_workload(dir, &floats, indices, &meta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shadow::map::kernel::POISSON16;
+
+    /// The frame's PCSS shader written plainly from its specification, one tap at a time.
+    fn plain_pcss(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
+        let size = map.width() as f32;
+        let reference = z - 0.0015;
+        let (mut sum, mut found) = (0.0f32, 0u32);
+        for d in POISSON16 {
+            let t = (uv + d * (16.0 / size)) * size;
+            let last = map.width() as i64 - 1;
+            let (x, y) = ((t.x.floor() as i64).clamp(0, last), (t.y.floor() as i64).clamp(0, last));
+            let depth = map.at(x as u32, y as u32);
+            if depth < reference {
+                sum += depth;
+                found += 1;
+            }
+        }
+        if found == 0 {
+            return 1.0;
+        }
+        let r = ((reference - sum / found as f32) * 400.0).clamp(1.0, 16.0);
+        let s = CompareSampler::default();
+        POISSON16.iter().map(|&d| s.pcf2x2(map, uv + d * (r / size), z)).fold(0.0, |a, b| a + b) / 16.0
+    }
+
+    #[test]
+    fn the_frames_pcss_shader_is_its_specification_bit_for_bit() {
+        let mut rng = SplitMix(21);
+        // Smooth depths with steps, so that every branch (no blocker, some, all) is taken.
+        let n = 128u32;
+        let data: Vec<f32> = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f32, (i / n) as f32);
+                0.5 + 0.002 * (x * 0.3).sin() + if (x + y) as u32 % 37 < 9 { -0.01 } else { 0.0 }
+            })
+            .collect();
+        let map = Surface::from_vec(n, n, data).unwrap();
+        let (mut lit, mut mixed) = (0, 0);
+        for _ in 0..5000 {
+            let uv = Vec2::new(rng.next_f32() * 1.2 - 0.1, rng.next_f32() * 1.2 - 0.1);
+            let z = 0.49 + 0.02 * rng.next_f32();
+            let (a, b) = (pcss_shadow(&map, uv, z), plain_pcss(&map, uv, z));
+            assert_eq!(a.to_bits(), b.to_bits(), "{uv} {z}: {a} vs {b}");
+            if a == 1.0 {
+                lit += 1;
+            } else if a > 0.0 {
+                mixed += 1;
+            }
+        }
+        assert!(lit > 100 && mixed > 100, "lit {lit}, mixed {mixed}");
+    }
 }

@@ -21,7 +21,7 @@ fn frame(threads: usize, mode: FrameMode) -> (u64, u64, DrawStats, DrawStats) {
 
 #[test]
 fn spheres_frame_is_identical_for_1_2_4_threads_and_reruns() {
-    for mode in [FrameMode::Pcf2, FrameMode::Pcf5] {
+    for mode in [FrameMode::Pcf2, FrameMode::Pcf5, FrameMode::Pcss] {
         let one = frame(1, mode);
         assert_eq!(one, frame(2, mode), "{mode:?}: 1 vs 2 threads");
         assert_eq!(one, frame(4, mode), "{mode:?}: 1 vs 4 threads");

@@ -5,7 +5,7 @@ The workload comes from penumbra itself (`penumbra bench frame --export DIR` or
 `penumbra bench raster --export DIR`), so both renderers draw the same triangles with the same
 matrices, targets and state: the spheres frame (a 32-bit float depth pass from the light with
 polygon offset and no culling, then the camera pass with a hardware 2x2 comparison or 25 of
-them on a 5x5 grid), or random triangles (colour + depth, or depth only). Clip-space depth is
+them on a 5x5 grid, or the classic PCSS shader of `penumbra bench frame --mode pcss`), or random triangles (colour + depth, or depth only). Clip-space depth is
 [0, 1] and window y points down (glClipControl), as in penumbra.
 
 Not part of penumbra (which uses no system graphics library): a measuring tool. It needs
@@ -25,6 +25,17 @@ import struct
 import sys
 import time
 import zlib
+
+
+# The 16-point Poisson disk commonly used with PCSS (penumbra's `kernel::POISSON16`).
+POISSON16 = [
+    (-0.94201624, -0.39906216), (0.94558609, -0.76890725), (-0.094184101, -0.92938870),
+    (0.34495938, 0.29387760), (-0.91588581, 0.45771432), (-0.81544232, -0.87912464),
+    (-0.38277543, 0.27676845), (0.97484398, 0.75648379), (0.44323325, -0.97511554),
+    (0.53742981, -0.47373420), (-0.26496911, -0.41893023), (0.79197514, 0.19090188),
+    (-0.24188840, 0.99706507), (-0.81409955, 0.91437590), (0.19984126, 0.78641367),
+    (0.14383161, -0.14100790),
+]
 
 
 def main():
@@ -93,17 +104,35 @@ def main():
             void main() {}""",
         )
         depth_prog["light_vp"].write(struct.pack("16f", *w["light_vp"]))
-        taps = (
-            "shadow = texture(map, vec3(uv, l.z));"
-            if w["mode"] == "pcf2"
-            # Offsets must be constant expressions: the 25 taps unrolled.
-            else " ".join(
-                f"shadow += textureOffset(map, vec3(uv, l.z), ivec2({i}, {j}));"
-                for j in range(-2, 3)
-                for i in range(-2, 3)
+        if w["mode"] == "pcf2":
+            taps = "shadow = texture(map, vec3(uv, l.z));"
+        elif w["mode"] == "pcss":
+            # penumbra's `pcss_shadow`: 16 nearest raw-depth taps of the Poisson disk at 16
+            # texels, blockers nearer than z - 0.0015, radius clamp((ref - mean) * 400, 1, 16)
+            # texels, 16 hardware 2x2 comparisons on the same disk at that radius.
+            disk = ", ".join(f"vec2({x!r}, {y!r})" for x, y in POISSON16)
+            taps = (
+                f"const vec2 P[16] = vec2[16]({disk});"
+                f" vec2 texel = vec2(1.0 / {float(S)!r});"
+                " float ref = l.z - 0.0015; float sum = 0.0; int found = 0;"
+                " for (int i = 0; i < 16; i++) {"
+                " float d = texture(raw, uv + P[i] * (16.0 * texel.x)).r;"
+                " if (d < ref) { sum += d; found++; } }"
+                " if (found == 0) { shadow = 1.0; } else {"
+                " float r = clamp((ref - sum / float(found)) * 400.0, 1.0, 16.0);"
+                " for (int i = 0; i < 16; i++) { shadow += texture(map, vec3(uv + P[i] * (r * texel.x), l.z)); }"
+                " shadow /= 16.0; }"
             )
-            + " shadow /= 25.0;"
-        )
+        else:
+            # Offsets must be constant expressions: the 25 taps unrolled.
+            taps = (
+                " ".join(
+                    f"shadow += textureOffset(map, vec3(uv, l.z), ivec2({i}, {j}));"
+                    for j in range(-2, 3)
+                    for i in range(-2, 3)
+                )
+                + " shadow /= 25.0;"
+            )
         main_prog = ctx.program(
             vertex_shader="""#version 450
             uniform mat4 camera_vp; uniform mat4 light_vp;
@@ -114,7 +143,7 @@ def main():
                 n = normal; l = (light_vp * vec4(pos, 1.0)).xyz; alb = albedo;
             }""",
             fragment_shader="""#version 450
-            uniform sampler2DShadow map; uniform vec3 to_light;
+            uniform sampler2DShadow map; uniform sampler2D raw; uniform vec3 to_light;
             in vec3 n; in vec3 l; in vec3 alb; out vec4 color;
             void main() {
                 float ndl = max(dot(normalize(n), to_light), 0.0);
@@ -133,6 +162,15 @@ def main():
         shadow.filter = (moderngl.LINEAR, moderngl.LINEAR)
         shadow.repeat_x = shadow.repeat_y = False
         shadow_fbo = ctx.framebuffer(depth_attachment=shadow)
+        raw = None
+        if w["mode"] == "pcss":
+            raw = ctx.sampler(
+                texture=shadow,
+                filter=(moderngl.NEAREST, moderngl.NEAREST),
+                compare_func="",
+                repeat_x=False,
+                repeat_y=False,
+            )
         color = ctx.texture((W, H), 4)
         color_fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth32f((W, H)))
         depth_vao = ctx.vertex_array(depth_prog, [(vbo, "3f 6x4", "pos")], ibo, index_element_size=4)
@@ -166,6 +204,10 @@ def main():
             ctx.polygon_offset = (0.0, 0.0)
             shadow.use(0)
             main_prog["map"].value = 0
+            if raw is not None:
+                # The same depth texture, read without comparison (nearest, clamped).
+                raw.use(1)
+                main_prog["raw"].value = 1
             main_vao.render(moderngl.TRIANGLES)
 
         passes = [("depth pass", depth_pass)] + ([] if w["mode"] == "depth" else [("main pass", main_pass)])

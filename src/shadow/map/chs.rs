@@ -333,8 +333,7 @@ impl ShadowTechnique for Chs {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
-        vec![("map texels", texels as f64), ("taps", self.taps as f64)]
+        vec![("map texels", self.map.texels() as f64), ("taps", self.taps as f64)]
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {

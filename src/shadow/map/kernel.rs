@@ -30,7 +30,7 @@ use crate::pipeline::compute::min_max_chains;
 use crate::pipeline::sampler::{footprint, sample_bilinear, Address};
 use crate::pipeline::{MipChain, Pipeline, Surface};
 use crate::shadow::inspect::Step;
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 use std::sync::OnceLock;
 
 /// Most taps a kernel may have.
@@ -362,10 +362,70 @@ thread_local! {
 }
 
 /// One hardware 2x2 comparison (lit if `z <= depth`, texels clamped to the edge, lit outside
-/// the map), with the sampler's order of operations.
-#[inline]
+/// the map): [`crate::pipeline::sampler::CompareSampler::pcf2x2`] with its default compare
+/// function and border, bit for bit (the same operations in the same order), specialized and
+/// inlined into the kernels' loops.
+#[inline(always)]
 pub fn bilinear_compare(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
-    crate::pipeline::sampler::CompareSampler::default().pcf2x2(map, uv, z)
+    if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) {
+        return 1.0;
+    }
+    let (w, h) = (map.width(), map.height());
+    let (x, y, fx, fy) = footprint((w, h), uv);
+    let (wl, hl) = (w as i64 - 1, h as i64 - 1);
+    let (x0, x1) = (x.clamp(0, wl) as usize, (x + 1).clamp(0, wl) as usize);
+    let (y0, y1) = (y.clamp(0, hl) as usize, (y + 1).clamp(0, hl) as usize);
+    let d = map.data();
+    let ws = w as usize;
+    let c = |t: f32| if z <= t { 1.0f32 } else { 0.0 };
+    let (a, b) = (c(d[y0 * ws + x0]), c(d[y0 * ws + x1]));
+    let (cc, dd) = (c(d[y1 * ws + x0]), c(d[y1 * ws + x1]));
+    let top = a + (b - a) * fx;
+    let bottom = cc + (dd - cc) * fx;
+    top + (bottom - top) * fy
+}
+
+/// Four whole, non-negative lane values below 2^31 (texel coordinates clamped into a map) as
+/// indices: one vector conversion instead of four scalar ones.
+#[inline(always)]
+pub fn lanes_index(v: Vec4) -> [usize; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, __m128i, _mm_cvttps_epi32};
+        // SAFETY: SSE2 is part of x86_64; `__m128i` and `[i32; 4]` have the same size and
+        // every bit pattern is a valid `[i32; 4]`.
+        let i: [i32; 4] = unsafe { std::mem::transmute::<__m128i, [i32; 4]>(_mm_cvttps_epi32(__m128::from(v))) };
+        i.map(|x| x as usize)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        v.to_array().map(|x| x as usize)
+    }
+}
+
+/// [`bilinear_compare`] of four taps at once (`u`, `v` per lane), each lane equal to the
+/// one-tap call bit for bit: the same operations lane-wise, texels fetched lane by lane.
+#[inline(always)]
+pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: f32) -> Vec4 {
+    let (w, h) = (map.width() as f32, map.height() as f32);
+    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
+    let (tx, ty) = (u * w - Vec4::splat(0.5), v * h - Vec4::splat(0.5));
+    let (flx, fly) = (tx.floor(), ty.floor());
+    let (fx, fy) = (tx - flx, ty - fly);
+    let (wl, hl) = (Vec4::splat(w - 1.0), Vec4::splat(h - 1.0));
+    let (x0, x1) = (flx.clamp(Vec4::ZERO, wl), (flx + Vec4::ONE).clamp(Vec4::ZERO, wl));
+    let (y0, y1) = (fly.clamp(Vec4::ZERO, hl), (fly + Vec4::ONE).clamp(Vec4::ZERO, hl));
+    let d = map.data();
+    let ws = map.width() as usize;
+    let (x0, x1, y0, y1) = (lanes_index(x0), lanes_index(x1), lanes_index(y0), lanes_index(y1));
+    let fetch = |xs: [usize; 4], ys: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| d[ys[i] * ws + xs[i]]));
+    let zz = Vec4::splat(z);
+    let c = |t: Vec4| Vec4::select(zz.cmple(t), Vec4::ONE, Vec4::ZERO);
+    let (a, b) = (c(fetch(x0, y0)), c(fetch(x1, y0)));
+    let (cc, dd) = (c(fetch(x0, y1)), c(fetch(x1, y1)));
+    let top = a + (b - a) * fx;
+    let bottom = cc + (dd - cc) * fx;
+    Vec4::select(inside, top + (bottom - top) * fy, Vec4::ONE)
 }
 
 /// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps.
@@ -530,6 +590,28 @@ mod tests {
             POISSON16.to_vec()
         } else {
             best_candidate(n as usize)
+        }
+    }
+
+    #[test]
+    fn four_lane_comparisons_equal_one_lane_ones_bit_for_bit() {
+        let mut rng = SplitMix(9);
+        let data: Vec<f32> = (0..37 * 29).map(|_| rng.next_f32()).collect();
+        let map = Surface::from_vec(37, 29, data).unwrap();
+        for _ in 0..2000 {
+            // Coordinates inside, on and beyond the edges, and NaN.
+            let mut c = || match rng.next_f32() {
+                r if r < 0.02 => f32::NAN,
+                r if r < 0.05 => 1.0,
+                _ => rng.next_f32() * 1.4 - 0.2,
+            };
+            let (u, v) = (Vec4::new(c(), c(), c(), c()), Vec4::new(c(), c(), c(), c()));
+            let z = rng.next_f32();
+            let four = bilinear_compare4(&map, u, v, z);
+            for i in 0..4 {
+                let one = bilinear_compare(&map, Vec2::new(u[i], v[i]), z);
+                assert_eq!(four[i].to_bits(), one.to_bits(), "({}, {}) {z}", u[i], v[i]);
+            }
         }
     }
 

@@ -284,8 +284,7 @@ impl ShadowTechnique for MultiSample {
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let mut c = vec![("samples", self.points.len() as f64)];
         if self.opts.method == Method::Maps {
-            let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
-            c.push(("map texels per sample", texels as f64));
+            c.push(("map texels per sample", self.map.texels() as f64));
             c.push(("taps", self.taps));
         }
         c

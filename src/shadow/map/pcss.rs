@@ -442,9 +442,8 @@ impl ShadowTechnique for Pcss {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let texels: usize = self.map.maps().iter().map(|(m, _)| m.data().len()).sum();
         vec![
-            ("map texels", texels as f64),
+            ("map texels", self.map.texels() as f64),
             // Search taps (raw depth reads) plus filter taps (2x2 comparisons); one per
             // kernel the hierarchy classified.
             ("taps", self.taps as f64),

@@ -356,6 +356,11 @@ impl ShadowMap {
         self.culled
     }
 
+    /// Texels of the last run's maps, all views.
+    pub fn texels(&self) -> usize {
+        self.maps.iter().map(|(m, _)| m.data().len()).sum()
+    }
+
     /// The maps of the last run, one per light view (six for point lights).
     pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
         &self.maps
@@ -713,9 +718,8 @@ impl ShadowTechnique for ShadowMap {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let texels: usize = self.maps.iter().map(|(m, _)| m.data().len()).sum();
         vec![
-            ("map texels", texels as f64),
+            ("map texels", self.texels() as f64),
             ("casters culled", self.culled as f64),
             // Bilinear taps (a hardware 2x2 comparison each; one per classified kernel).
             ("taps", self.taps as f64),
