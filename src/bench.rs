@@ -167,7 +167,12 @@ pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
     let s = Vec4::splat(r / size);
     let mut lit = 0.0f32;
     for q in 0..4 {
-        let v = bilinear_compare4(map, Vec4::splat(uv.x) + dx[q] * s, Vec4::splat(uv.y) + dy[q] * s, z);
+        let v = bilinear_compare4(
+            map,
+            Vec4::splat(uv.x) + dx[q] * s,
+            Vec4::splat(uv.y) + dy[q] * s,
+            Vec4::splat(z),
+        );
         lit = lit + v.x + v.y + v.z + v.w;
     }
     lit / 16.0
@@ -580,7 +585,11 @@ mod tests {
         }
         let r = ((reference - sum / found as f32) * 400.0).clamp(1.0, 16.0);
         let s = CompareSampler::default();
-        POISSON16.iter().map(|&d| s.pcf2x2(map, uv + d * (r / size), z)).fold(0.0, |a, b| a + b) / 16.0
+        POISSON16
+            .iter()
+            .map(|&d| s.pcf2x2(map, uv + d * (r / size), z))
+            .fold(0.0, |a, b| a + b)
+            / 16.0
     }
 
     #[test]

@@ -79,19 +79,17 @@ pub const POISSON16: [Vec2; 16] = [
 /// best-candidate algorithm (each point the farthest of `10 k` uniform candidates from the
 /// points so far) from a fixed seed, so the same on every run and machine.
 pub fn poisson_disk(n: u32) -> &'static [Vec2] {
-    static DISKS: OnceLock<Vec<Vec<Vec2>>> = OnceLock::new();
-    let disks = DISKS.get_or_init(|| {
-        (0..=MAX_TAPS)
-            .map(|n| {
-                if n == 16 {
-                    POISSON16.to_vec()
-                } else {
-                    best_candidate(n as usize)
-                }
-            })
-            .collect()
-    });
-    &disks[n.min(MAX_TAPS) as usize]
+    // One disk per count, built on first use (a best-candidate disk of 256 points takes a
+    // while; the counts nobody asks for cost nothing).
+    static DISKS: [OnceLock<Vec<Vec2>>; MAX_TAPS as usize + 1] = [const { OnceLock::new() }; MAX_TAPS as usize + 1];
+    let n = n.min(MAX_TAPS);
+    DISKS[n as usize].get_or_init(|| {
+        if n == 16 {
+            POISSON16.to_vec()
+        } else {
+            best_candidate(n as usize)
+        }
+    })
 }
 
 fn best_candidate(n: usize) -> Vec<Vec2> {
@@ -302,8 +300,21 @@ impl Kernel {
             _ => TAPS.with(|t| {
                 let mut taps = t.borrow_mut();
                 self.taps_at(x, y, &mut taps);
+                // Four taps per vector, summed in tap order (as one at a time, bit for bit).
                 let (mut lit, mut total) = (0.0f32, 0.0f32);
-                for &(d, w) in taps.iter() {
+                let mut chunks = taps.chunks_exact(4);
+                for c in &mut chunks {
+                    let p: [Vec2; 4] = std::array::from_fn(|i| uv + c[i].0 / size);
+                    let z = Vec4::from_array(std::array::from_fn(|i| r.at(c[i].0)));
+                    let u4 = Vec4::new(p[0].x, p[1].x, p[2].x, p[3].x);
+                    let v4 = Vec4::new(p[0].y, p[1].y, p[2].y, p[3].y);
+                    let v = bilinear_compare4(map, u4, v4, z);
+                    for i in 0..4 {
+                        lit += c[i].1 * v[i];
+                        total += c[i].1;
+                    }
+                }
+                for &(d, w) in chunks.remainder() {
                     lit += w * bilinear_compare(map, uv + d / size, r.at(d));
                     total += w;
                 }
@@ -406,7 +417,7 @@ pub fn lanes_index(v: Vec4) -> [usize; 4] {
 /// [`bilinear_compare`] of four taps at once (`u`, `v` per lane), each lane equal to the
 /// one-tap call bit for bit: the same operations lane-wise, texels fetched lane by lane.
 #[inline(always)]
-pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: f32) -> Vec4 {
+pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
     let (w, h) = (map.width() as f32, map.height() as f32);
     let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
     let (tx, ty) = (u * w - Vec4::splat(0.5), v * h - Vec4::splat(0.5));
@@ -419,8 +430,7 @@ pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: f32) -> Vec4 {
     let ws = map.width() as usize;
     let (x0, x1, y0, y1) = (lanes_index(x0), lanes_index(x1), lanes_index(y0), lanes_index(y1));
     let fetch = |xs: [usize; 4], ys: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| d[ys[i] * ws + xs[i]]));
-    let zz = Vec4::splat(z);
-    let c = |t: Vec4| Vec4::select(zz.cmple(t), Vec4::ONE, Vec4::ZERO);
+    let c = |t: Vec4| Vec4::select(z.cmple(t), Vec4::ONE, Vec4::ZERO);
     let (a, b) = (c(fetch(x0, y0)), c(fetch(x1, y0)));
     let (cc, dd) = (c(fetch(x0, y1)), c(fetch(x1, y1)));
     let top = a + (b - a) * fx;
@@ -514,11 +524,15 @@ impl MinMax {
         }
     }
 
-    /// Classifies a kernel of radius `radius` texels at `uv` whose references lie in
-    /// `[lo, hi]`: from the one level where the footprint (every texel a bilinear tap can
-    /// read, one texel of margin) spans at most 2x2 texels. A footprint that leaves the map is
-    /// mixed (its taps meet the border).
-    pub fn classify(&self, uv: Vec2, radius: f32, lo: f32, hi: f32) -> Class {
+    /// Classifies a kernel of radius `radius` texels at `uv` whose taps compare against `r`:
+    /// from the one level where the footprint (every texel a bilinear tap can read, one texel
+    /// of margin) spans at most 4x4 texels, each of those texels' minimum and maximum depth
+    /// against the range of `r` over the taps that can read it (so a sloped receiver's plane,
+    /// [`Reference::gradient`], does not make every kernel on it mixed). Lit when every texel's
+    /// minimum is at or beyond its highest reference, shadowed when every maximum is before
+    /// its lowest: then every tap passes (fails), the kernel's result is exactly 1 (0). A
+    /// footprint that leaves the map is mixed (its taps meet the border).
+    pub fn classify(&self, uv: Vec2, radius: f32, r: &Reference) -> Class {
         let (w, h) = (self.size.0 as f32, self.size.1 as f32);
         let (cx, cy) = (uv.x * w - 0.5, uv.y * h - 0.5);
         let (x0, x1) = ((cx - radius).floor(), (cx + radius).floor() + 1.0);
@@ -542,16 +556,40 @@ impl MinMax {
         }
         let (mn, mx) = (&self.min.levels()[l - 1], &self.max.levels()[l - 1]);
         let (lw, lh) = (mn.width() - 1, mn.height() - 1);
-        let (mut dmin, mut dmax) = (f32::INFINITY, f32::NEG_INFINITY);
+        let flat = r.is_flat();
+        // The cone only lowers references, by at most `cone * radius * sqrt 2`.
+        let cone_lo = (r.cone * radius * std::f32::consts::SQRT_2).min(0.0);
+        // Rounding of `Reference::at` against these bounds: a few ulps of margin.
+        let eps = if flat {
+            0.0
+        } else {
+            4.0 * f32::EPSILON * (r.z.abs() + 1.0)
+        };
+        let block = (1u32 << l) as f32;
+        // Offsets (in texels from the kernel's centre) of the tap centres that can read a
+        // texel of block `t` along one axis: the block widened by one texel.
+        let span = |t: u32, c: f32| (t as f32 * block - 1.0 - c, (t as f32 + 1.0) * block + 1.0 - c);
+        let bound = |g: f32, (a, b): (f32, f32)| if g >= 0.0 { (g * a, g * b) } else { (g * b, g * a) };
+        let (mut lit, mut shadowed) = (true, true);
         for ty in (y0 >> l).min(lh)..=(y1 >> l).min(lh) {
+            let by = bound(r.gradient.y, span(ty, cy + 0.5));
             for tx in (x0 >> l).min(lw)..=(x1 >> l).min(lw) {
-                dmin = dmin.min(mn.at(tx, ty));
-                dmax = dmax.max(mx.at(tx, ty));
+                let (lo, hi) = if flat {
+                    (r.z, r.z)
+                } else {
+                    let bx = bound(r.gradient.x, span(tx, cx + 0.5));
+                    (r.z + bx.0 + by.0 + cone_lo - eps, r.z + bx.1 + by.1 + eps)
+                };
+                lit &= hi <= mn.at(tx, ty);
+                shadowed &= lo > mx.at(tx, ty);
+                if !(lit || shadowed) {
+                    return Class::Mixed;
+                }
             }
         }
-        if hi <= dmin {
+        if lit {
             Class::Lit
-        } else if lo > dmax {
+        } else if shadowed {
             Class::Shadowed
         } else {
             Class::Mixed
@@ -606,11 +644,11 @@ mod tests {
                 _ => rng.next_f32() * 1.4 - 0.2,
             };
             let (u, v) = (Vec4::new(c(), c(), c(), c()), Vec4::new(c(), c(), c(), c()));
-            let z = rng.next_f32();
+            let z = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32());
             let four = bilinear_compare4(&map, u, v, z);
             for i in 0..4 {
-                let one = bilinear_compare(&map, Vec2::new(u[i], v[i]), z);
-                assert_eq!(four[i].to_bits(), one.to_bits(), "({}, {}) {z}", u[i], v[i]);
+                let one = bilinear_compare(&map, Vec2::new(u[i], v[i]), z[i]);
+                assert_eq!(four[i].to_bits(), one.to_bits(), "({}, {}) {}", u[i], v[i], z[i]);
             }
         }
     }

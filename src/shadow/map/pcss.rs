@@ -234,8 +234,7 @@ impl Pcss {
             class: Class::Mixed,
         };
         if let Some(mm) = self.map.hierarchy(at.face) {
-            let (lo, hi) = at.r.range(kernel.extent());
-            e.class = mm.classify(at.uv, kernel.extent() + 1.0, lo, hi);
+            e.class = mm.classify(at.uv, kernel.extent() + 1.0, &at.r);
             if e.class != Class::Mixed {
                 e.found = if e.class == Class::Shadowed {
                     self.opts.blockers

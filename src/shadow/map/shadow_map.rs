@@ -576,8 +576,8 @@ impl ShadowMap {
         let map = &self.maps[at.face].0;
         let r = &at.r;
         if let Some(mm) = self.minmax.get(at.face) {
+            let class = mm.classify(at.uv, kernel.extent() + 1.0, r);
             let (lo, hi) = r.range(kernel.extent());
-            let class = mm.classify(at.uv, kernel.extent() + 1.0, lo, hi);
             t.step(|| class_step(lo, hi, class));
             match class {
                 Class::Lit => return (1.0, 1),
