@@ -122,6 +122,10 @@ contact izb [] 2fd73c8de3d90925
 contact izb [size=256] 2fd73c8de3d90925
 contact izb [raster=standard] 3731232881757c18
 contact izb [samples=4] b783f20189806242
+contact hybrid [] d45bccf606578031
+contact hybrid [units=100000] 2fd73c8de3d90925
+contact hybrid [from=0;to=1] 60ac82a6b4d03761
+contact hybrid [from=2;to=12] e00e0e1d4d817126
 contact transparency-map [] 076f1858599bb525
 contact transparency-map [size=512] 264f8a0a621b5ed8
 contact opacity-maps [slices=4] 264f8a0a621b5ed8
@@ -194,6 +198,10 @@ point_casters izb [] 7d2dde7445ac2ca5
 point_casters izb [size=256] 7d2dde7445ac2ca5
 point_casters izb [raster=standard] 05e07069e83cd455
 point_casters izb [samples=4] 92e0df00eb539028
+point_casters hybrid [] 7d2dde7445ac2ca5
+point_casters hybrid [units=100000] 7d2dde7445ac2ca5
+point_casters hybrid [from=0;to=1] 7d2dde7445ac2ca5
+point_casters hybrid [from=2;to=12] 7d2dde7445ac2ca5
 point_casters transparency-map [] eb4285b6e9e8b4c5
 point_casters transparency-map [size=512] 4963da0d1b015b75
 point_casters opacity-maps [slices=4] 4963da0d1b015b75
@@ -266,6 +274,10 @@ planar izb [] e7ae3989c62b5f28
 planar izb [size=256] e7ae3989c62b5f28
 planar izb [raster=standard] 5b00abc8cd2b1445
 planar izb [samples=4] ceaaaf057544d9a8
+planar hybrid [] e7ae3989c62b5f28
+planar hybrid [units=100000] e7ae3989c62b5f28
+planar hybrid [from=0;to=1] e7ae3989c62b5f28
+planar hybrid [from=2;to=12] e7ae3989c62b5f28
 planar transparency-map [] d6e87c4048aeae68
 planar transparency-map [size=512] 53067c7945199088
 planar opacity-maps [slices=4] 53067c7945199088
@@ -338,6 +350,10 @@ cookie izb [] 98dcae3592fe9025
 cookie izb [size=256] 98dcae3592fe9025
 cookie izb [raster=standard] 995597da4d751a88
 cookie izb [samples=4] 61b3b4e7f305c2c8
+cookie hybrid [] 98dcae3592fe9025
+cookie hybrid [units=100000] 98dcae3592fe9025
+cookie hybrid [from=0;to=1] 98dcae3592fe9025
+cookie hybrid [from=2;to=12] 98dcae3592fe9025
 cookie transparency-map [] f1ec318a3fe4fce8
 cookie transparency-map [size=512] 28363364b0baaf95
 cookie opacity-maps [slices=4] 28363364b0baaf95
@@ -410,6 +426,10 @@ long_view izb [] a023432d53f6f625
 long_view izb [size=256] a023432d53f6f625
 long_view izb [raster=standard] f3013b410a491278
 long_view izb [samples=4] ef0155a1086dc9f8
+long_view hybrid [] a023432d53f6f625
+long_view hybrid [units=100000] a023432d53f6f625
+long_view hybrid [from=0;to=1] a023432d53f6f625
+long_view hybrid [from=2;to=12] a023432d53f6f625
 long_view transparency-map [] 467baf28f97c71d8
 long_view transparency-map [size=512] 31e8d66c38255b25
 long_view opacity-maps [slices=4] 31e8d66c38255b25

@@ -125,6 +125,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::projected::info(),
         planar::cookie::info(),
         exact::izb::info(),
+        exact::hybrid::info(),
         volumetric::transparency_map::info(),
         volumetric::opacity_maps::info(),
         volumetric::deep_shadow_map::info(),

@@ -281,6 +281,28 @@ impl Pcss {
         e
     }
 
+    /// The penumbra's world width at pixel `(x, y)` of the last run's maps, from the blocker
+    /// search (in umbra, the search disk's); `None` without geometry, light width or blockers.
+    pub fn penumbra_world(&self, frame: &Frame, x: usize, y: usize) -> Option<f32> {
+        if self.width <= 0.0 || self.map.maps().is_empty() {
+            return None;
+        }
+        let Prepared::At(at) = self.map.prepare(frame, x, y, &mut NoTrace) else {
+            return None;
+        };
+        let e = self.estimate(&at, x, y);
+        if e.class == Class::Lit {
+            return None;
+        }
+        let view = &self.map.maps()[at.face].1;
+        let texel = if view.perspective {
+            view.texel * e.receiver
+        } else {
+            view.texel
+        };
+        Some(e.penumbra * texel)
+    }
+
     /// The three steps at one pixel: visibility and taps (blocker search plus filter), every
     /// step reported to `t`; the count's bit 32 marks an early out.
     #[inline(always)]
