@@ -1673,7 +1673,10 @@ fn hybrid_is_exact_near_contact_and_leaks_nowhere() {
     let (pcss, n) = region("pcss", &[]);
     let (hybrid, _) = region("hybrid", &[]);
     // Measured: 1632 pixels, PCSS 0.0271, the hybrid 0.0223.
-    assert!(n > 300 && hybrid < 0.9 * pcss, "{n} pixels: hybrid {hybrid}, pcss {pcss}");
+    assert!(
+        n > 300 && hybrid < 0.9 * pcss,
+        "{n} pixels: hybrid {hybrid}, pcss {pcss}"
+    );
     // A bias that lifts PCSS's shadow off the box (Peter Panning: light leaks under it) does
     // not reach the hybrid's exact part. Measured: PCSS 4.07 % wrong, the hybrid 0.025 %.
     let leak = errors("contact", "pcss", &[("units", "100000")]).wrong_pct;

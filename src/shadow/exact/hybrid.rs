@@ -50,21 +50,8 @@ impl Default for Options {
 /// The option declaration: PCSS's, the IZB's grid and the blend band.
 pub fn declaration() -> Declaration<Options> {
     let mut fields = crate::shadow_map_fields!(Options, |o| o.pcss.map);
+    fields.extend(crate::light_size_fields!(Options, |o| o.pcss));
     fields.extend([
-        Field::range(
-            "light",
-            "the light's width as a multiple of the scene's area light (0: hard shadow)",
-            0.0,
-            1e3,
-            |o: &mut Options| &mut o.pcss.light,
-        ),
-        Field::range(
-            "angle",
-            "directional lights: angular diameter in degrees (0: hard shadow)",
-            0.0,
-            90.0,
-            |o: &mut Options| &mut o.pcss.angle,
-        ),
         Field::range(
             "grid",
             "the IZB's light-space grid side in texels",

@@ -71,29 +71,14 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
     fields.retain(|f| f.key != "hierarchy");
-    fields.extend([
-        Field::range(
-            "light",
-            "the light's width as a multiple of the scene's area light (0: hard shadow)",
-            0.0,
-            1e3,
-            |o: &mut Options| &mut o.light,
-        ),
-        Field::range(
-            "angle",
-            "directional lights: angular diameter in degrees (0: hard shadow)",
-            0.0,
-            90.0,
-            |o: &mut Options| &mut o.angle,
-        ),
-        Field::range(
-            "kernel",
-            "filter taps per axis at the penumbra's mip level (made odd)",
-            1,
-            15,
-            |o: &mut Options| &mut o.kernel,
-        ),
-    ]);
+    fields.extend(crate::light_size_fields!(Options, |o| o));
+    fields.extend([Field::range(
+        "kernel",
+        "filter taps per axis at the penumbra's mip level (made odd)",
+        1,
+        15,
+        |o: &mut Options| &mut o.kernel,
+    )]);
     Declaration {
         technique: "chs",
         fields,

@@ -101,24 +101,36 @@ impl Default for Options {
     }
 }
 
+/// The declaration of the light-size options of the PCSS-style techniques (`light`, `angle`)
+/// for an options struct whose light width and angle are reached by `|o| path`.
+#[macro_export]
+macro_rules! light_size_fields {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        use $crate::shadow::Field;
+        [
+            Field::range(
+                "light",
+                "the light's width as a multiple of the scene's area light (0: hard shadow)",
+                0.0,
+                1e3,
+                |$x: &mut $o| &mut $($path)+.light,
+            ),
+            Field::range(
+                "angle",
+                "directional lights: angular diameter in degrees (0: hard shadow)",
+                0.0,
+                90.0,
+                |$x: &mut $o| &mut $($path)+.angle,
+            ),
+        ]
+    }};
+}
+
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
     let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    fields.extend(crate::light_size_fields!(Options, |o| o));
     fields.extend([
-        Field::range(
-            "light",
-            "the light's width as a multiple of the scene's area light (0: hard shadow)",
-            0.0,
-            1e3,
-            |o: &mut Options| &mut o.light,
-        ),
-        Field::range(
-            "angle",
-            "directional lights: angular diameter in degrees (0: hard shadow)",
-            0.0,
-            90.0,
-            |o: &mut Options| &mut o.angle,
-        ),
         Field::range("blockers", "blocker-search taps", 1, MAX_TAPS, |o: &mut Options| {
             &mut o.blockers
         }),
