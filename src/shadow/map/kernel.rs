@@ -293,7 +293,15 @@ impl Kernel {
             Pattern::Grid | Pattern::Tent if r.is_flat() => {
                 let n = self.grid_n();
                 Filtered {
-                    value: separable(map, uv, r.z, &axis_weights(self.pattern, n)),
+                    value: if n < 16 {
+                        let mut t = [0.0f32; 16];
+                        axis_weights(self.pattern, n, &mut t);
+                        separable::<17>(map, uv, r.z, &t[..n as usize])
+                    } else {
+                        let mut t = [0.0f32; 2 * MAX_TAPS as usize + 1];
+                        axis_weights(self.pattern, n, &mut t);
+                        separable::<{ 2 * MAX_TAPS as usize + 3 }>(map, uv, r.z, &t[..n as usize])
+                    },
                     taps: n * n,
                 }
             }
@@ -438,15 +446,16 @@ pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 
     Vec4::select(inside, top + (bottom - top) * fy, Vec4::ONE)
 }
 
-/// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps.
-fn axis_weights(pattern: Pattern, n: u32) -> Vec<f32> {
+/// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps, into the first
+/// `n` entries of `out` (on the stack: the per-pixel path allocates nothing).
+fn axis_weights(pattern: Pattern, n: u32, out: &mut [f32]) {
     let h = (n / 2) as i32;
-    (-h..=h)
-        .map(|k| match pattern {
+    for (o, k) in out.iter_mut().zip(-h..=h) {
+        *o = match pattern {
             Pattern::Tent => (h + 1 - k.abs()) as f32,
             _ => 1.0,
-        })
-        .collect()
+        };
+    }
 }
 
 /// The `n + 1` texel weights along one axis of `n` bilinear taps with tap weights `t` and
@@ -461,13 +470,15 @@ fn texel_weights(t: &[f32], f: f32, out: &mut [f32]) {
 }
 
 /// Separable PCF over `(n + 1)^2` texels: `lit / total`, both summed in the same order.
-fn separable(map: &Surface<f32>, uv: Vec2, z: f32, t: &[f32]) -> f32 {
+/// `C` is the weight arrays' capacity (at least `t.len() + 1`): small kernels clear small
+/// arrays.
+fn separable<const C: usize>(map: &Surface<f32>, uv: Vec2, z: f32, t: &[f32]) -> f32 {
     let (w, h) = (map.width() as i64, map.height() as i64);
     let (x, y, fx, fy) = footprint((map.width(), map.height()), uv);
     let n = t.len();
     let r = (n / 2) as i64;
-    let mut wx = [0.0f32; 2 * MAX_TAPS as usize + 3];
-    let mut wy = [0.0f32; 2 * MAX_TAPS as usize + 3];
+    let mut wx = [0.0f32; C];
+    let mut wy = [0.0f32; C];
     texel_weights(t, fx, &mut wx[..n + 1]);
     texel_weights(t, fy, &mut wy[..n + 1]);
     let d = map.data();
