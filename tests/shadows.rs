@@ -10,7 +10,13 @@ use penumbra::shadow;
 use std::path::Path;
 use std::process::Command;
 
-fn errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metrics::Errors {
+/// `technique` on `scene` and the scene's reference, handed to `then` with the frame.
+fn with_reference<T>(
+    scene: &str,
+    technique: &str,
+    sets: &[(&str, &str)],
+    then: impl FnOnce(&penumbra::visibility::Visibility, &penumbra::visibility::Visibility, &frame::Frame) -> T,
+) -> T {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
@@ -21,7 +27,11 @@ fn errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metr
     let mut t = shadow::create(technique, &sets).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     assert!(!t.stages(&p, &f).unwrap().is_empty(), "{technique} lists its stages");
-    compare(&v, &r, &f.metric_mask())
+    then(&v, &r, &f)
+}
+
+fn errors(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::metrics::Errors {
+    with_reference(scene, technique, sets, |v, r, f| compare(v, r, &f.metric_mask()))
 }
 
 #[test]
@@ -1422,16 +1432,10 @@ fn soft_run(
     technique: &str,
     sets: &[(&str, &str)],
 ) -> (Vec<f32>, Vec<f32>, Vec<Option<glam::Vec3>>, Vec<bool>) {
-    let p = Pipeline::new(2).unwrap();
-    let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
-    let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let text = std::fs::read_to_string(format!("fixtures/scenes/{scene}.toml")).unwrap();
-    let key = run::reference_key(&text, &f, 0, &Default::default());
-    let (r, _, _) = run::reference(&p, &f, key, None).unwrap();
-    let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let v = shadow::create(technique, &sets).unwrap().visibility(&p, &f).unwrap();
-    let pts = f.points().iter().map(|s| s.map(|s| s.position)).collect();
-    (v.to_scalar(), r.to_scalar(), pts, f.metric_mask())
+    with_reference(scene, technique, sets, |v, r, f| {
+        let pts = f.points().iter().map(|s| s.map(|s| s.position)).collect();
+        (v.to_scalar(), r.to_scalar(), pts, f.metric_mask())
+    })
 }
 
 fn rmse_where(v: &[f32], r: &[f32], pick: impl Fn(usize) -> bool) -> (f64, usize) {

@@ -131,7 +131,7 @@ impl CompareSampler {
 
     /// Hardware PCF: the four texels of the bilinear footprint are compared with `reference`
     /// and the 0/1 results weighted bilinearly.
-    #[inline]
+    #[inline(always)]
     pub fn pcf2x2(&self, s: &Surface<f32>, uv: Vec2, reference: f32) -> f32 {
         if let Some(b) = self.border_for(uv) {
             return b;

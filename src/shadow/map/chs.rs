@@ -102,7 +102,6 @@ pub fn info() -> TechniqueInfo {
 pub struct Chs {
     opts: Options,
     map: ShadowMap,
-    chains: Vec<MinMax>,
     nearest: Vec<f32>,
     width: f32,
     taps: u64,
@@ -115,14 +114,14 @@ impl Chs {
         declaration().check(&opts)?;
         let map = ShadowMap::new(shadow_map::Options {
             filter: shadow_map::Filter::Grid,
-            hierarchy: false,
+            // The map's min/max chains are CHS's mip chain.
+            hierarchy: true,
             ..opts.map.clone()
         })
         .map_err(|e| e.replace("'shadow-map'", "'chs'"))?;
         Ok(Chs {
             opts,
             map,
-            chains: Vec::new(),
             nearest: Vec::new(),
             width: 0.0,
             taps: 0,
@@ -136,13 +135,20 @@ impl Chs {
         if l == 0 {
             return &self.map.maps()[face].0;
         }
-        let c = &self.chains[face];
+        let c = self.chains(face);
         let chain = if max { &c.max } else { &c.min };
         &chain.levels()[(l - 1).min(chain.level_count() - 1)]
     }
 
+    /// The min/max chains of view `face` (the map builds them: `hierarchy` is on).
+    fn chains(&self, face: usize) -> &MinMax {
+        self.map
+            .hierarchy(face)
+            .expect("the map builds its chains with hierarchy on")
+    }
+
     fn levels(&self, face: usize) -> usize {
-        self.chains[face].min.level_count() + 1
+        self.chains(face).min.level_count() + 1
     }
 
     /// Steps 1 and 2 (the search on the minimum chain and the penumbra estimate).
@@ -279,19 +285,15 @@ impl ShadowTechnique for Chs {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
-        self.map.light_pass(p, frame)?;
-        self.width = super::pcss::light_width(frame, self.opts.light, self.opts.angle);
-        self.nearest = super::pcss::nearest_casters(self.map.maps());
+        (self.width, self.nearest) =
+            super::pcss::light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
         let t1 = std::time::Instant::now();
-        self.chains = self.map.maps().iter().map(|(m, _)| MinMax::new(p, m)).collect();
-        let t2 = std::time::Instant::now();
         let this = &*self;
         let (out, taps) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
         self.taps = taps;
         self.times = vec![
-            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
-            ("min/max chains", (t2 - t1).as_secs_f64() * 1e3),
-            ("lookup pass", t2.elapsed().as_secs_f64() * 1e3),
+            ("light pass and min/max chains", (t1 - t0).as_secs_f64() * 1e3),
+            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
         ];
         Ok(Visibility::Scalar(out))
     }

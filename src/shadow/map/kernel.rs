@@ -27,7 +27,7 @@
 use crate::choice_enum;
 use crate::hash::SplitMix;
 use crate::pipeline::compute::min_max_chains;
-use crate::pipeline::sampler::{footprint, sample_bilinear, Address};
+use crate::pipeline::sampler::{footprint, sample_bilinear, Address, CompareSampler};
 use crate::pipeline::{MipChain, Pipeline, Surface};
 use crate::shadow::inspect::Step;
 use glam::{Vec2, Vec4};
@@ -381,27 +381,11 @@ thread_local! {
 }
 
 /// One hardware 2x2 comparison (lit if `z <= depth`, texels clamped to the edge, lit outside
-/// the map): [`crate::pipeline::sampler::CompareSampler::pcf2x2`] with its default compare
-/// function and border, bit for bit (the same operations in the same order), specialized and
-/// inlined into the kernels' loops.
+/// the map): the pipeline's [`CompareSampler::pcf2x2`] with its default compare function and
+/// border, inlined into the kernels' loops.
 #[inline(always)]
 pub fn bilinear_compare(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
-    if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) {
-        return 1.0;
-    }
-    let (w, h) = (map.width(), map.height());
-    let (x, y, fx, fy) = footprint((w, h), uv);
-    let (wl, hl) = (w as i64 - 1, h as i64 - 1);
-    let (x0, x1) = (x.clamp(0, wl) as usize, (x + 1).clamp(0, wl) as usize);
-    let (y0, y1) = (y.clamp(0, hl) as usize, (y + 1).clamp(0, hl) as usize);
-    let d = map.data();
-    let ws = w as usize;
-    let c = |t: f32| if z <= t { 1.0f32 } else { 0.0 };
-    let (a, b) = (c(d[y0 * ws + x0]), c(d[y0 * ws + x1]));
-    let (cc, dd) = (c(d[y1 * ws + x0]), c(d[y1 * ws + x1]));
-    let top = a + (b - a) * fx;
-    let bottom = cc + (dd - cc) * fx;
-    top + (bottom - top) * fy
+    CompareSampler::default().pcf2x2(map, uv, z)
 }
 
 /// Four whole, non-negative lane values below 2^31 (texel coordinates clamped into a map) as

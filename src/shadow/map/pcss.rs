@@ -390,6 +390,19 @@ pub(crate) fn light_width(frame: &Frame, scale: f32, angle: f32) -> f32 {
     }
 }
 
+/// The light pass of the PCSS-style techniques: `map`'s maps, the light's width
+/// ([`light_width`]) and each view's nearest caster ([`nearest_casters`]).
+pub(crate) fn light_pass(
+    map: &mut ShadowMap,
+    p: &Pipeline,
+    frame: &Frame,
+    scale: f32,
+    angle: f32,
+) -> Result<(f32, Vec<f32>), String> {
+    map.light_pass(p, frame)?;
+    Ok((light_width(frame, scale, angle), nearest_casters(map.maps())))
+}
+
 /// Per light view: the nearest caster's distance from the light (the map's least depth).
 pub(crate) fn nearest_casters(maps: &[(Surface<f32>, LightView)]) -> Vec<f32> {
     maps.iter()
@@ -438,9 +451,7 @@ impl ShadowTechnique for Pcss {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
-        self.map.light_pass(p, frame)?;
-        self.width = light_width(frame, self.opts.light, self.opts.angle);
-        self.nearest = nearest_casters(self.map.maps());
+        (self.width, self.nearest) = light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
         let t1 = std::time::Instant::now();
         let this = &*self;
         let (out, count) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
