@@ -149,7 +149,7 @@ fn volumetric(c: &mut Criterion) {
 
 /// Soft shadows from one map on the spheres scene (a 2-degree sun for PCSS and CHS; 2048²
 /// maps), against the 2x2 and 5x5 PCF maps; and on `pergola` at 1920x1080 under its
-/// rectangle light, with the multi-sample area light as the baseline.
+/// rectangle light, with the multi-sample area light as the baseline and the IZB/PCSS hybrid.
 fn soft(c: &mut Criterion) {
     use penumbra::shadow;
     let p = Pipeline::new(threads()).unwrap();
@@ -185,6 +185,7 @@ fn soft(c: &mut Criterion) {
         ("chs", "chs", vec![]),
         ("multi-sample-16", "multi-sample", vec![kv("size", "512")]),
         ("multi-sample-16-volumes", "multi-sample", vec![kv("method", "volumes")]),
+        ("hybrid", "hybrid", vec![]),
     ] {
         let mut t = shadow::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
