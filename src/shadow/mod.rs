@@ -19,6 +19,7 @@ pub mod light;
 pub mod map;
 pub mod options;
 pub mod overview;
+pub mod penumbra;
 pub mod pixels;
 pub mod planar;
 pub mod reference;
@@ -126,6 +127,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::cookie::info(),
         exact::izb::info(),
         exact::hybrid::info(),
+        penumbra::pvm::info(),
         volumetric::transparency_map::info(),
         volumetric::opacity_maps::info(),
         volumetric::deep_shadow_map::info(),
