@@ -127,7 +127,6 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::cookie::info(),
         exact::izb::info(),
         exact::hybrid::info(),
-        penumbra::pvm::info(),
         volumetric::transparency_map::info(),
         volumetric::opacity_maps::info(),
         volumetric::deep_shadow_map::info(),

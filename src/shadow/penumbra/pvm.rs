@@ -376,7 +376,7 @@ impl ShadowTechnique for Pvm {
             let f = this.lookup(frame, x, y, &mut NoTrace);
             let c = match f {
                 Some(Found::Volume { .. }) => 1,
-                Some(Found::Map(v)) if v == 0.0 => 1 << 32,
+                Some(Found::Map(0.0)) => 1 << 32,
                 _ => 0,
             };
             (Self::value(f), c)
