@@ -16,9 +16,8 @@ pub mod pvm;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::light::{homogeneous_position, LightView};
-use crate::shadow::volume::silhouette::{self, Adjacency, MeshReport};
+use crate::shadow::volume::silhouette;
 use glam::{Vec3, Vec4};
-use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// One silhouette edge seen from the light's centre, oriented as its light-facing triangle
@@ -52,24 +51,14 @@ pub struct Silhouettes {
 /// non-manifold handling are the shadow volumes'), with each edge's neighbours in its loop.
 pub fn silhouettes(p: &Pipeline, frame: &Frame) -> Silhouettes {
     let light = homogeneous_position(&frame.light);
-    let built: Vec<(MeshReport, Vec<(Vec3, Vec3)>)> = p.install(|| {
-        frame
-            .scene
-            .objects
-            .par_iter()
-            .map(|o| {
-                let adj = Adjacency::new(&o.mesh);
-                (adj.report, silhouette::volume(&o.mesh, &adj, light).silhouette)
-            })
-            .collect()
-    });
-    let mut s = Silhouettes::default();
-    for (i, (o, (report, edges))) in frame.scene.objects.iter().zip(built).enumerate() {
-        if !report.is_closed_manifold() || report.degenerate_triangles > 0 {
-            s.irregular.push((o.name.clone(), report.describe()));
-        }
+    let (volumes, irregular) = silhouette::scene_volumes(p, frame, light);
+    let mut s = Silhouettes {
+        irregular,
+        ..Default::default()
+    };
+    for (i, v) in volumes.into_iter().enumerate() {
         s.edges
-            .extend(edges.into_iter().map(|(a, b)| Edge { a, b, object: i as u32 }));
+            .extend(v.silhouette.into_iter().map(|(a, b)| Edge { a, b, object: i as u32 }));
     }
     // Loops: edges meet at welded positions (bit patterns, as the adjacency welds). Where
     // several edges leave one vertex (two loops touching), the first in order is taken.

@@ -21,7 +21,7 @@
 //! a volume. The method's cost, the stencil fill, depends on the view (RTR 7.3): `counters`
 //! reports it per frame, and camera paths chart it.
 
-use super::silhouette::{self, Adjacency, MeshReport, Volume};
+use super::silhouette::{self, Volume};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
@@ -31,7 +31,6 @@ use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Mat4, Vec3, Vec4};
-use rayon::prelude::*;
 use std::time::Instant;
 
 choice_enum! {
@@ -163,26 +162,7 @@ impl ShadowTechnique for ShadowVolume {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = Instant::now();
         let light = homogeneous_position(&frame.light);
-        self.irregular.clear();
-        // Objects in parallel, collected in scene order (the same volumes for any thread count).
-        let built: Vec<(MeshReport, Volume)> = p.install(|| {
-            frame
-                .scene
-                .objects
-                .par_iter()
-                .map(|o| {
-                    let adj = Adjacency::new(&o.mesh);
-                    (adj.report, silhouette::volume(&o.mesh, &adj, light))
-                })
-                .collect()
-        });
-        self.volumes.clear();
-        for (o, (report, volume)) in frame.scene.objects.iter().zip(built) {
-            if !report.is_closed_manifold() || report.degenerate_triangles > 0 {
-                self.irregular.push((o.name.clone(), report.describe()));
-            }
-            self.volumes.push(volume);
-        }
+        (self.volumes, self.irregular) = silhouette::scene_volumes(p, frame, light);
         let t1 = Instant::now();
         self.chose_zpass = match self.mode {
             "auto" => zpass_is_safe(frame),

@@ -23,7 +23,10 @@
 use glam::{DVec3, Vec3, Vec4};
 use std::collections::HashMap;
 
+use crate::frame::Frame;
+use crate::pipeline::Pipeline;
 use crate::scene::Mesh;
+use rayon::prelude::*;
 
 /// What the adjacency pass found in one mesh.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -266,6 +269,32 @@ pub fn eye_count(volumes: &[Volume], eye: Vec3, light: Vec4) -> u32 {
         }
     }
     n
+}
+
+/// The volume of every object of `frame` for the homogeneous light position `light`, built in
+/// parallel and collected in scene order (the same for any thread count), and the objects
+/// whose mesh is irregular with [`MeshReport::describe`].
+pub fn scene_volumes(p: &Pipeline, frame: &Frame, light: Vec4) -> (Vec<Volume>, Vec<(String, String)>) {
+    let built: Vec<(MeshReport, Volume)> = p.install(|| {
+        frame
+            .scene
+            .objects
+            .par_iter()
+            .map(|o| {
+                let adj = Adjacency::new(&o.mesh);
+                (adj.report, volume(&o.mesh, &adj, light))
+            })
+            .collect()
+    });
+    let mut irregular = Vec::new();
+    let mut volumes = Vec::with_capacity(built.len());
+    for (o, (report, v)) in frame.scene.objects.iter().zip(built) {
+        if !report.is_closed_manifold() || report.degenerate_triangles > 0 {
+            irregular.push((o.name.clone(), report.describe()));
+        }
+        volumes.push(v);
+    }
+    (volumes, irregular)
 }
 
 #[cfg(test)]
