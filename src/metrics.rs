@@ -106,6 +106,50 @@ pub fn compare_scalar(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
     }
 }
 
+/// Visibility discontinuities inside the penumbra (Cournia fig. 4.8): the mean, over the
+/// pairs of horizontally and vertically neighbouring masked pixels of the same object (`ids`)
+/// whose reference values are both in the penumbra (strictly between 0 and 1), of
+/// `max(0, |v_i - v_j| - |r_i - r_j|)`: how much the technique jumps between neighbours
+/// beyond the truth's own change. `width` is the images' row length; non-finite values of `v`
+/// count as a jump of 1. 0 without penumbra pairs.
+pub fn discontinuity(v: &Visibility, reference: &Visibility, mask: &[bool], ids: &[u32], width: usize) -> f64 {
+    let n = v.len().min(reference.len()).min(mask.len()).min(ids.len());
+    if width == 0 {
+        return 0.0;
+    }
+    let inside = |i: usize| {
+        let r = reference.value(i);
+        mask[i] && r > 0.0 && r < 1.0
+    };
+    let (mut sum, mut pairs) = (0.0f64, 0u64);
+    for i in 0..n {
+        if !inside(i) {
+            continue;
+        }
+        let right = (i % width + 1 < width).then_some(i + 1);
+        let down = (i + width < n).then_some(i + width);
+        for j in [right, down].into_iter().flatten() {
+            if !inside(j) || ids[i] != ids[j] {
+                continue;
+            }
+            let (a, b) = (v.value(i), v.value(j));
+            let dv = if a.is_finite() && b.is_finite() {
+                (a - b).abs() as f64
+            } else {
+                1.0
+            };
+            let dr = (reference.value(i) - reference.value(j)).abs() as f64;
+            sum += (dv - dr).max(0.0);
+            pairs += 1;
+        }
+    }
+    if pairs == 0 {
+        0.0
+    } else {
+        sum / pairs as f64
+    }
+}
+
 /// Flicker along a camera path: the mean over consecutive frames and masked pixels of
 /// `max(0, |v_t - v_{t-1}| - |r_t - r_{t-1}|)`: change of the technique beyond the change of
 /// the truth at the same pixel.

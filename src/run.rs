@@ -102,6 +102,8 @@ pub struct RunResult {
     pub threads: usize,
     /// Flicker along the camera path (0 without a path).
     pub flicker: f64,
+    /// Visibility discontinuities in the penumbra ([`metrics::discontinuity`]).
+    pub discontinuity: f64,
     /// Whether the technique reported work counters on the path's frames (their chart is
     /// worth showing).
     pub counted_path: bool,
@@ -241,7 +243,10 @@ pub fn render(
             first = Some((
                 metrics::compare(&v, &r, &mask),
                 metrics::compare(&v, &r, &f.transparent_mask()),
-                ms,
+                (
+                    ms,
+                    metrics::discontinuity(&v, &r, &mask, f.gbuffer.object.data(), f.width() as usize),
+                ),
                 FirstFrame {
                     width: f.width(),
                     height: f.height(),
@@ -254,7 +259,7 @@ pub fn render(
         }
         seq.push((v, r, mask));
     }
-    let (errors, transparent, ms, first) = first.expect("at least one frame");
+    let (errors, transparent, (ms, discontinuity), first) = first.expect("at least one frame");
     let settings = sets
         .iter()
         .map(|(k, v)| format!("{k}={v}"))
@@ -269,6 +274,7 @@ pub fn render(
         ms,
         threads: p.threads(),
         flicker: metrics::flicker(&seq),
+        discontinuity,
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
         passes: pass_times.clone(),
         counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),

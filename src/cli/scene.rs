@@ -57,6 +57,12 @@ pub fn render(
         "rmse      {:.5}\nmae       {:.5}\nwrong     {:.3} %\npenumbra  {:.5} (rmse over {} pixels)",
         e.rmse, e.mae, e.wrong_pct, e.penumbra_rmse, e.penumbra_pixels
     );
+    if r.result.errors.penumbra_pixels > 0 {
+        println!(
+            "jumps     {:.5} (penumbra discontinuity beyond the reference's)",
+            r.result.discontinuity
+        );
+    }
     if r.result.transparent.pixels > 0 {
         let t = &r.result.transparent;
         println!(

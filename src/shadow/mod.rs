@@ -62,6 +62,16 @@ impl Stage {
             Stage::Scalar { name, .. } | Stage::Color { name, .. } => name,
         }
     }
+
+    /// Per-pixel values of `frame` (row-major) as a scalar stage shown from `lo` to `hi`.
+    pub fn pixels(frame: &Frame, name: &str, data: Vec<f32>, lo: f32, hi: f32) -> Result<Stage, String> {
+        Ok(Stage::Scalar {
+            name: name.into(),
+            data: Surface::from_vec(frame.width(), frame.height(), data).map_err(|e| e.to_string())?,
+            lo,
+            hi,
+        })
+    }
 }
 
 /// A shadow technique.
@@ -127,6 +137,8 @@ pub fn registry() -> Vec<TechniqueInfo> {
         planar::cookie::info(),
         exact::izb::info(),
         exact::hybrid::info(),
+        penumbra::pvm::info(),
+        penumbra::pvmf::info(),
         volumetric::transparency_map::info(),
         volumetric::opacity_maps::info(),
         volumetric::deep_shadow_map::info(),

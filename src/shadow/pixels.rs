@@ -45,3 +45,22 @@ pub fn per_pixel_counted(
     });
     (out, total)
 }
+
+/// `f(x, y)` of any plain value for every pixel of `frame`, row-major, rows in parallel on
+/// `p`'s workers (for passes that keep more than one value per pixel).
+pub fn per_pixel_map<T: Copy + Default + Send>(
+    p: &Pipeline,
+    frame: &Frame,
+    f: impl Fn(usize, usize) -> T + Sync,
+) -> Vec<T> {
+    let w = frame.width() as usize;
+    let mut out = vec![T::default(); w * frame.height() as usize];
+    p.install(|| {
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                *o = f(x, y);
+            }
+        })
+    });
+    out
+}

@@ -340,12 +340,13 @@ impl ShadowTechnique for Chs {
             }
             Prepared::Done(..) => f32::NAN,
         });
-        v.push(Stage::Scalar {
-            name: "filter_level".into(),
-            data: Surface::from_vec(frame.width(), frame.height(), level).map_err(|e| e.to_string())?,
-            lo: 0.0,
-            hi: (self.levels(0) - 1) as f32,
-        });
+        v.push(Stage::pixels(
+            frame,
+            "filter_level",
+            level,
+            0.0,
+            (self.levels(0) - 1) as f32,
+        )?);
         for l in 1..4.min(self.levels(0)) {
             v.push(Stage::Scalar {
                 name: format!("min_level{l}"),

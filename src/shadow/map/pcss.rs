@@ -504,7 +504,6 @@ impl ShadowTechnique for Pcss {
             Prepared::At(at) => Some(self.estimate(&at, x, y)),
             Prepared::Done(..) => None,
         };
-        let (w, h) = (frame.width(), frame.height());
         let penumbra = per_pixel(p, frame, |x, y| est(x, y).map_or(f32::NAN, |e| e.penumbra));
         let blockers = per_pixel(p, frame, |x, y| {
             est(x, y).map_or(f32::NAN, |e| e.found as f32 / self.opts.blockers as f32)
@@ -514,18 +513,8 @@ impl ShadowTechnique for Pcss {
             .copied()
             .filter(|v| v.is_finite())
             .fold(1.0f32, f32::max);
-        v.push(Stage::Scalar {
-            name: "penumbra_texels".into(),
-            data: Surface::from_vec(w, h, penumbra).map_err(|e| e.to_string())?,
-            lo: 0.0,
-            hi,
-        });
-        v.push(Stage::Scalar {
-            name: "blocker_fraction".into(),
-            data: Surface::from_vec(w, h, blockers).map_err(|e| e.to_string())?,
-            lo: 0.0,
-            hi: 1.0,
-        });
+        v.push(Stage::pixels(frame, "penumbra_texels", penumbra, 0.0, hi)?);
+        v.push(Stage::pixels(frame, "blocker_fraction", blockers, 0.0, 1.0)?);
         Ok(v)
     }
 }

@@ -5,6 +5,9 @@
 //! - [`pvm`]: penumbra volume maps (ch. 4): per-vertex extrusion vectors clipped against the
 //!   neighbouring edges' planes, a map of the nearest volume's silhouette edge, and the
 //!   light's visibility from the cutting plane through the pixel and that edge (eq. 4.1, 4.2).
+//! - [`pvmf`]: penumbra volume mask filtering (ch. 5): overestimated volumes edge by edge as a
+//!   mask with each edge's distance from the light, a PCF as wide as the penumbra only inside
+//!   the mask, and an object-aware blur.
 //!
 //! Shared here: the light-space silhouettes of every object, from the shadow volumes' edge
 //! adjacency ([`crate::shadow::volume::silhouette`]) chained into loops; the rendering of
@@ -12,13 +15,39 @@
 //! the disk visibility of a cutting plane.
 
 pub mod pvm;
+pub mod pvmf;
 
 use crate::frame::Frame;
 use crate::pipeline::*;
+use crate::scene::LightKind;
 use crate::shadow::light::{homogeneous_position, LightView};
+use crate::shadow::map::pcss::light_width;
 use crate::shadow::volume::silhouette;
+use crate::shadow::Field;
 use glam::{Vec3, Vec4};
 use std::collections::HashMap;
+
+/// The light's radius for penumbra volumes: half the scene's area light width (the soft
+/// techniques' [`light_width`]) times `scale`; 0 for point, spot and directional lights (no
+/// extent, or no centre to extrude from).
+pub fn light_radius(frame: &Frame, scale: f32) -> f32 {
+    match frame.light.kind {
+        LightKind::Area(_) => 0.5 * light_width(frame, scale, 0.0),
+        _ => 0.0,
+    }
+}
+
+/// The `light` option both methods declare: the radius as a multiple of half the area light's
+/// width.
+pub fn light_field<O: Clone + Default + 'static>(access: fn(&mut O) -> &mut f32) -> Field<O> {
+    Field::range(
+        "light",
+        "the light's radius as a multiple of half the scene's area light width (0: hard shadow)",
+        0.0,
+        1e3,
+        access,
+    )
+}
 
 /// One silhouette edge seen from the light's centre, oriented as its light-facing triangle
 /// winds (the occluder lies on the positive side of its hard shadow plane

@@ -40,12 +40,13 @@
 //! and the **single silhouette** from the light's centre, wrong for a light much larger than a
 //! nearby occluder.
 
-use super::{bernstein, disk_visibility, render, silhouettes, Quads, Silhouettes, VolumeMap};
+use super::{
+    bernstein, disk_visibility, light_field, light_radius, render, silhouettes, Quads, Silhouettes, VolumeMap,
+};
 use crate::frame::Frame;
-use crate::pipeline::{Pipeline, Rgba8, Surface};
+use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::map::kernel::bilinear_compare;
-use crate::shadow::map::pcss::light_width;
 use crate::shadow::map::shadow_map::{self, Prepared, ShadowMap};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
@@ -82,13 +83,7 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
     fields.extend([
-        Field::range(
-            "light",
-            "the light's radius as a multiple of half the scene's area light width (0: hard shadow)",
-            0.0,
-            1e3,
-            |o: &mut Options| &mut o.light,
-        ),
+        light_field(|o: &mut Options| &mut o.light),
         Field::new(
             "smooth",
             "Bernstein smoothing 3k^2 - 2k^3 of the disk visibility (Parker et al.)",
@@ -323,16 +318,6 @@ impl Pvm {
     }
 }
 
-/// Per-pixel values of a lookup as a stage.
-fn scalar(frame: &Frame, name: &str, data: Vec<f32>, lo: f32, hi: f32) -> Result<Stage, String> {
-    Ok(Stage::Scalar {
-        name: name.into(),
-        data: Surface::from_vec(frame.width(), frame.height(), data).map_err(|e| e.to_string())?,
-        lo,
-        hi,
-    })
-}
-
 impl ShadowTechnique for Pvm {
     fn name(&self) -> &'static str {
         "pvm"
@@ -341,10 +326,7 @@ impl ShadowTechnique for Pvm {
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = Instant::now();
         self.map.light_pass(p, frame)?;
-        self.radius = match frame.light.kind {
-            crate::scene::LightKind::Area(_) => 0.5 * light_width(frame, self.opts.light, 0.0),
-            _ => 0.0,
-        };
+        self.radius = light_radius(frame, self.opts.light);
         let t1 = Instant::now();
         let l = frame.light.position;
         self.volumes.clear();
@@ -497,12 +479,12 @@ impl ShadowTechnique for Pvm {
             Some(Found::Volume { .. }) => 1.0,
             Some(Found::Map(_)) => 0.0,
         });
-        v.push(scalar(frame, "inside_volume", inside, 0.0, 1.0)?);
+        v.push(Stage::pixels(frame, "inside_volume", inside, 0.0, 1.0)?);
         let k = per_pixel(p, frame, |x, y| match self.lookup(frame, x, y, &mut NoTrace) {
             Some(Found::Volume { k, .. }) => k,
             _ => f32::NAN,
         });
-        v.push(scalar(frame, "disk_visibility_k", k, 0.0, 1.0)?);
+        v.push(Stage::pixels(frame, "disk_visibility_k", k, 0.0, 1.0)?);
         Ok(v)
     }
 }
