@@ -67,6 +67,9 @@ crate::choice_enum! {
         Object = "object",
         /// The object and its triangle index divided by `group`.
         Group = "group",
+        /// One id for every surface: the uniform blur the text warns against (shadows bleed
+        /// onto lit objects), for comparison.
+        None = "none",
     }
 }
 
@@ -166,7 +169,7 @@ pub fn declaration() -> Declaration<Options> {
         ),
         Field::new(
             "ids",
-            "the blur's ids: object, or group (runs of `group` triangles)",
+            "the blur's ids: object, group (runs of `group` triangles) or none (uniform blur)",
             |o: &mut Options| &mut o.ids,
         ),
         Field::range(
@@ -475,6 +478,8 @@ impl Pvmf {
         let o = frame.gbuffer.object.data()[i];
         match self.opts.ids {
             Ids::Object => o as u64,
+            Ids::None if o == NO_OBJECT => u64::MAX,
+            Ids::None => 0,
             Ids::Group if o == NO_OBJECT => u64::MAX,
             Ids::Group => ((o as u64) << 32) | (frame.gbuffer.prim.data()[i] / self.opts.group) as u64,
         }
