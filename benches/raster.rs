@@ -149,7 +149,8 @@ fn volumetric(c: &mut Criterion) {
 
 /// Soft shadows from one map on the spheres scene (a 2-degree sun for PCSS and CHS; 2048²
 /// maps), against the 2x2 and 5x5 PCF maps; and on `pergola` at 1920x1080 under its
-/// rectangle light, with the multi-sample area light as the baseline and the IZB/PCSS hybrid.
+/// rectangle light, with the multi-sample area light as the baseline, the IZB/PCSS hybrid and
+/// the penumbra volumes; and the penumbra volumes on `contact` at 1920x1080.
 fn soft(c: &mut Criterion) {
     use penumbra::shadow;
     let p = Pipeline::new(threads()).unwrap();
@@ -186,6 +187,25 @@ fn soft(c: &mut Criterion) {
         ("multi-sample-16", "multi-sample", vec![kv("size", "512")]),
         ("multi-sample-16-volumes", "multi-sample", vec![kv("method", "volumes")]),
         ("hybrid", "hybrid", vec![]),
+        ("pvm", "pvm", vec![]),
+        ("pvmf", "pvmf", vec![]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+    // Penumbra volumes where most pixels are outside every penumbra: contact at 1920x1080,
+    // against PCSS with PVMF's 49 filter taps.
+    let mut g = c.benchmark_group(format!("contact_soft_{}t", p.threads()));
+    g.sample_size(10);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/contact.toml");
+    let mut scene = penumbra::scene::file::load(&path).unwrap();
+    (scene.camera.width, scene.camera.height) = (1920, 1080);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    for (id, name, sets) in [
+        ("pcss-49", "pcss", vec![kv("taps", "49")]),
+        ("pvm", "pvm", vec![]),
+        ("pvmf", "pvmf", vec![]),
     ] {
         let mut t = shadow::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
