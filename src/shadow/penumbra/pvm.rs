@@ -102,8 +102,8 @@ pub fn info() -> TechniqueInfo {
         name: "pvm",
         summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
         options: declaration().infos(),
-        sweep: &[&[], &[("size", "512")], &[("smooth", "false")]],
-        extended: &[&[("size", "4096")], &[("light", "2")]],
+        sweep: &[&[], &[("smooth", "false")]],
+        extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
         create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
     }
 }

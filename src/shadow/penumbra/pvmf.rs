@@ -192,14 +192,10 @@ pub fn info() -> TechniqueInfo {
         name: "pvmf",
         summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
         options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("size", "2048")],
-            &[("pcf", "3")],
-            &[("blur", "0")],
-            &[("jitter", "false")],
-        ],
+        sweep: &[&[], &[("size", "2048")], &[("blur", "0")]],
         extended: &[
+            &[("pcf", "3")],
+            &[("jitter", "false")],
             &[("layer", "midpoint")],
             &[("layer", "first")],
             &[("pcf", "12"), ("size", "1024")],
