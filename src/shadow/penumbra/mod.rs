@@ -28,7 +28,7 @@ use glam::{Vec3, Vec4};
 use std::collections::HashMap;
 
 /// The light's radius for penumbra volumes: half the scene's area light width (the soft
-/// techniques' [`light_width`]) times `scale`; 0 for point, spot and directional lights (no
+/// techniques' light width, `pcss::light_width`) times `scale`; 0 for point, spot and directional lights (no
 /// extent, or no centre to extrude from).
 pub fn light_radius(frame: &Frame, scale: f32) -> f32 {
     match frame.light.kind {
