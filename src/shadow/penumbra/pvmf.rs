@@ -226,8 +226,13 @@ pub fn mask_volume(e0: Vec3, e1: Vec3, l: Vec3, r: f32, s_e: f32) -> MaskVolume 
     let d_e = l0.min(l1);
     let moved = |p: Vec3, len: f32| p - (p - l) / len.max(f32::MIN_POSITIVE) * (d_e * s_e);
     let (h0, h1) = (moved(e0, l0), moved(e1, l1));
-    let e = (h1 - h0).normalize_or_zero();
-    let v = (h0 - l).normalize_or_zero();
+    // When s_e = 1 moves both points onto the light, the edge's own direction stands in.
+    let e = (h1 - h0)
+        .try_normalize()
+        .unwrap_or_else(|| (e1 - e0).normalize_or_zero());
+    // The moved point lies on the ray from the light through e0, so v is that ray's direction;
+    // taking it from e0 keeps it defined when s_e = 1 puts the moved point on the light.
+    let v = (e0 - l).normalize_or_zero();
     let n = v.cross(e);
     let (e, n) = (e * r, n * r);
     let dir = |p: Vec3, side: Vec3| (p - l + side).normalize_or_zero();
