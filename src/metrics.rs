@@ -106,6 +106,39 @@ pub fn compare_scalar(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
     }
 }
 
+/// Calls `f(i, j)` for every pair of horizontally and vertically neighbouring masked pixels
+/// of the same object (`ids`) whose reference values are both strictly between `lo` and `hi`
+/// (the penumbra, or its inner part); `width` is the images' row length.
+fn penumbra_pairs(
+    reference: &Visibility,
+    mask: &[bool],
+    ids: &[u32],
+    width: usize,
+    (lo, hi): (f32, f32),
+    n: usize,
+    mut f: impl FnMut(usize, usize),
+) {
+    if width == 0 {
+        return;
+    }
+    let inside = |i: usize| {
+        let r = reference.value(i);
+        mask[i] && r > lo && r < hi
+    };
+    for i in 0..n {
+        if !inside(i) {
+            continue;
+        }
+        let right = (i % width + 1 < width).then_some(i + 1);
+        let down = (i + width < n).then_some(i + width);
+        for j in [right, down].into_iter().flatten() {
+            if inside(j) && ids[i] == ids[j] {
+                f(i, j);
+            }
+        }
+    }
+}
+
 /// Visibility discontinuities inside the penumbra (Cournia fig. 4.8): the mean, over the
 /// pairs of horizontally and vertically neighbouring masked pixels of the same object (`ids`)
 /// whose reference values are both in the penumbra (strictly between 0 and 1), of
@@ -114,39 +147,47 @@ pub fn compare_scalar(v: &[f32], reference: &[f32], mask: &[bool]) -> Errors {
 /// count as a jump of 1. 0 without penumbra pairs.
 pub fn discontinuity(v: &Visibility, reference: &Visibility, mask: &[bool], ids: &[u32], width: usize) -> f64 {
     let n = v.len().min(reference.len()).min(mask.len()).min(ids.len());
-    if width == 0 {
-        return 0.0;
-    }
-    let inside = |i: usize| {
-        let r = reference.value(i);
-        mask[i] && r > 0.0 && r < 1.0
-    };
     let (mut sum, mut pairs) = (0.0f64, 0u64);
-    for i in 0..n {
-        if !inside(i) {
-            continue;
-        }
-        let right = (i % width + 1 < width).then_some(i + 1);
-        let down = (i + width < n).then_some(i + width);
-        for j in [right, down].into_iter().flatten() {
-            if !inside(j) || ids[i] != ids[j] {
-                continue;
-            }
-            let (a, b) = (v.value(i), v.value(j));
-            let dv = if a.is_finite() && b.is_finite() {
-                (a - b).abs() as f64
-            } else {
-                1.0
-            };
-            let dr = (reference.value(i) - reference.value(j)).abs() as f64;
-            sum += (dv - dr).max(0.0);
-            pairs += 1;
-        }
-    }
+    penumbra_pairs(reference, mask, ids, width, (0.0, 1.0), n, |i, j| {
+        let (a, b) = (v.value(i), v.value(j));
+        let dv = if a.is_finite() && b.is_finite() {
+            (a - b).abs() as f64
+        } else {
+            1.0
+        };
+        let dr = (reference.value(i) - reference.value(j)).abs() as f64;
+        sum += (dv - dr).max(0.0);
+        pairs += 1;
+    });
     if pairs == 0 {
         0.0
     } else {
         sum / pairs as f64
+    }
+}
+
+/// Banding inside the penumbra (Cournia fig. 5.3): the fraction of the neighbouring pixel
+/// pairs of [`discontinuity`] whose reference values are both in the inner penumbra (0.02 to
+/// 0.98) and whose technique values are both strictly between 0 and 1 and equal within
+/// `1e-5`: plateaus of one partial visibility where the truth is a ramp. A regular filter
+/// grid makes them (its taps cross an edge all at once); jitter and a smooth estimate do not.
+/// Umbra and lit plateaus (0 or 1) are a penumbra width error and do not count. 0 without
+/// such pairs.
+pub fn banding(v: &Visibility, reference: &Visibility, mask: &[bool], ids: &[u32], width: usize) -> f64 {
+    let n = v.len().min(reference.len()).min(mask.len()).min(ids.len());
+    let (mut flat, mut pairs) = (0u64, 0u64);
+    penumbra_pairs(reference, mask, ids, width, (0.02, 0.98), n, |i, j| {
+        let (a, b) = (v.value(i), v.value(j));
+        let partial = |x: f32| x > 0.0 && x < 1.0;
+        if partial(a) && partial(b) && (a - b).abs() <= 1e-5 {
+            flat += 1;
+        }
+        pairs += 1;
+    });
+    if pairs == 0 {
+        0.0
+    } else {
+        flat as f64 / pairs as f64
     }
 }
 
@@ -235,5 +276,27 @@ mod tests {
         ];
         // Frame 1->2: both change pixel 0 (no flicker); frame 2->3: only v changes (1 of 2 pixels).
         assert!((flicker(&f) - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn banding_counts_partial_plateaus_on_a_ramp_and_not_a_smooth_estimate() {
+        // One row of 9 pixels on a true ramp 0.1 .. 0.9.
+        let truth: Vec<f32> = (0..9).map(|i| 0.1 + 0.1 * i as f32).collect();
+        let (m, ids) = (vec![true; 9], vec![0u32; 9]);
+        let s = |v: Vec<f32>| Visibility::Scalar(v);
+        let r = s(truth.clone());
+        // The truth itself and any strictly monotone estimate: no plateau.
+        assert_eq!(banding(&r, &r, &m, &ids, 9), 0.0);
+        // Steps of three: 0.2 0.2 0.2 0.5 0.5 0.5 0.8 0.8 0.8 -> 6 flat pairs of 8.
+        let steps: Vec<f32> = (0..9).map(|i| 0.2 + 0.3 * (i / 3) as f32).collect();
+        assert!((banding(&s(steps), &r, &m, &ids, 9) - 0.75).abs() < 1e-12);
+        // Umbra and lit plateaus are not bands.
+        let hard: Vec<f32> = (0..9).map(|i| if i < 5 { 0.0 } else { 1.0 }).collect();
+        assert_eq!(banding(&s(hard), &r, &m, &ids, 9), 0.0);
+        // Different objects break the pairs.
+        let flat = s(vec![0.5; 9]);
+        assert_eq!(banding(&flat, &r, &m, &ids, 9), 1.0);
+        let alternating: Vec<u32> = (0..9).map(|i| i % 2).collect();
+        assert_eq!(banding(&flat, &r, &m, &alternating, 9), 0.0);
     }
 }

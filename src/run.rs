@@ -104,6 +104,8 @@ pub struct RunResult {
     pub flicker: f64,
     /// Visibility discontinuities in the penumbra ([`metrics::discontinuity`]).
     pub discontinuity: f64,
+    /// Plateaus of one partial visibility in the penumbra ([`metrics::banding`]).
+    pub banding: f64,
     /// Whether the technique reported work counters on the path's frames (their chart is
     /// worth showing).
     pub counted_path: bool,
@@ -124,20 +126,19 @@ impl RunResult {
     }
 }
 
-/// A technique's visibility, its median time (ms) and the technique (for its stages).
-pub type Timed = (Visibility, f64, Box<dyn shadow::ShadowTechnique>);
-
-/// Runs technique `name` with `sets` on `frame` `reps` times after one warm-up; returns the
-/// last visibility and the median time in milliseconds.
+/// Runs `t` on `frame`: after one warm-up call when `warm_up`, `reps` timed calls (at least
+/// one); returns the last visibility and the median time in milliseconds.
 pub fn time_technique(
     p: &Pipeline,
     frame: &Frame,
-    name: &str,
-    sets: &[(String, String)],
+    t: &mut dyn shadow::ShadowTechnique,
+    warm_up: bool,
     reps: usize,
-) -> Result<Timed, String> {
-    let mut t = shadow::create(name, sets)?;
-    let mut v = t.visibility(p, frame)?;
+) -> Result<(Visibility, f64), String> {
+    if warm_up {
+        t.visibility(p, frame)?;
+    }
+    let mut v = Visibility::Scalar(Vec::new());
     let mut times = Vec::new();
     for _ in 0..reps.max(1) {
         let t0 = Instant::now();
@@ -146,13 +147,14 @@ pub fn time_technique(
     }
     if v.len() != (frame.width() * frame.height()) as usize {
         return Err(format!(
-            "technique '{name}' returned {} values for a {}x{} frame",
+            "technique '{}' returned {} values for a {}x{} frame",
+            t.name(),
             v.len(),
             frame.width(),
             frame.height()
         ));
     }
-    Ok((v, metrics::median(times), t))
+    Ok((v, metrics::median(times)))
 }
 
 /// One frame of a camera path: the technique's time and its work counters.
@@ -200,6 +202,55 @@ pub struct RenderOutput {
     pub first: FirstFrame,
 }
 
+/// A scene's frames (one per camera-path keyframe, or one) with their references and metric
+/// masks: built once and shared by every technique run on the scene.
+pub struct Prepared<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Per frame: the frame (`None`: rebuilt on use, see [`Prepared::new`]), its reference
+    /// and its metric mask.
+    frames: Vec<(Option<Frame<'a>>, Visibility, Vec<bool>)>,
+    /// Seconds the references took (0 when cached).
+    pub reference_secs: f64,
+    /// Shadow rays the references traced (0 when cached).
+    pub reference_rays: u64,
+}
+
+/// Frames kept by [`Prepared`] at most, in pixels summed over the path (beyond it frames are
+/// rebuilt for each run, so that a long path of large frames does not hold them all).
+const KEPT_FRAME_PIXELS: u64 = 16 << 20;
+
+impl<'a> Prepared<'a> {
+    /// Builds `scene`'s frames and their references (through `cache`).
+    pub fn new(
+        p: &Pipeline,
+        scene: &'a Scene,
+        scene_text: &str,
+        cache: Option<&dyn ReferenceCache>,
+    ) -> Result<Prepared<'a>, String> {
+        let count = scene.camera_path.len().max(1);
+        let pixels = scene.camera.width as u64 * scene.camera.height as u64 * count as u64;
+        let keep = pixels <= KEPT_FRAME_PIXELS;
+        let mut frames = Vec::with_capacity(count);
+        let (mut secs, mut rays) = (0.0, 0);
+        for i in 0..count {
+            let f = frame::frame(p, scene, 0, i)?;
+            let key = reference_key(scene_text, &f, 0, &ReferenceOptions::default());
+            let (r, s, n) = reference(p, &f, key, cache)?;
+            secs += s;
+            rays += n;
+            let mask = f.metric_mask();
+            frames.push((keep.then_some(f), r, mask));
+        }
+        Ok(Prepared {
+            scene,
+            frames,
+            reference_secs: secs,
+            reference_rays: rays,
+        })
+    }
+}
+
 /// Renders `scene` with a technique against the reference: metrics of the first frame, and
 /// for camera paths every frame (for the flicker metric and the path's time and counters).
 #[allow(clippy::too_many_arguments)]
@@ -212,24 +263,38 @@ pub fn render(
     reps: usize,
     cache: Option<&dyn ReferenceCache>,
 ) -> Result<RenderOutput, String> {
-    let frames = scene.camera_path.len().max(1);
+    let prepared = Prepared::new(p, scene, scene_text, cache)?;
+    render_prepared(p, &prepared, name, sets, reps)
+}
+
+/// [`render`] on a scene's [`Prepared`] frames; the output's reference time and rays are the
+/// preparation's.
+pub fn render_prepared(
+    p: &Pipeline,
+    prepared: &Prepared,
+    name: &str,
+    sets: &[(String, String)],
+    reps: usize,
+) -> Result<RenderOutput, String> {
+    let scene = prepared.scene;
     let mut seq = Vec::new();
     let mut first = None;
     let mut pass_times = Vec::new();
     let mut notes = Vec::new();
     let mut path = Vec::new();
-    let (mut ref_secs, mut ref_rays) = (0.0, 0);
-    for i in 0..frames {
-        let f = frame::frame(p, scene, 0, i)?;
-        let (r, secs, rays) = reference(
-            p,
-            &f,
-            reference_key(scene_text, &f, 0, &ReferenceOptions::default()),
-            cache,
-        )?;
-        ref_secs += secs;
-        ref_rays += rays;
-        let (v, ms, t) = time_technique(p, &f, name, sets, if i == 0 { reps } else { 0 })?;
+    let mut t = shadow::create(name, sets)?;
+    for (i, (kept, r, mask)) in prepared.frames.iter().enumerate() {
+        let built;
+        let f = match kept {
+            Some(f) => f,
+            None => {
+                built = frame::frame(p, scene, 0, i)?;
+                &built
+            }
+        };
+        // Frame 0: a warm-up and `reps` timed calls (`reps` 0: one call, as the reference
+        // needs); later path frames: one call each, the technique already warm.
+        let (v, ms) = time_technique(p, f, t.as_mut(), i == 0 && reps > 0, if i == 0 { reps } else { 1 })?;
         if i == 0 {
             pass_times = t.timings();
             notes = t.notes();
@@ -238,28 +303,28 @@ pub fn render(
             ms,
             counters: t.counters(),
         });
-        let mask = f.metric_mask();
         if i == 0 {
             first = Some((
-                metrics::compare(&v, &r, &mask),
-                metrics::compare(&v, &r, &f.transparent_mask()),
+                metrics::compare(&v, r, mask),
+                metrics::compare(&v, r, &f.transparent_mask()),
                 (
                     ms,
-                    metrics::discontinuity(&v, &r, &mask, f.gbuffer.object.data(), f.width() as usize),
+                    metrics::discontinuity(&v, r, mask, f.gbuffer.object.data(), f.width() as usize),
+                    metrics::banding(&v, r, mask, f.gbuffer.object.data(), f.width() as usize),
                 ),
                 FirstFrame {
                     width: f.width(),
                     height: f.height(),
-                    shaded: frame::shade(&f, &v),
+                    shaded: frame::shade(f, &v),
                     visibility: v.clone(),
                     reference: r.clone(),
                     mask: mask.clone(),
                 },
             ));
         }
-        seq.push((v, r, mask));
+        seq.push((v, r.clone(), mask.clone()));
     }
-    let (errors, transparent, (ms, discontinuity), first) = first.expect("at least one frame");
+    let (errors, transparent, (ms, discontinuity, banding), first) = first.expect("at least one frame");
     let settings = sets
         .iter()
         .map(|(k, v)| format!("{k}={v}"))
@@ -275,14 +340,15 @@ pub fn render(
         threads: p.threads(),
         flicker: metrics::flicker(&seq),
         discontinuity,
+        banding,
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
         passes: pass_times.clone(),
         counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
     };
     Ok(RenderOutput {
         result,
-        reference_secs: ref_secs,
-        reference_rays: ref_rays,
+        reference_secs: prepared.reference_secs,
+        reference_rays: prepared.reference_rays,
         pass_times,
         counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
         notes,

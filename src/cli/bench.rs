@@ -282,6 +282,13 @@ pub fn technique(a: TechniqueArgs) -> Result<(), String> {
         scene.camera.width = w;
         scene.camera.height = h;
     }
+    if let Some(radius) = a.disk {
+        if !(radius.is_finite() && radius > 0.0 && radius < 1e6) {
+            return Err(format!("--disk {radius}: the radius must be in (0, 1e6)"));
+        }
+        let light = scene.lights.first_mut().ok_or("the scene has no light to replace")?;
+        light.kind = penumbra::scene::LightKind::Area(penumbra::scene::AreaShape::Disk { radius });
+    }
     let f = penumbra::frame::frame(&p, &scene, 0, 0)?;
     let tris = scene.triangles();
     println!(

@@ -110,8 +110,8 @@ struct SweepArgs {
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Timed repetitions after one warm-up.
-    #[arg(long, default_value_t = 3)]
+    /// Timed repetitions after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 2)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
@@ -153,6 +153,11 @@ struct TechniqueArgs {
     /// 1920x1080).
     #[arg(long)]
     resolution: Option<String>,
+    /// Replace the scene's light by a disk light of this radius at the light's position,
+    /// facing its direction (for the soft techniques on the spheres scene, whose light is a
+    /// sun).
+    #[arg(long)]
+    disk: Option<f32>,
     #[command(flatten)]
     common: Common,
 }
@@ -257,7 +262,7 @@ fn main() -> ExitCode {
                 scenes: vec![],
                 techniques: "all".into(),
                 threads: 0,
-                reps: 3,
+                reps: 2,
                 out: PathBuf::from("out/sweep"),
                 all: false,
             })

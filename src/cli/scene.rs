@@ -62,6 +62,10 @@ pub fn render(
             "jumps     {:.5} (penumbra discontinuity beyond the reference's)",
             r.result.discontinuity
         );
+        println!(
+            "bands     {:.4} (penumbra neighbours on one partial-visibility plateau)",
+            r.result.banding
+        );
     }
     if r.result.transparent.pixels > 0 {
         let t = &r.result.transparent;

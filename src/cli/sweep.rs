@@ -72,6 +72,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
     let t0 = Instant::now();
     let mut k = 0;
     for (s, text) in &loaded {
+        let prepared = run::Prepared::new(&p, s, text, Some(&cache))?;
         for (name, sets) in &jobs {
             k += 1;
             let reps = if *name == "reference" { 0 } else { o.reps };
@@ -84,7 +85,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
                 s.name,
                 name
             );
-            let r = run::render(&p, s, text, name, sets, reps, Some(&cache))?;
+            let r = run::render_prepared(&p, &prepared, name, sets, reps)?;
             report::files::write_run(&thumbs_dir, &r)?;
             results.push(r.result);
         }

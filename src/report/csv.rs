@@ -6,13 +6,13 @@ use std::fmt::Write as _;
 /// The sweep's CSV (one row per technique setting and scene).
 pub fn csv(results: &[RunResult]) -> String {
     let mut s = String::from(
-        "scene,technique,settings,ms,threads,rmse,mae,wrong_pct,penumbra_rmse,transparent_rmse,flicker,discontinuity,pixels,penumbra_pixels,transparent_pixels,passes_ms,counters\n",
+        "scene,technique,settings,ms,threads,rmse,mae,wrong_pct,penumbra_rmse,transparent_rmse,flicker,discontinuity,banding,pixels,penumbra_pixels,transparent_pixels,passes_ms,counters\n",
     );
     for r in results {
         let e = &r.errors;
         let _ = writeln!(
             s,
-            "{},{},\"{}\",{:.4},{},{:.6},{:.6},{:.4},{:.6},{:.6},{:.6},{:.6},{},{},{},\"{}\",\"{}\"",
+            "{},{},\"{}\",{:.4},{},{:.6},{:.6},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},\"{}\",\"{}\"",
             r.scene,
             r.technique,
             r.settings,
@@ -25,6 +25,7 @@ pub fn csv(results: &[RunResult]) -> String {
             r.transparent.rmse,
             r.flicker,
             r.discontinuity,
+            r.banding,
             e.pixels,
             e.penumbra_pixels,
             r.transparent.pixels,

@@ -126,8 +126,8 @@ pub fn info() -> TechniqueInfo {
         name: "deep-shadow-map",
         summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
         options: declaration().infos(),
-        sweep: &[&[], &[("filter", "nearest")]],
-        extended: &[],
+        sweep: &[&[]],
+        extended: &[&[("filter", "nearest")]],
         create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
     }
 }
