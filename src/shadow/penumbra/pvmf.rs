@@ -84,7 +84,11 @@ pub struct Options {
     /// shadow map). Default: 1.
     pub light: f32,
     /// `s_e` in (0, 1]: how far the edge points move toward the light (the volumes'
-    /// overestimation). Default: 0.5.
+    /// overestimation). The text gives no value. Default: 0.5. Measured over contact, overlap,
+    /// forest, pergola and big_light, 0.05 to 0.25 change the penumbra RMSE by at most 0.004
+    /// and filter fewer pixels (forest: 35 against 99 ms), but the tighter mask cuts
+    /// penumbrae off where the filter still sees an edge: on forest 0.1 jumps 10 times as
+    /// much (0.0088 against 0.0008) and bleeds more.
     pub spread: f32,
     /// `s_p`: the filter width's scale (2: the physical penumbra). Default: 2.
     pub scale: f32,
