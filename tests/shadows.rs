@@ -1772,6 +1772,27 @@ fn pvm_jumps_where_volumes_overlap_and_pvmf_does_not() {
 }
 
 #[test]
+fn pvmf_min_max_chains_skip_taps_and_change_nothing() {
+    let p = Pipeline::new(2).unwrap();
+    for scene in ["contact", "forest"] {
+        let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
+        let f = frame::frame(&p, &s, 0, 0).unwrap();
+        let run = |h: &str| {
+            let mut t = shadow::create("pvmf", &[("hierarchy".to_string(), h.to_string())]).unwrap();
+            let v = t.visibility(&p, &f).unwrap();
+            let taps = t.counters().iter().find(|(n, _)| *n == "taps").map(|c| c.1).unwrap();
+            (v.hash(), taps)
+        };
+        let ((with, fewer), (without, all)) = (run("true"), run("false"));
+        assert_eq!(with, without, "{scene}: the chains change the image");
+        assert!(
+            fewer < 0.9 * all,
+            "{scene}: taps {fewer} with the chains, {all} without"
+        );
+    }
+}
+
+#[test]
 fn pvmf_without_jitter_bands_where_edges_cross_its_grid() {
     // Cournia fig. 5.3: a regular n_pcf x n_pcf grid crosses a straight edge a row of taps at
     // a time, so its estimate stands on plateaus where the truth is a ramp; jitter breaks

@@ -32,6 +32,9 @@
 //!    position jittered inside it (hashed from the pixel and the cell; `jitter=false`: the
 //!    cell centres, which bands, fig. 5.3). Filtered pixels with no volume texel around are
 //!    deep in an umbra: their width is 0 (one comparison).
+//!    Before its taps, a filter's footprint is classified on the map's min/max chains
+//!    (`hierarchy`, the shadow map's [`crate::shadow::map::kernel::MinMax`]): fully lit or
+//!    fully shadowed, its result is exactly 1 or 0 with no tap (not in the text; the same image).
 //! 4. **Noise reduction** (5.3). The filtered pixels are blurred,
 //!    `v = 1/b_s Σ_{i,j = -n_blur/2}^{n_blur/2} S(u + i, v + j) B(u, v, u + i, v + j)` with
 //!    `B = 1` where the two pixels' ids are equal and `b_s` the number of such samples,
@@ -53,8 +56,8 @@ use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::map::kernel::bilinear_compare;
-use crate::shadow::map::shadow_map::{self, At, Layer, Prepared, ShadowMap};
+use crate::shadow::map::kernel::{bilinear_compare, Class};
+use crate::shadow::map::shadow_map::{self, class_step, At, Layer, Prepared, ShadowMap};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
@@ -77,8 +80,11 @@ crate::choice_enum! {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// The depth map and its bias (the shadow map's options and `layer`; its `filter`,
-    /// `kernel`, `world`, `taps` and `hierarchy` are not used); the mask has the same size.
-    /// Default: the shadow map's defaults with `size=512` and `layer=second` (the text's).
+    /// `kernel`, `world` and `taps` are not used); the mask has the same size. `hierarchy`
+    /// classifies each filter's footprint on the map's min/max chains first and skips the taps
+    /// of one fully lit or fully shadowed (the same image, fewer taps).
+    /// Default: the shadow map's defaults with `size=512`, `layer=second` (the text's) and
+    /// `hierarchy=true`.
     pub map: shadow_map::Options,
     /// The light's radius as a multiple of half the scene's area light width (0: the hard
     /// shadow map). Default: 1.
@@ -112,6 +118,7 @@ impl Default for Options {
             map: shadow_map::Options {
                 size: 512,
                 layer: Layer::Second,
+                hierarchy: true,
                 ..Default::default()
             },
             light: 1.0,
@@ -339,7 +346,6 @@ impl Pvmf {
         let map = ShadowMap::new(shadow_map::Options {
             // A wide filter, so that the map prepares the receiver plane and cone of the taps.
             filter: shadow_map::Filter::Poisson,
-            hierarchy: false,
             ..opts.map.clone()
         })
         .map_err(|e| e.replace("'shadow-map'", "'pvmf'"))?;
@@ -384,8 +390,21 @@ impl Pvmf {
     }
 
     /// Steps 3's filter at a prepared lookup: `n_pcf²` jittered 2x2 comparisons over `w`
-    /// texels; returns the visibility.
-    fn filter(&self, at: &At, w: f32, x: usize, y: usize) -> f32 {
+    /// texels, unless the min/max chains decide the footprint; returns the visibility and the
+    /// taps taken.
+    fn filter(&self, at: &At, w: f32, x: usize, y: usize, t: &mut impl Trace) -> (f32, u32) {
+        if let Some(mm) = self.map.hierarchy(at.face) {
+            // Every tap lies within w / 2 texels of the centre; one texel more for its 2x2.
+            let radius = 0.5 * w + 1.0;
+            let class = mm.classify(at.uv, radius, &at.r);
+            let (lo, hi) = at.r.range(radius);
+            t.step(|| class_step(lo, hi, class));
+            match class {
+                Class::Lit => return (1.0, 1),
+                Class::Shadowed => return (0.0, 1),
+                Class::Mixed => {}
+            }
+        }
         let map = &self.map.maps()[at.face].0;
         let inv = 1.0 / map.width() as f32;
         let n = self.opts.pcf;
@@ -402,7 +421,7 @@ impl Pvmf {
                 sum += bilinear_compare(map, at.uv + d * inv, at.r.at(d));
             }
         }
-        sum / (n * n) as f32
+        (sum / (n * n) as f32, n * n)
     }
 
     /// Step 3 at one pixel; every step reported to `t`.
@@ -451,7 +470,7 @@ impl Pvmf {
             0.0
         };
         let (v, taps) = if w > 0.0 {
-            (self.filter(&at, w, x, y), self.opts.pcf * self.opts.pcf)
+            self.filter(&at, w, x, y, t)
         } else {
             (hard, 1)
         };
