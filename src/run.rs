@@ -322,7 +322,7 @@ pub fn render_prepared(
                 },
             ));
         }
-        seq.push((v, r.clone(), mask.clone()));
+        seq.push((v, r, &mask[..]));
     }
     let (errors, transparent, (ms, discontinuity, banding), first) = first.expect("at least one frame");
     let settings = sets

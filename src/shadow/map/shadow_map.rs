@@ -575,15 +575,10 @@ impl ShadowMap {
     pub(crate) fn filter(&self, at: &At, kernel: &Kernel, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
         let map = &self.maps[at.face].0;
         let r = &at.r;
-        if let Some(mm) = self.minmax.get(at.face) {
-            let class = mm.classify(at.uv, kernel.extent() + 1.0, r);
-            let (lo, hi) = r.range(kernel.extent());
-            t.step(|| class_step(lo, hi, class));
-            match class {
-                Class::Lit => return (1.0, 1),
-                Class::Shadowed => return (0.0, 1),
-                Class::Mixed => {}
-            }
+        match self.classify(at, kernel.extent(), t) {
+            Class::Lit => return (1.0, 1),
+            Class::Shadowed => return (0.0, 1),
+            Class::Mixed => {}
         }
         let f = kernel.filter(map, at.uv, r, x as u32, y as u32);
         t.step(|| kernel.explain(map, at.uv, r, x as u32, y as u32));
@@ -593,6 +588,18 @@ impl ShadowMap {
     /// The min/max chains of the last run's maps (with `hierarchy` and a wide filter).
     pub(crate) fn hierarchy(&self, face: usize) -> Option<&MinMax> {
         self.minmax.get(face)
+    }
+
+    /// What the min/max chains say of a kernel whose taps lie within `extent` texels of
+    /// `at` (their 2x2 footprints one texel further), reported to `t`; `Mixed` without chains.
+    pub(crate) fn classify(&self, at: &At, extent: f32, t: &mut impl Trace) -> Class {
+        let Some(mm) = self.minmax.get(at.face) else {
+            return Class::Mixed;
+        };
+        let class = mm.classify(at.uv, extent + 1.0, &at.r);
+        let (lo, hi) = at.r.range(extent);
+        t.step(|| class_step(lo, hi, class));
+        class
     }
 }
 

@@ -57,7 +57,7 @@ use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
-use crate::shadow::map::shadow_map::{self, class_step, At, Layer, Prepared, ShadowMap};
+use crate::shadow::map::shadow_map::{self, At, Layer, Prepared, ShadowMap};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
@@ -393,17 +393,11 @@ impl Pvmf {
     /// texels, unless the min/max chains decide the footprint; returns the visibility and the
     /// taps taken.
     fn filter(&self, at: &At, w: f32, x: usize, y: usize, t: &mut impl Trace) -> (f32, u32) {
-        if let Some(mm) = self.map.hierarchy(at.face) {
-            // Every tap lies within w / 2 texels of the centre; one texel more for its 2x2.
-            let radius = 0.5 * w + 1.0;
-            let class = mm.classify(at.uv, radius, &at.r);
-            let (lo, hi) = at.r.range(radius);
-            t.step(|| class_step(lo, hi, class));
-            match class {
-                Class::Lit => return (1.0, 1),
-                Class::Shadowed => return (0.0, 1),
-                Class::Mixed => {}
-            }
+        // Every tap lies within w / 2 texels of the centre.
+        match self.map.classify(at, 0.5 * w, t) {
+            Class::Lit => return (1.0, 1),
+            Class::Shadowed => return (0.0, 1),
+            Class::Mixed => {}
         }
         let map = &self.map.maps()[at.face].0;
         let inv = 1.0 / map.width() as f32;
