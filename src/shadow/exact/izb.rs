@@ -20,7 +20,9 @@
 //! 3. **Lists**: each sample goes into the list of the texel it projects to. The lists are a
 //!    deterministic counting sort by texel (count, prefix sum, fill in sample order) into one
 //!    pool (the pipeline's indexed [`PixelStore`]), so list order is the samples' order and
-//!    never depends on the thread count. (Drawing the points into the pipeline's fragment
+//!    never depends on the thread count. The sort runs in parallel in two stable steps (by
+//!    texel row over chunks of samples cut by a rule of their count alone, then by column
+//!    within each row), which give the serial sort's lists exactly. (Drawing the points into the pipeline's fragment
 //!    lists would give the same order, at the cost of a node per sample and a pass to copy
 //!    the nodes into the store the occluder pass needs.)
 //! 4. **Occluder pass**: every caster triangle is drawn through the pipeline into the grid
@@ -34,7 +36,8 @@
 //!
 //! No depth bias anywhere. A sample is never tested against the triangle it lies on (the
 //! G-buffer's primitive id) where that triangle faces the light. Closed meshes (checked with
-//! the shadow volumes' edge adjacency, [`crate::shadow::volume::silhouette::Adjacency`]) cast
+//! the shadow volumes' edge adjacency, [`crate::shadow::volume::silhouette::Adjacency`], after
+//! it drops zero-area triangles, which cover nothing: a UV sphere's pole triangles) cast
 //! only through their triangles that face away from the light: a ray blocked by a closed
 //! object crosses one of them (Sintorn et al.: "no bias for closed objects"). Open meshes and
 //! two-sided sheets cast through every triangle. Where a sample's own triangle faces away from
@@ -191,6 +194,18 @@ pub fn info() -> TechniqueInfo {
 const LIT: u32 = u32::MAX;
 /// Marks a sample that is in no list (faces away from the light).
 const NOT_INSERTED: u32 = u32::MAX;
+/// A sample's slot: its view in the top bits, its index into the view's store below (the
+/// lists hold at most 2^28 samples, the capacity's limit).
+const SLOT_VIEW_SHIFT: u32 = 28;
+const SLOT_INDEX_MASK: u32 = (1 << SLOT_VIEW_SHIFT) - 1;
+/// A sample's pass-1 byte: its base view, and [`META_SKIP_OWN`] when it skips its own
+/// triangle; [`META_NONE`]: it faces away from the light (or falls in no view).
+const META_NONE: u8 = 0x7f;
+const META_SKIP_OWN: u8 = 0x80;
+/// The counting sort's chunks: at most this many, of at least [`MIN_CHUNK`] samples (a rule
+/// of the sample count alone, so the sort's work is cut the same way for any thread count).
+const MAX_CHUNKS: usize = 64;
+const MIN_CHUNK: usize = 16384;
 
 /// One sample in a texel's list.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -333,25 +348,6 @@ impl Default for CameraSample {
     }
 }
 
-/// Where a sample goes: its view, uv there, texel, and whether it skips its own triangle.
-#[derive(Copy, Clone, Debug)]
-struct Located {
-    view: u8,
-    uv: Vec2,
-    texel: u32,
-    skip_own: bool,
-}
-
-impl Located {
-    /// In no list (faces away from the light).
-    const NONE: Located = Located {
-        view: u8::MAX,
-        uv: Vec2::ZERO,
-        texel: u32::MAX,
-        skip_own: false,
-    };
-}
-
 impl ListSample {
     const EMPTY: ListSample = ListSample {
         position: Vec3::ZERO,
@@ -468,6 +464,46 @@ impl Occluder {
     }
 }
 
+/// A sample on its way through the counting sort: its index and its texel's column.
+#[derive(Copy, Clone, Debug, Default)]
+struct Entry {
+    sample: u32,
+    column: u32,
+}
+
+/// Writes to distinct elements of a slice from many threads: the parallel counting sort's
+/// scatter, where a prefix sum has given every element exactly one writer.
+struct Scatter<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _slice: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: writes go to distinct elements (the caller's contract on `write`), so sharing the
+// pointer between threads is like handing each thread its own elements.
+unsafe impl<T: Send> Sync for Scatter<'_, T> {}
+
+impl<'a, T: Copy> Scatter<'a, T> {
+    fn new(s: &'a mut [T]) -> Self {
+        Scatter {
+            ptr: s.as_mut_ptr(),
+            len: s.len(),
+            _slice: std::marker::PhantomData,
+        }
+    }
+
+    /// Writes element `i` (checked against the length).
+    ///
+    /// # Safety
+    /// No other write to element `i` may happen while this `Scatter` lives.
+    #[inline(always)]
+    unsafe fn write(&self, i: usize, v: T) {
+        assert!(i < self.len, "scatter index {i} beyond {}", self.len);
+        // SAFETY: in bounds (checked), and the caller guarantees no concurrent write to `i`.
+        unsafe { self.ptr.add(i).write(v) }
+    }
+}
+
 /// One light view of the grid: its cropped matrix, the store of lists, and where each of its
 /// samples sits.
 struct View {
@@ -487,8 +523,11 @@ struct View {
 pub struct Izb {
     opts: Options,
     samples: Vec<CameraSample>,
-    /// Per sample: (view, index into that view's store), or NOT_INSERTED.
-    slot: Vec<(u8, u32)>,
+    /// Per sample: view and index into that view's store packed (see [`SLOT_VIEW_SHIFT`]),
+    /// or NOT_INSERTED.
+    slot: Vec<u32>,
+    /// Samples in the lists.
+    inserted: usize,
     views: Vec<View>,
     occluders: usize,
     /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency.
@@ -498,10 +537,10 @@ pub struct Izb {
     /// Kept buffers: where each row's samples start, each sample's view and texel, the
     /// counts per texel per view.
     row_start: Vec<u32>,
-    located: Vec<Located>,
+    meta: Vec<u8>,
+    keys: Vec<u32>,
+    by_row: Vec<Entry>,
     counts: Vec<Vec<u32>>,
-    records: Vec<ListSample>,
-    cursors: Vec<Vec<u32>>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -513,15 +552,16 @@ impl Izb {
             opts,
             samples: Vec::new(),
             slot: Vec::new(),
+            inserted: 0,
             views: Vec::new(),
             occluders: 0,
             closed: Vec::new(),
             own_tested: 0,
             row_start: Vec::new(),
-            located: Vec::new(),
+            meta: Vec::new(),
+            keys: Vec::new(),
+            by_row: Vec::new(),
             counts: Vec::new(),
-            records: Vec::new(),
-            cursors: Vec::new(),
             times: Vec::new(),
         })
     }
@@ -533,22 +573,22 @@ impl Izb {
 
     /// Visibility of every camera sample of the last run (0 for samples facing away).
     pub fn sample_visibility(&self) -> Vec<f32> {
-        self.slot
-            .iter()
-            .map(|&(v, i)| {
-                if i == NOT_INSERTED {
-                    0.0
-                } else if self.views[v as usize].store.data()[i as usize].shadowed_by == LIT {
-                    1.0
-                } else {
-                    0.0
-                }
+        (0..self.samples.len())
+            .map(|i| match self.slot(i) {
+                Some((v, at)) if self.views[v].store.data()[at].shadowed_by == LIT => 1.0,
+                _ => 0.0,
             })
             .collect()
     }
 
     /// Passes 1-3: samples, grids cropped to them, lists by counting sort. Every buffer is
     /// kept from run to run (fresh pages cost more than the work on them).
+    ///
+    /// The counting sort runs in parallel and gives the serial one's result (list order =
+    /// sample order) for any thread count: samples are cut into chunks by a rule of their
+    /// count alone, each chunk counts its samples per (view, texel row), a prefix sum over
+    /// (row, chunk) places every chunk's run of each row, and each texel row then sorts its
+    /// samples by column, stably, into its part of the store.
     fn insert(&mut self, frame: &Frame) -> Result<(), String> {
         let size = self.opts.size;
         let k = self.opts.samples.count();
@@ -575,75 +615,67 @@ impl Izb {
                 1u32 << 28
             ));
         }
-        // Pass 1: samples, row by row in parallel, into the kept buffer.
         let light = frame.light;
-        let facing = triangle_facing(frame);
-        let filler = SampleFiller::new(frame, self.opts.samples);
-        self.samples.clear();
-        self.samples.resize(total, CameraSample::default());
-        let mut rows: Vec<&mut [CameraSample]> = Vec::with_capacity(h);
-        let mut rest = self.samples.as_mut_slice();
-        for c in &row_counts {
-            let (a, b) = rest.split_at_mut(*c as usize);
-            rows.push(a);
-            rest = b;
-        }
-        rows.into_par_iter().enumerate().for_each(|(y, out)| filler.row(y, out));
         // A spot light's samples may lie outside its cone (the reference gives spot lights no
         // cone): like point lights, it gets six cube faces, each cropped to its samples.
         let base = match light.kind {
             LightKind::Spot { .. } => light::cube_views(frame, size),
             _ => light_views(frame, size),
         };
-        // Which view each sample falls in and its uv there (None: faces away from the light),
-        // and whether it skips its own triangle: only where that triangle faces the light (its
-        // geometric normal turned to the side of the shading normal, for two-sided sheets).
-        // Where it faces away (the terminator of a tessellated sphere, the far side of a
-        // heightfield's ridge), the sample's ray leaves through the back of its own surface
-        // and the triangle is tested like any other.
-        self.located.clear();
-        self.samples
-            .par_iter()
-            .map(|s| {
-                if !faces_light(&light, &s.point) {
-                    return Located::NONE;
-                }
-                let f = light::face_of(base.len(), &light, s.point.position);
-                let Some((uv, _)) = base[f].lookup(s.point.position) else {
-                    return Located::NONE;
-                };
-                let skip_own = facing.get(s.triangle as usize).is_some_and(|&(n, lit)| {
-                    let flip = n.dot(s.point.normal) < 0.0;
-                    lit != flip
-                });
-                Located {
-                    view: f as u8,
-                    uv,
-                    skip_own,
-                    texel: u32::MAX,
-                }
-            })
-            .collect_into_vec(&mut self.located);
-        // Pass 2: tight bounds per view (min and max: the same for any thread count), then
-        // the cropped views.
         let nb = base.len();
-        let bounds = self
-            .located
-            .par_iter()
-            .fold(
-                || vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); nb],
-                |mut b, l| {
-                    if l.view != u8::MAX {
-                        let e = &mut b[l.view as usize];
-                        *e = (e.0.min(l.uv), e.1.max(l.uv));
+        // Pass 1, row by row in parallel: the samples; for each, the base view it falls in
+        // (none: it faces away from the light) and whether it skips its own triangle: only
+        // where that triangle faces the light (its geometric normal turned to the side of the
+        // shading normal, for two-sided sheets). Where it faces away (the terminator of a
+        // tessellated sphere, the far side of a heightfield's ridge), the sample's ray leaves
+        // through the back of its own surface and the triangle is tested like any other. Each
+        // row also takes its samples' uv bounds per view (min and max: exact in any order).
+        let facing = triangle_facing(frame);
+        let filler = SampleFiller::new(frame, self.opts.samples);
+        // (Every sample and byte is written below: the kept buffers are only resized.)
+        self.samples.resize(total, CameraSample::default());
+        self.meta.resize(total, META_NONE);
+        let mut rows: Vec<(&mut [CameraSample], &mut [u8])> = Vec::with_capacity(h);
+        let (mut rest, mut rest_meta) = (self.samples.as_mut_slice(), self.meta.as_mut_slice());
+        for c in &row_counts {
+            let (a, b) = rest.split_at_mut(*c as usize);
+            let (am, bm) = rest_meta.split_at_mut(*c as usize);
+            rows.push((a, am));
+            (rest, rest_meta) = (b, bm);
+        }
+        let empty = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        let row_bounds: Vec<Vec<(Vec2, Vec2)>> = rows
+            .into_par_iter()
+            .enumerate()
+            .map(|(y, (out, meta))| {
+                filler.row(y, out);
+                let mut b = vec![empty; nb];
+                for (s, m) in out.iter().zip(meta.iter_mut()) {
+                    *m = META_NONE;
+                    if !faces_light(&light, &s.point) {
+                        continue;
                     }
-                    b
-                },
-            )
-            .reduce(
-                || vec![(Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)); nb],
-                |a, b| a.iter().zip(&b).map(|(x, y)| (x.0.min(y.0), x.1.max(y.1))).collect(),
-            );
+                    let f = light::face_of(nb, &light, s.point.position);
+                    let Some((uv, _)) = base[f].lookup(s.point.position) else {
+                        continue;
+                    };
+                    b[f] = (b[f].0.min(uv), b[f].1.max(uv));
+                    let skip_own = facing.get(s.triangle as usize).is_some_and(|&(n, lit)| {
+                        let flip = n.dot(s.point.normal) < 0.0;
+                        lit != flip
+                    });
+                    *m = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
+                }
+                b
+            })
+            .collect();
+        // Pass 2: tight bounds per view, then the cropped views.
+        let mut bounds = vec![empty; nb];
+        for rb in &row_bounds {
+            for (e, r) in bounds.iter_mut().zip(rb) {
+                *e = (e.0.min(r.0), e.1.max(r.1));
+            }
+        }
         let mut view_of = vec![u8::MAX; nb];
         let mut views: Vec<LightView> = Vec::new();
         for (f, (lo, hi)) in bounds.iter().enumerate() {
@@ -653,33 +685,94 @@ impl Izb {
             view_of[f] = views.len() as u8;
             views.push(crop(&base[f], *lo, *hi, size));
         }
-        // Texel of each sample in its cropped view.
-        self.located.par_iter_mut().zip(&self.samples).for_each(|(l, s)| {
-            if l.view == u8::MAX {
-                return;
-            }
-            l.view = view_of[l.view as usize];
-            let Some((uv, _)) = views[l.view as usize].lookup(s.point.position) else {
-                l.view = u8::MAX;
-                return;
-            };
-            let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-            let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-            l.texel = ty * size + tx;
-        });
-        // Pass 3: counting sort by texel, per view: counts, the store's offsets, then each
-        // sample written behind the ones before it (sample order = list order).
+        // Pass 3a, by chunks in parallel: each sample's key (view and texel in its cropped
+        // view, or none), and each chunk's count per texel row of every view.
         let n = (size * size) as usize;
+        let s = size as usize;
+        let buckets = views.len() * s;
+        let chunk = total.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
+        self.keys.resize(total, u32::MAX);
+        let per_chunk: Vec<(Vec<u32>, usize)> = self
+            .keys
+            .par_chunks_mut(chunk)
+            .zip(self.samples.par_chunks(chunk))
+            .zip(self.meta.par_chunks(chunk))
+            .map(|((keys, samples), meta)| {
+                let mut hist = vec![0u32; buckets];
+                let mut own_tested = 0;
+                for ((key, smp), &m) in keys.iter_mut().zip(samples).zip(meta) {
+                    *key = u32::MAX;
+                    if m == META_NONE {
+                        continue;
+                    }
+                    let v = view_of[(m & !META_SKIP_OWN) as usize] as usize;
+                    let Some((uv, _)) = views[v].lookup(smp.point.position) else {
+                        continue;
+                    };
+                    let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as usize;
+                    let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as usize;
+                    *key = (v * n + ty * s + tx) as u32;
+                    hist[v * s + ty] += 1;
+                    own_tested += (m & META_SKIP_OWN == 0) as usize;
+                }
+                (hist, own_tested)
+            })
+            .collect();
+        self.own_tested = per_chunk.iter().map(|c| c.1).sum();
+        // Pass 3b: where each chunk's run of each texel row starts (rows in order, chunks in
+        // order within a row: the serial sort's order).
+        let mut row_at = Vec::with_capacity(buckets + 1);
+        let mut starts = vec![vec![0u32; buckets]; per_chunk.len()];
+        let mut at = 0u32;
+        for b in 0..buckets {
+            row_at.push(at);
+            for (c, (hist, _)) in per_chunk.iter().enumerate() {
+                starts[c][b] = at;
+                at += hist[b];
+            }
+        }
+        row_at.push(at);
+        let inserted = at as usize;
+        // Pass 3c, by chunks in parallel: each sample's index and column, behind the ones
+        // before it in its row's run (every position has one writer).
+        self.by_row.resize(inserted, Entry::default());
+        {
+            let out = Scatter::new(&mut self.by_row[..inserted]);
+            self.keys
+                .par_chunks(chunk)
+                .zip(starts.par_iter_mut())
+                .enumerate()
+                .for_each(|(c, (keys, cursor))| {
+                    for (j, &key) in keys.iter().enumerate() {
+                        if key == u32::MAX {
+                            continue;
+                        }
+                        let b = key as usize / s;
+                        let e = Entry {
+                            sample: (c * chunk + j) as u32,
+                            column: key % size,
+                        };
+                        // SAFETY: the prefix sum gives each (row, chunk) run its own positions,
+                        // and this chunk alone advances its cursors through them.
+                        unsafe { out.write(cursor[b] as usize, e) };
+                        cursor[b] += 1;
+                    }
+                });
+        }
+        // Pass 3d, by texel rows in parallel: counts per texel.
         self.counts.resize_with(views.len(), Vec::new);
-        for c in &mut self.counts {
+        let by_row = &self.by_row;
+        for (v, c) in self.counts.iter_mut().enumerate().take(views.len()) {
             c.clear();
             c.resize(n, 0);
+            c.par_chunks_mut(s).enumerate().for_each(|(ty, row)| {
+                let b = v * s + ty;
+                for e in &by_row[row_at[b] as usize..row_at[b + 1] as usize] {
+                    row[e.column as usize] += 1;
+                }
+            });
         }
-        for l in &self.located {
-            if l.view != u8::MAX {
-                self.counts[l.view as usize][l.texel as usize] += 1;
-            }
-        }
+        // The stores (offsets by prefix sum) and the occluder pass's masks.
         let mut old: Vec<(PixelStore<ListSample>, Option<Surface<f32>>)> =
             self.views.drain(..).map(|v| (v.store, v.mask)).collect();
         let mut masks = Vec::with_capacity(views.len());
@@ -707,40 +800,50 @@ impl Izb {
             stores.push(store);
             masks.push(Some(mask));
         }
-        // The records, in sample order, in parallel; then each copied behind its texel's list.
-        self.records.clear();
-        self.located
-            .par_iter()
-            .zip(&self.samples)
-            .map(|(l, s)| ListSample {
-                // The ray starts where the reference's does: the point moved a few ULPs along
-                // its normal (Wächter and Binder 2019), a property of float numbers, not a
-                // bias that depends on the scene or the light.
-                position: offset_origin(s.point.position, s.point.normal),
-                triangle: if l.skip_own { s.triangle } else { u32::MAX },
-                shadowed_by: LIT,
-                tests: 0,
-            })
-            .collect_into_vec(&mut self.records);
-        self.cursors.resize_with(stores.len(), Vec::new);
-        for (c, st) in self.cursors.iter_mut().zip(&stores) {
-            c.clear();
-            c.extend_from_slice(&st.offsets()[..n]);
-        }
+        // Pass 3e, by texel rows in parallel: each row's records behind the ones before them
+        // in their texel's list (a stable sort by column), into the row's part of the store.
         self.slot.clear();
-        self.slot.resize(self.samples.len(), (0, NOT_INSERTED));
-        self.own_tested = 0;
-        for (i, (l, rec)) in self.located.iter().zip(&self.records).enumerate() {
-            if l.view == u8::MAX {
-                continue;
+        self.slot.resize(total, NOT_INSERTED);
+        let slot = Scatter::new(&mut self.slot);
+        let (samples, meta) = (&self.samples, &self.meta);
+        for (v, st) in stores.iter_mut().enumerate() {
+            let offsets = st.offsets().to_vec();
+            let mut parts: Vec<&mut [ListSample]> = Vec::with_capacity(s);
+            let mut rest = st.data_mut();
+            for ty in 0..s {
+                let len = (offsets[(ty + 1) * s] - offsets[ty * s]) as usize;
+                let (a, b) = std::mem::take(&mut rest).split_at_mut(len);
+                parts.push(a);
+                rest = b;
             }
-            let (v, t) = (l.view as usize, l.texel as usize);
-            let at = self.cursors[v][t];
-            self.cursors[v][t] += 1;
-            self.own_tested += !l.skip_own as usize;
-            stores[v].data_mut()[at as usize] = *rec;
-            self.slot[i] = (v as u8, at);
+            parts.into_par_iter().enumerate().for_each(|(ty, part)| {
+                let b = v * s + ty;
+                let first = offsets[ty * s];
+                let mut cursor: Vec<u32> = offsets[ty * s..(ty + 1) * s].iter().map(|o| o - first).collect();
+                for e in &by_row[row_at[b] as usize..row_at[b + 1] as usize] {
+                    let i = e.sample as usize;
+                    let smp = &samples[i];
+                    let at = &mut cursor[e.column as usize];
+                    part[*at as usize] = ListSample {
+                        // The ray starts where the reference's does: the point moved a few
+                        // ULPs along its normal (Wächter and Binder 2019), a property of float
+                        // numbers, not a bias that depends on the scene or the light.
+                        position: offset_origin(smp.point.position, smp.point.normal),
+                        triangle: if meta[i] & META_SKIP_OWN != 0 {
+                            smp.triangle
+                        } else {
+                            u32::MAX
+                        },
+                        shadowed_by: LIT,
+                        tests: 0,
+                    };
+                    // SAFETY: every sample is in one row's run once.
+                    unsafe { slot.write(e.sample as usize, ((v as u32) << SLOT_VIEW_SHIFT) | (first + *at)) };
+                    *at += 1;
+                }
+            });
         }
+        self.inserted = inserted;
         self.views = views
             .into_iter()
             .zip(stores)
@@ -754,6 +857,12 @@ impl Izb {
             })
             .collect();
         Ok(())
+    }
+
+    /// Where sample `i` sits: its view and index into that view's store (None: in no list).
+    fn slot(&self, i: usize) -> Option<(usize, usize)> {
+        let x = self.slot[i];
+        (x != NOT_INSERTED).then_some(((x >> SLOT_VIEW_SHIFT) as usize, (x & SLOT_INDEX_MASK) as usize))
     }
 
     /// Pass 4: occluders through the pipeline, conservatively, testing each texel's samples.
@@ -770,7 +879,7 @@ impl Izb {
                 .par_iter()
                 .map(|o| {
                     let r = Adjacency::new(&o.mesh).report;
-                    r.is_closed_manifold() && r.degenerate_triangles == 0
+                    r.is_closed_manifold()
                 })
                 .collect()
         });
@@ -895,21 +1004,27 @@ impl ShadowTechnique for Izb {
         let t1 = Instant::now();
         self.occlude(p, frame)?;
         let t2 = Instant::now();
-        // Resolve: each pixel's mean over its samples, row by row (a row's samples are
-        // contiguous, pixel after pixel).
+        // Resolve: first each list's samples lit or not, in store order (one byte each, so
+        // the lookups below stay in cache); then each pixel's mean over its samples, row by
+        // row (a row's samples are contiguous, pixel after pixel).
         let k = self.opts.samples.count() as f32;
         let w = frame.width() as usize;
         let mut out = vec![f32::NAN; w * frame.height() as usize];
         let this = &*self;
         p.install(|| {
+            let lit: Vec<Vec<bool>> = this
+                .views
+                .iter()
+                .map(|v| v.store.data().par_iter().map(|x| x.shadowed_by == LIT).collect())
+                .collect();
             out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
                 let (a, b) = (this.row_start[y] as usize, this.row_start[y + 1] as usize);
-                for (s, &(v, at)) in this.samples[a..b].iter().zip(&this.slot[a..b]) {
+                for (i, s) in (a..b).zip(&this.samples[a..b]) {
                     let px = &mut row[s.pixel as usize - y * w];
                     if px.is_nan() {
                         *px = 0.0;
                     }
-                    if at != NOT_INSERTED && this.views[v as usize].store.data()[at as usize].shadowed_by == LIT {
+                    if this.slot(i).is_some_and(|(v, at)| lit[v][at]) {
                         *px += 1.0 / k;
                     }
                 }
@@ -950,23 +1065,19 @@ impl ShadowTechnique for Izb {
             .take_while(|s| s.pixel as usize == i)
             .enumerate()
         {
-            let (v, at) = self.slot[start + j];
+            let slot = self.slot(start + j);
             let mut st = Step::new(
                 format!("sample {j}"),
                 "a camera sample: its point, the texel whose list holds it, and what the occluder pass found",
             )
             .vec3("position", s.point.position)
             .text("on", names(s.triangle));
-            if at == NOT_INSERTED {
-                st = st
-                    .flag("faces the light", false)
-                    .text("result", "unlit (faces away from the light)");
-            } else {
-                let view = &self.views[v as usize];
-                let ls = view.store.data()[at as usize];
+            if let Some((v, at)) = slot {
+                let view = &self.views[v];
+                let ls = view.store.data()[at];
                 let (uv, _) = view.view.lookup(s.point.position).unwrap_or_default();
                 let t = (0..(view.store.width() * view.store.height()) as usize)
-                    .find(|&t| view.store.range(t).contains(&(at as usize)))
+                    .find(|&t| view.store.range(t).contains(&at))
                     .unwrap_or(0);
                 st = st
                     .int("view", v)
@@ -986,6 +1097,10 @@ impl ShadowTechnique for Izb {
                 } else {
                     lit_sum += 1.0;
                 }
+            } else {
+                st = st
+                    .flag("faces the light", false)
+                    .text("result", "unlit (faces away from the light)");
             }
             steps.push(st);
         }
@@ -1004,7 +1119,7 @@ impl ShadowTechnique for Izb {
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let (nonempty, max, tests) = self.list_stats();
-        let inserted = self.slot.iter().filter(|s| s.1 != NOT_INSERTED).count();
+        let inserted = self.inserted;
         let bytes: usize = self.views.iter().map(|v| v.store.bytes()).sum();
         vec![
             ("samples", self.samples.len() as f64),
@@ -1070,5 +1185,49 @@ impl ShadowTechnique for Izb {
             hi: self.opts.samples.count() as f32,
         });
         Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// The parallel counting sort gives the serial one's lists: walking the samples in order,
+    /// each lands at its texel's next free place, with its own record.
+    #[test]
+    fn parallel_list_sort_equals_the_serial_one() {
+        let p = Pipeline::new(2).unwrap();
+        for (scene, k) in [("point_casters", "1"), ("contact", "4")] {
+            let s = crate::scene::file::load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
+            let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
+            let mut t = Izb::new(Options {
+                samples: crate::shadow::options::OptionValue::parse(k).unwrap(),
+                ..Default::default()
+            })
+            .unwrap();
+            t.visibility(&p, &f).unwrap();
+            assert!(
+                t.samples.len() > 2 * MIN_CHUNK,
+                "{scene}: too few samples to test chunks"
+            );
+            let size = t.opts.size;
+            let mut cursors: Vec<Vec<u32>> = t.views.iter().map(|v| v.store.offsets().to_vec()).collect();
+            let mut inserted = 0;
+            for (i, smp) in t.samples.iter().enumerate() {
+                let Some((v, at)) = t.slot(i) else { continue };
+                inserted += 1;
+                let (uv, _) = t.views[v].view.lookup(smp.point.position).unwrap();
+                let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+                let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
+                let c = &mut cursors[v][(ty * size + tx) as usize];
+                assert_eq!(at as u32, *c, "{scene}: sample {i} out of the serial order");
+                *c += 1;
+                let rec = t.views[v].store.data()[at];
+                assert_eq!(rec.position, offset_origin(smp.point.position, smp.point.normal));
+            }
+            assert_eq!(inserted, t.inserted);
+            assert!(t.views.len() > 1 || scene == "contact", "{scene}: expected cube faces");
+        }
     }
 }
