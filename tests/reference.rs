@@ -137,6 +137,38 @@ fn sphere_light_fully_visible_or_hidden() {
     );
 }
 
+/// Float products are not associative: the layers multiply front to back, whatever order the
+/// hierarchy meets them in (here 24 layers of different opacities, stacked in a shuffled
+/// object order, over every permutation the BVH's split might produce).
+#[test]
+fn transmittance_multiplies_layers_front_to_back() {
+    let mut objects = String::new();
+    let mut mats = String::new();
+    let heights: Vec<u32> = (0..24).map(|i| (i * 7) % 24).collect();
+    for (i, h) in heights.iter().enumerate() {
+        mats.push_str(&format!(
+            "[[material]]\nname = \"m{i}\"\nopacity = {}\n\n",
+            0.013 + 0.031 * i as f32
+        ));
+        objects.push_str(&format!(
+            "[[object]]\nmesh = \"plane\"\nsize = 2\ntranslate = [0, {}, 0]\nmaterial = \"m{i}\"\n\n",
+            0.1 + 0.15 * *h as f32
+        ));
+    }
+    let s = scene(
+        &format!("{mats}{objects}"),
+        "[[light]]\ntype = \"point\"\nposition = [0, 9, 0]\n",
+    );
+    let r = Reference::new(&s);
+    let v = r.hard(&ground_point(0.1, 0.1), &s.lights[0]);
+    let mut order: Vec<usize> = (0..24).collect();
+    order.sort_by_key(|&i| heights[i]);
+    let want = order
+        .iter()
+        .fold(1.0f32, |acc, &i| acc * (1.0 - (0.013 + 0.031 * i as f32)));
+    assert_eq!(v.to_bits(), want.to_bits(), "{v} against {want}");
+}
+
 #[test]
 fn semi_transparent_layers_attenuate_multiplicatively() {
     let layers = "[[object]]\nmesh = \"plane\"\nsize = 2\ntranslate = [0, 1, 0]\nmaterial = \"veil\"\n\n[[object]]\nmesh = \"plane\"\nsize = 2\ntranslate = [0, 2, 0]\nmaterial = \"veil\"\n";

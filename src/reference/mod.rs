@@ -3,7 +3,8 @@
 //!
 //! - hard visibility: one ray from the shading point to the light's centre (for directional
 //!   lights, along the negated direction), attenuated by every surface it crosses with
-//!   opacity < 1 (transmittance `prod (1 - opacity)`);
+//!   opacity < 1 (transmittance `prod (1 - opacity)`, multiplied front to back so that the
+//!   result does not depend on the order the hierarchy finds the surfaces in);
 //! - area visibility: the fraction of the light (disk, rectangle: area; sphere: solid angle) seen
 //!   from the point, by stratified jittered sampling, adaptively: a pilot of 8 x 8 strata and 32
 //!   rim points; if every pilot ray agrees the pixel is umbra or fully lit, otherwise
@@ -189,28 +190,64 @@ impl Reference {
     }
 
     /// Transmittance along `o + t d`, `t` in `(0, tmax)`: 0 if an opaque surface is crossed,
-    /// else the product of `1 - opacity` of the surfaces crossed.
+    /// else the product of `1 - opacity` of the surfaces crossed, front to back.
     pub fn transmittance(&self, o: Vec3, d: Vec3, tmax: f32) -> f32 {
         // A thread-local count (a shared atomic per ray would bounce its cache line between cores).
         RAYS.with(|c| c.set(c.get() + 1));
-        let mut tr = 1.0f32;
-        self.bvh.traverse(o, d, tmax, |tag, _| {
-            tr *= self.transmit[tag as usize];
-            tr <= 0.0
-        });
-        tr.max(0.0)
+        self.through(o, d, tmax, &self.transmit, |t| t <= 0.0).max(0.0)
     }
 
     /// Transmittance per channel along `o + t d`, `t` in `(0, tmax)`: the product of the
-    /// crossed surfaces' transmittance colours (an opaque surface ends the ray at zero).
+    /// crossed surfaces' transmittance colours, front to back (an opaque surface ends the ray
+    /// at zero).
     pub fn transmittance_rgb(&self, o: Vec3, d: Vec3, tmax: f32) -> Vec3 {
         RAYS.with(|c| c.set(c.get() + 1));
-        let mut tr = Vec3::ONE;
-        self.bvh.traverse(o, d, tmax, |tag, _| {
-            tr *= self.transmit_rgb[tag as usize];
-            tr.max_element() <= 0.0
+        self.through(o, d, tmax, &self.transmit_rgb, |t| t.max_element() <= 0.0)
+            .max(Vec3::ZERO)
+    }
+
+    /// The product of `per_object[tag]` over the surfaces the ray crosses, multiplied in
+    /// order of distance (ties by object), so the result is the same whatever order the
+    /// hierarchy finds them in (float products are not associative); an opaque surface ends
+    /// the ray at zero.
+    fn through<C>(&self, o: Vec3, d: Vec3, tmax: f32, per_object: &[C], opaque: impl Fn(C) -> bool) -> C
+    where
+        C: Copy + PartialEq + std::ops::Mul<Output = C> + Channels,
+    {
+        let mut few = [(0.0f32, 0u32); 16];
+        let mut n = 0;
+        let mut more: Vec<(f32, u32)> = Vec::new();
+        let blocked = self.bvh.traverse(o, d, tmax, |tag, t| {
+            let tr = per_object[tag as usize];
+            if opaque(tr) {
+                return true;
+            }
+            if tr != C::ONE {
+                if n < few.len() {
+                    few[n] = (t, tag);
+                    n += 1;
+                } else {
+                    more.push((t, tag));
+                }
+            }
+            false
         });
-        tr.max(Vec3::ZERO)
+        if blocked {
+            return C::ZERO;
+        }
+        let order = |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        let product = |hits: &[(f32, u32)]| {
+            hits.iter()
+                .fold(C::ONE, |acc, &(_, tag)| acc * per_object[tag as usize])
+        };
+        if more.is_empty() {
+            few[..n].sort_unstable_by(order);
+            product(&few[..n])
+        } else {
+            more.extend_from_slice(&few);
+            more.sort_unstable_by(order);
+            product(&more)
+        }
     }
 
     /// Whether some material transmits a colour (different per channel): visibility is then
