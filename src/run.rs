@@ -71,7 +71,7 @@ pub fn reference(
         return Ok((v, 0.0, 0));
     }
     let t = Instant::now();
-    let r = Reference::new(frame.scene);
+    let r = p.install(|| Reference::new(frame.scene));
     let pts = frame.points();
     let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &ReferenceOptions::default()));
     let secs = t.elapsed().as_secs_f64();

@@ -192,6 +192,45 @@ fn print_stage_times(st: &StageTimes) {
     );
 }
 
+/// Writes the triangles and rays of `bench rays` for another tracer (see `--export`).
+fn export_rays(
+    dir: &std::path::Path,
+    scene: &penumbra::scene::Scene,
+    rays: &[(glam::Vec3, glam::Vec3, f32)],
+    traced: usize,
+    occluded: u64,
+) -> Result<(), String> {
+    let io = |what: &str, e: std::io::Error| format!("{}: {what}: {e}", dir.display());
+    std::fs::create_dir_all(dir).map_err(|e| io("cannot create", e))?;
+    let mut tri = Vec::with_capacity(scene.triangles() * 36);
+    for o in &scene.objects {
+        for t in o.mesh.indices.chunks_exact(3) {
+            for &i in t {
+                for c in o.mesh.positions[i as usize].to_array() {
+                    tri.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+    }
+    let mut ray = Vec::with_capacity(rays.len() * 28);
+    for (o, d, t) in rays {
+        for c in o.to_array().into_iter().chain(d.to_array()).chain([*t]) {
+            ray.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("triangles.f32"), tri).map_err(|e| io("triangles.f32", e))?;
+    std::fs::write(dir.join("rays.f32"), ray).map_err(|e| io("rays.f32", e))?;
+    std::fs::write(
+        dir.join("rays.txt"),
+        format!(
+            "triangles {}\nrays {}\ntraced {traced}\noccluded {occluded}\n",
+            scene.triangles(),
+            rays.len()
+        ),
+    )
+    .map_err(|e| io("rays.txt", e))
+}
+
 pub fn rays(a: RaysArgs) -> Result<(), String> {
     use penumbra::reference::{offset_origin, Reference};
     check_triangles(a.triangles)?;
@@ -200,23 +239,46 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
     }
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let scene = spheres_as_scene(a.triangles);
-    let t0 = Instant::now();
-    let r = Reference::new(&scene);
-    let build = t0.elapsed().as_secs_f64();
+    // The build runs on the benchmark's threads (it is parallel, and the tree is the same for
+    // any count); the median of three.
+    let mut builds = Vec::new();
+    let mut r = None;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        r = Some(p.install(|| Reference::new(&scene)));
+        builds.push(t0.elapsed().as_secs_f64());
+    }
+    let r = r.expect("built");
+    let build = median(&mut builds);
     // The reference's real workload: one shadow ray from every pixel of the camera view (the
-    // G-buffer at 1920x1080) towards the light, in pixel order, repeated to `--rays` rays.
+    // G-buffer at 1920x1080) towards the light, in pixel order, repeated to `--rays` rays; or,
+    // with --random, incoherent rays.
     let light = scene.lights[0];
-    let gb = penumbra::frame::gbuffer(&p, &scene, &scene.camera).map_err(|e| e.to_string())?;
-    let origins: Vec<glam::Vec3> = gb
-        .position
-        .data()
-        .iter()
-        .zip(gb.normal.data())
-        .zip(gb.object.data())
-        .filter(|(_, &o)| o != penumbra::frame::NO_OBJECT)
-        .map(|((&p, &n), _)| offset_origin(p, n))
-        .collect();
-    if origins.is_empty() {
+    let rays: Vec<(glam::Vec3, glam::Vec3, f32)> = if a.random {
+        let (lo, hi) = scene.bounds().ok_or("the scene has no geometry")?;
+        let mut h = penumbra::hash::SplitMix(1);
+        (0..1_000_000)
+            .map(|_| {
+                let mut u = || h.next_f32();
+                let o = lo + (hi - lo) * glam::Vec3::new(u(), u(), u());
+                let z = 2.0 * u() - 1.0;
+                let phi = std::f32::consts::TAU * u();
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                (o, glam::Vec3::new(s * phi.cos(), s * phi.sin(), z), f32::INFINITY)
+            })
+            .collect()
+    } else {
+        let gb = penumbra::frame::gbuffer(&p, &scene, &scene.camera).map_err(|e| e.to_string())?;
+        gb.position
+            .data()
+            .iter()
+            .zip(gb.normal.data())
+            .zip(gb.object.data())
+            .filter(|(_, &o)| o != penumbra::frame::NO_OBJECT)
+            .map(|((&p, &n), _)| (offset_origin(p, n), -light.direction, f32::INFINITY))
+            .collect()
+    };
+    if rays.is_empty() {
         return Err("the camera sees no geometry".into());
     }
     let run = || {
@@ -225,7 +287,10 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
             (0..a.rays)
                 .into_par_iter()
                 .with_min_len(4096)
-                .map(|i| (r.transmittance(origins[i % origins.len()], -light.direction, f32::INFINITY) < 1.0) as u64)
+                .map(|i| {
+                    let (o, d, t) = rays[i % rays.len()];
+                    (r.transmittance(o, d, t) < 1.0) as u64
+                })
                 .sum::<u64>()
         })
     };
@@ -238,11 +303,16 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
     }
     let s = median(&mut times);
     let mrays = a.rays as f64 / s / 1e6;
+    if let Some(dir) = &a.export {
+        export_rays(dir, &scene, &rays, a.rays, occluded)?;
+    }
     println!(
-        "rays: {} triangles (BVH built in {:.1} ms), {} shadow rays in {:.1} ms: {mrays:.2} Mrays/s, {} threads ({:.1} % occluded)",
+        "rays: {} triangles (BVH built in {:.1} ms, {:.1} MB), {} {} rays in {:.1} ms: {mrays:.2} Mrays/s, {} threads ({:.1} % occluded)",
         scene.triangles(),
         build * 1e3,
+        r.bytes() as f64 / 1e6,
         a.rays,
+        if a.random { "random" } else { "shadow" },
         s * 1e3,
         p.threads(),
         100.0 * occluded as f64 / a.rays as f64

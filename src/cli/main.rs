@@ -217,6 +217,16 @@ struct RaysArgs {
     /// Rays per repetition.
     #[arg(long, default_value_t = 4_000_000)]
     rays: usize,
+    /// Incoherent rays instead of the camera's shadow rays: origins uniform in the scene's
+    /// bounds, directions uniform on the sphere (SplitMix64, seed 1), unbounded.
+    #[arg(long)]
+    random: bool,
+    /// Write the triangles and the rays to this folder (`triangles.f32`: 9 floats per
+    /// triangle; `rays.f32`: origin, direction and tmax, 7 floats per ray; little-endian) and
+    /// `rays.txt` (counts and the occluded count), for another tracer to run the same rays
+    /// (`tools/compare_embree.py`).
+    #[arg(long)]
+    export: Option<PathBuf>,
     #[command(flatten)]
     common: Common,
 }

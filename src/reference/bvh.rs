@@ -1,18 +1,29 @@
-//! A bounding volume hierarchy over triangles: binned SAH build (Wald 2007), watertight
-//! ray-triangle test (Woop, Benthin and Wald 2013, "Watertight Ray/Triangle Intersection"),
-//! any-hit queries for shadow rays. Built sequentially (deterministic), queried in parallel.
+//! A 4-wide bounding volume hierarchy over triangles for shadow rays.
+//!
+//! - **Build**: binned SAH (Wald 2007, "On fast Construction of SAH-based Bounding Volume
+//!   Hierarchies": 16 bins per axis, all three axes binned in one pass over the node's
+//!   primitives), in parallel with `rayon::join` below the top levels. Every split depends on
+//!   the primitives alone, and subtrees are laid out depth first with relative child offsets,
+//!   so the tree is the same bytes for any thread count ([`Bvh::digest`], tested). The binary
+//!   tree is then collapsed into 4-wide nodes (each node adopts the children of its largest
+//!   inner child until it has four), whose boxes are stored as structure of arrays for one
+//!   4-lane box test, and whose leaves are packets of up to 4 triangles, also as structure of
+//!   arrays.
+//! - **Traversal**: the four slab tests of a node at once (SSE on x86-64, where it is part of
+//!   the base instruction set; plain lanes elsewhere). The near and far planes are chosen by
+//!   the ray's direction signs; `min` and `max` are exact, and the far distance is widened by
+//!   `1 + 2 gamma(3)` (Ize 2013, "Robust BVH Ray Traversal"), so a box is never missed by
+//!   rounding and the answer does not depend on the tree's shape. Hit children are visited
+//!   nearest first, so occlusion rays stop early.
+//! - **Triangles**: the watertight test (Woop, Benthin and Wald 2013, "Watertight
+//!   Ray/Triangle Intersection") on four triangles at once, with exactly the scalar test's
+//!   operations in its order (no fused multiply-add), and the scalar test's double-precision
+//!   fall-back on any lane where an edge function is zero: every lane's answer is the
+//!   scalar test's, bit for bit.
+//! - **Queries**: any-hit, all hits in `(0, tmax)` reported to a callback that may stop the
+//!   ray (the reference multiplies translucent surfaces and stops at opaque ones).
 
-use glam::Vec3;
-
-/// One node: bounds, and either two children (`count == 0`, children at `first` and
-/// `first + 1`) or a leaf of `count` triangles starting at `first`.
-#[derive(Copy, Clone, Debug)]
-struct Node {
-    lo: Vec3,
-    hi: Vec3,
-    first: u32,
-    count: u32,
-}
+use glam::{Vec3, Vec3A};
 
 /// A triangle with its user tag (object index).
 #[derive(Copy, Clone, Debug)]
@@ -23,192 +34,465 @@ pub struct Tri {
     pub tag: u32,
 }
 
-/// The hierarchy.
-pub struct Bvh {
-    nodes: Vec<Node>,
-    tris: Vec<Tri>,
+/// A node of the binary build: bounds, and either a leaf of `count` primitives from `first`
+/// or (`count == 0`) an inner node whose left child follows it and whose right child is
+/// `first` nodes after it (relative offsets: subtrees built apart concatenate unchanged).
+#[derive(Copy, Clone, Debug)]
+struct BNode {
+    lo: Vec3,
+    hi: Vec3,
+    first: u32,
+    count: u32,
 }
 
-const BINS: usize = 12;
+/// A primitive during the build: its bounds, the centre of its bounds and its triangle.
+#[derive(Copy, Clone, Debug)]
+struct Prim {
+    lo: Vec3A,
+    hi: Vec3A,
+    c: Vec3A,
+    tri: u32,
+}
+
+/// A 4-wide node: the children's boxes as structure of arrays (`planes[side][lane]`), and per
+/// lane an inner node's index or a leaf ([`LEAF`] | packet count - 1 << [`PACKETS_SHIFT`] |
+/// first packet).
+#[derive(Copy, Clone, Debug)]
+#[repr(C, align(64))]
+struct Node4 {
+    /// The children's box planes: low x, y, z, then high x, y, z.
+    planes: [[f32; 4]; 6],
+    child: [u32; 4],
+    /// Lanes in use (2 to 4; the root of a tree of one leaf uses 1).
+    n: u32,
+}
+
+/// Up to four triangles as structure of arrays (`v[vertex][axis][lane]`), and their tags.
+#[derive(Copy, Clone, Debug)]
+#[repr(C, align(16))]
+struct Tri4 {
+    v: [[[f32; 4]; 3]; 3],
+    tag: [u32; 4],
+    /// Lanes in use (1 to 4).
+    n: u32,
+}
+
+const LEAF: u32 = 1 << 31;
+const PACKETS_SHIFT: u32 = 27;
+const FIRST_MASK: u32 = (1 << PACKETS_SHIFT) - 1;
+const BINS: usize = 16;
 const LEAF_MAX: usize = 4;
+/// The SAH may keep up to this many triangles in a leaf (4 packets).
+const LEAF_LIMIT: usize = 4 * LEAF_MAX;
+/// Subtrees of at least this many primitives are built in parallel.
+const PARALLEL: usize = 4096;
+
+/// The hierarchy.
+pub struct Bvh {
+    nodes: Vec<Node4>,
+    packets: Vec<Tri4>,
+    tris: usize,
+}
+
+fn area(lo: Vec3, hi: Vec3) -> f32 {
+    let d = (hi - lo).max(Vec3::ZERO);
+    d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+#[inline(always)]
+fn bin_of(c: f32, c0: f32, scale: f32) -> usize {
+    (((c - c0) * scale) as usize).min(BINS - 1)
+}
+
+/// Bounds of a set of primitives and of their centres.
+#[derive(Copy, Clone)]
+struct Bounds {
+    lo: Vec3A,
+    hi: Vec3A,
+    clo: Vec3A,
+    chi: Vec3A,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        lo: Vec3A::splat(f32::MAX),
+        hi: Vec3A::splat(f32::MIN),
+        clo: Vec3A::splat(f32::MAX),
+        chi: Vec3A::splat(f32::MIN),
+    };
+
+    #[inline(always)]
+    fn grow(&mut self, p: &Prim) {
+        self.lo = self.lo.min(p.lo);
+        self.hi = self.hi.max(p.hi);
+        self.clo = self.clo.min(p.c);
+        self.chi = self.chi.max(p.c);
+    }
+
+    #[inline(always)]
+    fn merge(self, b: &Bounds) -> Bounds {
+        Bounds {
+            lo: self.lo.min(b.lo),
+            hi: self.hi.max(b.hi),
+            clo: self.clo.min(b.clo),
+            chi: self.chi.max(b.chi),
+        }
+    }
+
+    fn of(prims: &[Prim]) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for p in prims {
+            b.grow(p);
+        }
+        b
+    }
+
+    fn area(&self) -> f32 {
+        area(self.lo.into(), self.hi.into())
+    }
+}
+
+/// Builds the subtree of `prims` (whose first is primitive `offset` of the whole array, and
+/// whose bounds are `bounds`) into `out`, depth first.
+fn build_into(prims: &mut [Prim], bounds: Bounds, offset: u32, out: &mut Vec<BNode>) {
+    let me = out.len();
+    let count = prims.len();
+    out.push(BNode {
+        lo: bounds.lo.into(),
+        hi: bounds.hi.into(),
+        first: offset,
+        count: count as u32,
+    });
+    let Some((mid, lb, rb)) = split(prims, &bounds) else {
+        return;
+    };
+    let (l, r) = prims.split_at_mut(mid);
+    out[me].count = 0;
+    if count >= PARALLEL {
+        let (a, b) = rayon::join(
+            || {
+                let mut v = Vec::with_capacity(2 * l.len() / LEAF_MAX);
+                build_into(l, lb, offset, &mut v);
+                v
+            },
+            || {
+                let mut v = Vec::with_capacity(2 * r.len() / LEAF_MAX);
+                build_into(r, rb, offset + mid as u32, &mut v);
+                v
+            },
+        );
+        out[me].first = 1 + a.len() as u32;
+        out.extend_from_slice(&a);
+        out.extend_from_slice(&b);
+    } else {
+        build_into(l, lb, offset, out);
+        out[me].first = (out.len() - me) as u32;
+        build_into(r, rb, offset + mid as u32, out);
+    }
+}
+
+/// The binned SAH split of `prims` (partitioned in place): where the right part starts and
+/// the two parts' bounds (from the bins), or None for a leaf.
+fn split(prims: &mut [Prim], bounds: &Bounds) -> Option<(usize, Bounds, Bounds)> {
+    let count = prims.len();
+    if count <= LEAF_MAX {
+        return None;
+    }
+    let (clo, chi) = (bounds.clo, bounds.chi);
+    let ext = chi - clo;
+    let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(BINS as f32) / ext, Vec3A::ZERO);
+    let mut bins = [[(Bounds::EMPTY, 0u32); BINS]; 3];
+    for p in prims.iter() {
+        // Per axis `(c - c0) * scale`, as `bin_of` computes it for the partition below.
+        let at = ((p.c - clo) * scale).to_array();
+        for (axis, bins) in bins.iter_mut().enumerate() {
+            let b = &mut bins[(at[axis] as usize).min(BINS - 1)];
+            b.0.grow(p);
+            b.1 += 1;
+        }
+    }
+    let mut best = (f32::MAX, 0usize, 0usize);
+    for (axis, bins) in bins.iter().enumerate() {
+        if ext[axis] <= 0.0 {
+            continue;
+        }
+        let mut left = [(0.0f32, 0u32); BINS];
+        let (mut acc, mut n) = (Bounds::EMPTY, 0);
+        for (i, b) in bins.iter().enumerate() {
+            acc = acc.merge(&b.0);
+            n += b.1;
+            left[i] = (if n > 0 { acc.area() } else { 0.0 }, n);
+        }
+        let (mut acc, mut n) = (Bounds::EMPTY, 0);
+        for i in (1..BINS).rev() {
+            acc = acc.merge(&bins[i].0);
+            n += bins[i].1;
+            let (la, ln) = left[i - 1];
+            if ln == 0 || n == 0 {
+                continue;
+            }
+            let cost = la * ln as f32 + acc.area() * n as f32;
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
+        }
+    }
+    let (cost, axis, at) = best;
+    if cost < bounds.area() * count as f32 && cost < f32::MAX {
+        let mut i = 0;
+        for j in 0..count {
+            if bin_of(prims[j].c[axis], clo[axis], scale[axis]) < at {
+                prims.swap(i, j);
+                i += 1;
+            }
+        }
+        let part = |r: std::ops::Range<usize>| bins[axis][r].iter().fold(Bounds::EMPTY, |a, b| a.merge(&b.0));
+        (i > 0 && i < count).then(|| (i, part(0..at), part(at..BINS)))
+    } else if count > LEAF_LIMIT {
+        // No useful SAH split (e.g. identical centroids): split in the middle.
+        let mid = count / 2;
+        Some((mid, Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..])))
+    } else {
+        None
+    }
+}
 
 impl Bvh {
-    /// Builds over `tris` (degenerate and non-finite triangles are dropped).
+    /// Builds over `tris` (degenerate and non-finite triangles are dropped), in parallel on
+    /// the current rayon pool; the tree does not depend on the thread count.
     pub fn build(mut tris: Vec<Tri>) -> Bvh {
         tris.retain(|t| {
             t.v.iter().all(|p| p.is_finite()) && (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() > 0.0
         });
+        let n = tris.len();
+        assert!(
+            n.div_ceil(LEAF_MAX) < FIRST_MASK as usize,
+            "BVH: {n} triangles are more than the node layout addresses"
+        );
         let mut bvh = Bvh {
-            nodes: Vec::with_capacity(2 * tris.len() / LEAF_MAX + 1),
-            tris,
+            nodes: Vec::new(),
+            packets: Vec::new(),
+            tris: n,
         };
-        let n = bvh.tris.len();
-        bvh.nodes.push(Node {
-            lo: Vec3::ZERO,
-            hi: Vec3::ZERO,
-            first: 0,
-            count: n as u32,
-        });
-        if n > 0 {
-            bvh.subdivide(0);
+        if n == 0 {
+            return bvh;
         }
+        use rayon::prelude::*;
+        let mut prims: Vec<Prim> = tris
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let lo = Vec3A::from(t.v[0].min(t.v[1]).min(t.v[2]));
+                let hi = Vec3A::from(t.v[0].max(t.v[1]).max(t.v[2]));
+                Prim {
+                    lo,
+                    hi,
+                    c: (lo + hi) * 0.5,
+                    tri: i as u32,
+                }
+            })
+            .collect();
+        let mut bin = Vec::with_capacity(2 * n / LEAF_MAX + 1);
+        let all = Bounds::of(&prims);
+        build_into(&mut prims, all, 0, &mut bin);
+        bvh.nodes.reserve(bin.len() / 3 + 1);
+        bvh.packets.reserve(n.div_ceil(LEAF_MAX) + bin.len() / 8);
+        bvh.collapse(&bin, &prims, &tris);
         bvh
+    }
+
+    /// The wide nodes from the binary tree `bin` (root 0), depth first.
+    fn collapse(&mut self, bin: &[BNode], prims: &[Prim], tris: &[Tri]) {
+        let kids = |b: usize| [b + 1, b + bin[b].first as usize];
+        // (binary node, wide node to fill in, lane): a child to make.
+        let root = if bin[0].count > 0 { vec![0] } else { kids(0).to_vec() };
+        let mut todo = vec![(root, usize::MAX, 0usize)];
+        while let Some((mut children, parent, lane)) = todo.pop() {
+            // Adopt the children of the largest inner child until there are four.
+            while children.len() < 4 {
+                let Some((k, _)) = children
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &c)| bin[c].count == 0)
+                    .map(|(k, &c)| (k, area(bin[c].lo, bin[c].hi)))
+                    .fold(None, |best: Option<(usize, f32)>, (k, a)| match best {
+                        Some((_, ba)) if ba >= a => best,
+                        _ => Some((k, a)),
+                    })
+                else {
+                    break;
+                };
+                let [l, r] = kids(children[k]);
+                children[k] = l;
+                children.insert(k + 1, r);
+            }
+            let me = self.nodes.len();
+            if parent != usize::MAX {
+                self.nodes[parent].child[lane] = me as u32;
+            }
+            let mut node = Node4 {
+                planes: [
+                    [f32::MAX; 4],
+                    [f32::MAX; 4],
+                    [f32::MAX; 4],
+                    [f32::MIN; 4],
+                    [f32::MIN; 4],
+                    [f32::MIN; 4],
+                ],
+                child: [0; 4],
+                n: children.len() as u32,
+            };
+            for (lane, &c) in children.iter().enumerate() {
+                let b = &bin[c];
+                for axis in 0..3 {
+                    node.planes[axis][lane] = b.lo[axis];
+                    node.planes[3 + axis][lane] = b.hi[axis];
+                }
+                if b.count > 0 {
+                    node.child[lane] = self.pack(&prims[b.first as usize..(b.first + b.count) as usize], tris);
+                }
+            }
+            self.nodes.push(node);
+            // Inner children, made in lane order (pushed in reverse).
+            for (lane, &c) in children.iter().enumerate().rev() {
+                if bin[c].count == 0 {
+                    todo.push((kids(c).to_vec(), me, lane));
+                }
+            }
+        }
+    }
+
+    /// Packets of the leaf `prims`; its child word.
+    fn pack(&mut self, prims: &[Prim], tris: &[Tri]) -> u32 {
+        let first = self.packets.len() as u32;
+        for group in prims.chunks(LEAF_MAX) {
+            let mut p = Tri4 {
+                v: [[[f32::NAN; 4]; 3]; 3],
+                tag: [u32::MAX; 4],
+                n: group.len() as u32,
+            };
+            for (lane, pr) in group.iter().enumerate() {
+                let t = &tris[pr.tri as usize];
+                for (vertex, v) in t.v.iter().enumerate() {
+                    for axis in 0..3 {
+                        p.v[vertex][axis][lane] = v[axis];
+                    }
+                }
+                p.tag[lane] = t.tag;
+            }
+            self.packets.push(p);
+        }
+        let count = prims.len().div_ceil(LEAF_MAX) as u32;
+        LEAF | ((count - 1) << PACKETS_SHIFT) | first
     }
 
     /// Triangles held.
     pub fn len(&self) -> usize {
-        self.tris.len()
+        self.tris
     }
 
     /// True when empty.
     pub fn is_empty(&self) -> bool {
-        self.tris.is_empty()
+        self.tris == 0
     }
 
-    fn subdivide(&mut self, root: usize) {
-        let mut stack = vec![root];
-        while let Some(ni) = stack.pop() {
-            let (first, count) = (self.nodes[ni].first as usize, self.nodes[ni].count as usize);
-            let tris = &self.tris[first..first + count];
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            let (mut clo, mut chi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for t in tris {
-                for p in t.v {
-                    lo = lo.min(p);
-                    hi = hi.max(p);
-                }
-                let c = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
-                clo = clo.min(c);
-                chi = chi.max(c);
+    /// Bytes of nodes and triangle packets.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node4>() + self.packets.len() * std::mem::size_of::<Tri4>()
+    }
+
+    /// A hash of the tree's every byte (nodes and packets): the same for any thread count.
+    pub fn digest(&self) -> u64 {
+        let mut h = crate::hash::fnv1a(crate::hash::FNV_OFFSET, b"bvh4");
+        for n in &self.nodes {
+            for w in n.planes.iter().flatten() {
+                h = crate::hash::fnv1a(h, &w.to_bits().to_le_bytes());
             }
-            self.nodes[ni].lo = lo;
-            self.nodes[ni].hi = hi;
-            if count <= LEAF_MAX {
-                continue;
+            for w in n.child.iter().chain([&n.n]) {
+                h = crate::hash::fnv1a(h, &w.to_le_bytes());
             }
-            // Binned SAH over the centroid bounds, all three axes.
-            let mut best = (f32::MAX, 0usize, 0usize);
-            for axis in 0..3 {
-                let (a0, a1) = (clo[axis], chi[axis]);
-                if a1 - a0 <= 0.0 {
-                    continue;
-                }
-                let mut bins = [(Vec3::splat(f32::MAX), Vec3::splat(f32::MIN), 0u32); BINS];
-                let scale = BINS as f32 / (a1 - a0);
-                for t in tris {
-                    let c = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
-                    let b = (((c[axis] - a0) * scale) as usize).min(BINS - 1);
-                    for p in t.v {
-                        bins[b].0 = bins[b].0.min(p);
-                        bins[b].1 = bins[b].1.max(p);
-                    }
-                    bins[b].2 += 1;
-                }
-                let area = |lo: Vec3, hi: Vec3| {
-                    let d = (hi - lo).max(Vec3::ZERO);
-                    d.x * d.y + d.y * d.z + d.z * d.x
-                };
-                let mut left = [(0.0f32, 0u32); BINS];
-                let (mut l, mut h, mut n) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN), 0);
-                for i in 0..BINS {
-                    l = l.min(bins[i].0);
-                    h = h.max(bins[i].1);
-                    n += bins[i].2;
-                    left[i] = (if n > 0 { area(l, h) } else { 0.0 }, n);
-                }
-                let (mut l, mut h, mut n) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN), 0);
-                for i in (1..BINS).rev() {
-                    l = l.min(bins[i].0);
-                    h = h.max(bins[i].1);
-                    n += bins[i].2;
-                    let (la, ln) = left[i - 1];
-                    if ln == 0 || n == 0 {
-                        continue;
-                    }
-                    let cost = la * ln as f32 + area(l, h) * n as f32;
-                    if cost < best.0 {
-                        best = (cost, axis, i);
-                    }
-                }
-            }
-            let parent_cost = {
-                let d = hi - lo;
-                (d.x * d.y + d.y * d.z + d.z * d.x) * count as f32
-            };
-            let (cost, axis, split) = best;
-            let mid = if cost < parent_cost && cost < f32::MAX {
-                let (a0, a1) = (clo[axis], chi[axis]);
-                let scale = BINS as f32 / (a1 - a0);
-                let slice = &mut self.tris[first..first + count];
-                let mut i = 0;
-                for j in 0..slice.len() {
-                    let c = (slice[j].v[0] + slice[j].v[1] + slice[j].v[2]) / 3.0;
-                    if ((((c[axis] - a0) * scale) as usize).min(BINS - 1)) < split {
-                        slice.swap(i, j);
-                        i += 1;
-                    }
-                }
-                i
-            } else if count > 4 * LEAF_MAX {
-                // No useful SAH split (e.g. identical centroids): split in the middle.
-                count / 2
-            } else {
-                continue;
-            };
-            if mid == 0 || mid == count {
-                continue;
-            }
-            let l = self.nodes.len();
-            self.nodes.push(Node {
-                lo: Vec3::ZERO,
-                hi: Vec3::ZERO,
-                first: first as u32,
-                count: mid as u32,
-            });
-            self.nodes.push(Node {
-                lo: Vec3::ZERO,
-                hi: Vec3::ZERO,
-                first: (first + mid) as u32,
-                count: (count - mid) as u32,
-            });
-            self.nodes[ni].first = l as u32;
-            self.nodes[ni].count = 0;
-            stack.push(l + 1);
-            stack.push(l);
         }
+        for p in &self.packets {
+            for w in p.v.iter().flatten().flatten() {
+                h = crate::hash::fnv1a(h, &w.to_bits().to_le_bytes());
+            }
+            for w in p.tag.iter().chain([&p.n]) {
+                h = crate::hash::fnv1a(h, &w.to_le_bytes());
+            }
+        }
+        h
     }
 
     /// Calls `hit(tag, t)` for triangles hit by the ray `o + t d` with `t` in `(0, tmax)`, in
     /// traversal order; stops when `hit` returns true. Returns whether it was stopped.
     pub fn traverse(&self, o: Vec3, d: Vec3, tmax: f32, mut hit: impl FnMut(u32, f32) -> bool) -> bool {
-        if self.tris.is_empty() {
+        if self.nodes.is_empty() {
             return false;
         }
         let ray = WatertightRay::new(o, d);
-        let (oa, inv) = (o, d.recip());
+        let r = Ray4::new(o, d, tmax, &ray);
         let mut stack = [0u32; 64];
+        let mut overflow: Vec<u32> = Vec::new();
         let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let n = &self.nodes[stack[sp] as usize];
-            if !slab(n.lo, n.hi, oa, inv, tmax) {
+        loop {
+            let ni = if let Some(n) = overflow.pop() {
+                n
+            } else if sp > 0 {
+                sp -= 1;
+                stack[sp]
+            } else {
+                return false;
+            };
+            let node = &self.nodes[ni as usize];
+            let (mask, tn) = r.boxes(node);
+            if mask == 0 {
                 continue;
             }
-            if n.count > 0 {
-                for t in &self.tris[n.first as usize..(n.first + n.count) as usize] {
-                    if let Some(th) = ray.intersect(&t.v, tmax) {
-                        if hit(t.tag, th) {
-                            return true;
+            // Leaves now; inner children onto the stack, farthest first.
+            let mut inner = [(0.0f32, 0u32); 4];
+            let mut ni_count = 0;
+            let mut lanes = mask;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let c = node.child[lane];
+                if c & LEAF != 0 {
+                    let first = (c & FIRST_MASK) as usize;
+                    let count = ((c & !LEAF) >> PACKETS_SHIFT) as usize + 1;
+                    for p in &self.packets[first..first + count] {
+                        let (hits, th) = r.triangles(p, &ray, tmax);
+                        let mut h = hits;
+                        while h != 0 {
+                            let k = h.trailing_zeros() as usize;
+                            h &= h - 1;
+                            if hit(p.tag[k], th[k]) {
+                                return true;
+                            }
                         }
                     }
+                } else {
+                    inner[ni_count] = (tn[lane], c);
+                    ni_count += 1;
                 }
-            } else if sp + 2 <= stack.len() {
-                stack[sp] = n.first;
-                stack[sp + 1] = n.first + 1;
-                sp += 2;
+            }
+            let inner = &mut inner[..ni_count];
+            // A sorting network would do; four elements by insertion.
+            for i in 1..inner.len() {
+                let mut j = i;
+                while j > 0 && inner[j - 1].0 < inner[j].0 {
+                    inner.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+            for &(_, c) in inner.iter() {
+                if sp < stack.len() {
+                    stack[sp] = c;
+                    sp += 1;
+                } else {
+                    overflow.push(c);
+                }
             }
         }
-        false
     }
 
     /// True if anything is hit in `(0, tmax)`.
@@ -217,14 +501,239 @@ impl Bvh {
     }
 }
 
-/// Ray-box slab test (inclusive, NaN-safe: a NaN from 0 * inf compares false and is skipped).
-#[inline(always)]
-fn slab(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, tmax: f32) -> bool {
-    let t0 = (lo - o) * inv;
-    let t1 = (hi - o) * inv;
-    let tn = t0.min(t1).max_element().max(0.0);
-    let tf = t0.max(t1).min_element().min(tmax);
-    tn <= tf
+/// `1 + 2 gamma(3)` (Ize 2013): the far slab distance widened by the bound of its rounding.
+const ROBUST: f32 = 1.0 + 3.0 * f32::EPSILON;
+
+/// Four f32 lanes: SSE on x86-64 (part of its base instruction set), plain arrays elsewhere;
+/// the same IEEE operations either way.
+mod lanes {
+    #[cfg(target_arch = "x86_64")]
+    use std::arch::x86_64::*;
+
+    /// An SSE or SSE2 intrinsic.
+    #[cfg(target_arch = "x86_64")]
+    macro_rules! sse {
+        ($e:expr) => {
+            // SAFETY: SSE and SSE2 are part of x86-64's base instruction set.
+            unsafe { $e }
+        };
+    }
+
+    /// Four lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[derive(Copy, Clone)]
+    pub struct F4(__m128);
+    /// Four lanes.
+    #[cfg(not(target_arch = "x86_64"))]
+    #[derive(Copy, Clone)]
+    pub struct F4([f32; 4]);
+
+    #[cfg(target_arch = "x86_64")]
+    impl F4 {
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            // SAFETY: reads four floats from a reference to four floats.
+            F4(unsafe { _mm_loadu_ps(a.as_ptr()) })
+        }
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4(sse!(_mm_set1_ps(x)))
+        }
+        #[inline(always)]
+        pub fn add(self, b: F4) -> F4 {
+            F4(sse!(_mm_add_ps(self.0, b.0)))
+        }
+        #[inline(always)]
+        pub fn sub(self, b: F4) -> F4 {
+            F4(sse!(_mm_sub_ps(self.0, b.0)))
+        }
+        #[inline(always)]
+        pub fn mul(self, b: F4) -> F4 {
+            F4(sse!(_mm_mul_ps(self.0, b.0)))
+        }
+        #[inline(always)]
+        pub fn div(self, b: F4) -> F4 {
+            F4(sse!(_mm_div_ps(self.0, b.0)))
+        }
+        /// Per lane `if a > b { a } else { b }` (so `b` where either is NaN).
+        #[inline(always)]
+        pub fn max(self, b: F4) -> F4 {
+            F4(sse!(_mm_max_ps(self.0, b.0)))
+        }
+        /// Per lane `if a < b { a } else { b }` (so `b` where either is NaN).
+        #[inline(always)]
+        pub fn min(self, b: F4) -> F4 {
+            F4(sse!(_mm_min_ps(self.0, b.0)))
+        }
+        /// Bit `i` set where lane `i` of `a <= b`.
+        #[inline(always)]
+        pub fn le(self, b: F4) -> u32 {
+            sse!(_mm_movemask_ps(_mm_cmple_ps(self.0, b.0))) as u32
+        }
+        #[inline(always)]
+        pub fn lt(self, b: F4) -> u32 {
+            sse!(_mm_movemask_ps(_mm_cmplt_ps(self.0, b.0))) as u32
+        }
+        #[inline(always)]
+        pub fn eq(self, b: F4) -> u32 {
+            sse!(_mm_movemask_ps(_mm_cmpeq_ps(self.0, b.0))) as u32
+        }
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            let mut a = [0.0f32; 4];
+            // SAFETY: writes four floats into an array of four floats.
+            unsafe { _mm_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    impl F4 {
+        #[inline(always)]
+        fn zip(self, b: F4, f: impl Fn(f32, f32) -> f32) -> F4 {
+            F4(std::array::from_fn(|i| f(self.0[i], b.0[i])))
+        }
+        #[inline(always)]
+        fn bits(self, b: F4, f: impl Fn(f32, f32) -> bool) -> u32 {
+            (0..4).fold(0, |m, i| m | ((f(self.0[i], b.0[i]) as u32) << i))
+        }
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            F4(*a)
+        }
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4([x; 4])
+        }
+        #[inline(always)]
+        pub fn add(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x + y)
+        }
+        #[inline(always)]
+        pub fn sub(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x - y)
+        }
+        #[inline(always)]
+        pub fn mul(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x * y)
+        }
+        #[inline(always)]
+        pub fn div(self, b: F4) -> F4 {
+            self.zip(b, |x, y| x / y)
+        }
+        #[inline(always)]
+        pub fn max(self, b: F4) -> F4 {
+            self.zip(b, |x, y| if x > y { x } else { y })
+        }
+        #[inline(always)]
+        pub fn min(self, b: F4) -> F4 {
+            self.zip(b, |x, y| if x < y { x } else { y })
+        }
+        #[inline(always)]
+        pub fn le(self, b: F4) -> u32 {
+            self.bits(b, |x, y| x <= y)
+        }
+        #[inline(always)]
+        pub fn lt(self, b: F4) -> u32 {
+            self.bits(b, |x, y| x < y)
+        }
+        #[inline(always)]
+        pub fn eq(self, b: F4) -> u32 {
+            self.bits(b, |x, y| x == y)
+        }
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            self.0
+        }
+    }
+}
+
+use lanes::F4;
+
+/// A ray prepared for four boxes or four triangles at a time.
+struct Ray4 {
+    o: [F4; 3],
+    inv: [F4; 3],
+    /// Per axis, the node's near and far planes (the low side for a positive direction).
+    near: [usize; 3],
+    far: [usize; 3],
+    tmax: F4,
+    /// The origin's components in the shear's order (kx, ky, kz), and the shear.
+    ok: [F4; 3],
+    s: [F4; 3],
+}
+
+impl Ray4 {
+    fn new(o: Vec3, d: Vec3, tmax: f32, ray: &WatertightRay) -> Ray4 {
+        let inv = d.recip();
+        let [kx, ky, kz] = ray.k;
+        Ray4 {
+            o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
+            inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
+            near: std::array::from_fn(|a| if inv[a].is_sign_negative() { 3 + a } else { a }),
+            far: std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { 3 + a }),
+            tmax: F4::splat(tmax),
+            ok: [F4::splat(o[kx]), F4::splat(o[ky]), F4::splat(o[kz])],
+            s: [F4::splat(ray.s.x), F4::splat(ray.s.y), F4::splat(ray.s.z)],
+        }
+    }
+
+    /// The node's four slab tests: a bit per lane whose box the ray enters in `[0, tmax]`,
+    /// and the entry distances. A NaN slab distance (`0 * inf`: the ray in a box face's
+    /// plane) leaves its axis unconstrained (`max` and `min` return their second operand on
+    /// NaN, and the NaN is always the first).
+    #[inline(always)]
+    fn boxes(&self, n: &Node4) -> (u32, [f32; 4]) {
+        let slab = |axis: usize, side: usize| F4::load(&n.planes[side]).sub(self.o[axis]).mul(self.inv[axis]);
+        let (near, far) = (&self.near, &self.far);
+        let tn = slab(0, near[0]).max(slab(1, near[1]).max(slab(2, near[2]).max(F4::splat(0.0))));
+        let tf = slab(0, far[0]).min(slab(1, far[1]).min(slab(2, far[2]).min(self.tmax)));
+        let tf = tf.mul(F4::splat(ROBUST));
+        (tn.le(tf) & ((1u32 << n.n) - 1), tn.to_array())
+    }
+
+    /// The watertight test on a packet: a bit per lane hit in `(0, tmax)`, and the distances.
+    /// Every operation is the scalar [`WatertightRay::intersect`]'s, in its order; a lane with
+    /// a zero edge function takes the scalar test (its double-precision fall-back).
+    #[inline(always)]
+    fn triangles(&self, p: &Tri4, ray: &WatertightRay, tmax: f32) -> (u32, [f32; 4]) {
+        let [kx, ky, kz] = ray.k;
+        let [sx, sy, sz] = self.s;
+        let rel = |vertex: usize, k: usize, lane: usize| F4::load(&p.v[vertex][k]).sub(self.ok[lane]);
+        let (akx, aky, akz) = (rel(0, kx, 0), rel(0, ky, 1), rel(0, kz, 2));
+        let (bkx, bky, bkz) = (rel(1, kx, 0), rel(1, ky, 1), rel(1, kz, 2));
+        let (ckx, cky, ckz) = (rel(2, kx, 0), rel(2, ky, 1), rel(2, kz, 2));
+        let (ax, ay) = (akx.sub(sx.mul(akz)), aky.sub(sy.mul(akz)));
+        let (bx, by) = (bkx.sub(sx.mul(bkz)), bky.sub(sy.mul(bkz)));
+        let (cx, cy) = (ckx.sub(sx.mul(ckz)), cky.sub(sy.mul(ckz)));
+        let u = cx.mul(by).sub(cy.mul(bx));
+        let v = ax.mul(cy).sub(ay.mul(cx));
+        let w = bx.mul(ay).sub(by.mul(ax));
+        let zero = F4::splat(0.0);
+        let valid = (1u32 << p.n) - 1;
+        let edge_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)) & valid;
+        let negative = u.lt(zero) | v.lt(zero) | w.lt(zero);
+        let positive = zero.lt(u) | zero.lt(v) | zero.lt(w);
+        let det = u.add(v).add(w);
+        let t = u.mul(sz.mul(akz)).add(v.mul(sz.mul(bkz))).add(w.mul(sz.mul(ckz)));
+        let th = t.div(det);
+        let hit = !(negative & positive) & !det.eq(zero) & zero.lt(th) & th.lt(F4::splat(tmax));
+        let mut mask = hit & valid & !edge_zero;
+        let mut th = th.to_array();
+        if edge_zero != 0 {
+            let mut lanes = edge_zero;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let vert = |i: usize| Vec3::new(p.v[i][0][lane], p.v[i][1][lane], p.v[i][2][lane]);
+                if let Some(t) = ray.intersect(&[vert(0), vert(1), vert(2)], tmax) {
+                    mask |= 1 << lane;
+                    th[lane] = t;
+                }
+            }
+        }
+        (mask, th)
+    }
 }
 
 /// Precomputed shear of Woop et al. 2013.
@@ -294,6 +803,8 @@ mod tests {
     use super::*;
     use crate::hash::SplitMix;
 
+    /// Every hit of the tree is the scalar test's hit, with the same distance to the bit, and
+    /// none is missed (the packets' lanes and the boxes' robust slabs change nothing).
     #[test]
     fn matches_brute_force_on_random_triangles() {
         let mut r = SplitMix(5);
@@ -307,20 +818,85 @@ mod tests {
         let bvh = Bvh::build(tris.clone());
         for _ in 0..500 {
             let (o, d) = (p(), (p() - p()).normalize());
-            let mut brute = f32::MAX;
             let ray = WatertightRay::new(o, d);
-            for t in &tris {
-                if let Some(h) = ray.intersect(&t.v, f32::MAX) {
-                    brute = brute.min(h);
-                }
-            }
-            let mut best = f32::MAX;
-            bvh.traverse(o, d, f32::MAX, |_, t| {
-                best = best.min(t);
+            let mut brute: Vec<(u32, u32)> = tris
+                .iter()
+                .filter_map(|t| ray.intersect(&t.v, f32::MAX).map(|h| (t.tag, h.to_bits())))
+                .collect();
+            let mut got = Vec::new();
+            bvh.traverse(o, d, f32::MAX, |tag, t| {
+                got.push((tag, t.to_bits()));
                 false
             });
-            assert_eq!(best, brute);
+            brute.sort_unstable();
+            got.sort_unstable();
+            assert_eq!(got, brute);
         }
+    }
+
+    #[test]
+    fn the_tree_is_the_same_for_1_2_and_4_threads() {
+        let mut r = SplitMix(9);
+        let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 10.0 - 5.0;
+        // Enough triangles for the parallel levels, with shared centroids for the fall-back.
+        let mut tris: Vec<Tri> = (0..30_000)
+            .map(|i| {
+                let c = p();
+                Tri {
+                    v: [c, c + p() * 0.05, c + p() * 0.05],
+                    tag: i,
+                }
+            })
+            .collect();
+        tris.extend((0..64).map(|i| Tri {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            tag: 40_000 + i,
+        }));
+        let digest = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::build(tris.clone()).digest())
+        };
+        let one = digest(1);
+        assert_eq!(one, digest(2));
+        assert_eq!(one, digest(4));
+    }
+
+    #[test]
+    fn empty_degenerate_and_non_finite_input_gives_an_empty_tree() {
+        let empty = Bvh::build(Vec::new());
+        assert!(empty.is_empty() && !empty.occluded(Vec3::ZERO, Vec3::X, f32::INFINITY));
+        let bad = vec![
+            Tri {
+                v: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+                tag: 0,
+            },
+            Tri {
+                v: [Vec3::ZERO, Vec3::ZERO, Vec3::Y],
+                tag: 1,
+            },
+            Tri {
+                v: [Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X, Vec3::Y],
+                tag: 2,
+            },
+            Tri {
+                v: [Vec3::ZERO, Vec3::new(f32::INFINITY, 0.0, 0.0), Vec3::Y],
+                tag: 3,
+            },
+        ];
+        let b = Bvh::build(bad);
+        assert_eq!(b.len(), 0);
+        assert!(!b.occluded(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 10.0));
+        // One good triangle: a tree of one leaf.
+        let one = Bvh::build(vec![Tri {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            tag: 7,
+        }]);
+        let mut tags = Vec::new();
+        one.traverse(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 10.0, |t, _| {
+            tags.push(t);
+            false
+        });
+        assert_eq!(tags, [7]);
     }
 
     #[test]

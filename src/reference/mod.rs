@@ -177,6 +177,11 @@ impl Reference {
         }
     }
 
+    /// Bytes of the hierarchy (nodes and triangle packets).
+    pub fn bytes(&self) -> usize {
+        self.bvh.bytes()
+    }
+
     /// Shadow rays traced so far (rows of [`Reference::visibility`], plus the calling thread's
     /// own single queries).
     pub fn rays_traced(&self) -> u64 {

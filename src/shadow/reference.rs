@@ -85,7 +85,7 @@ impl ShadowTechnique for RefTechnique {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let r = Reference::new(frame.scene);
+        let r = p.install(|| Reference::new(frame.scene));
         let pts = frame.points();
         let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &self.opts));
         self.last = Some(v.clone());
