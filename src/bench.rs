@@ -178,6 +178,46 @@ pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
     lit / 16.0
 }
 
+/// [`pcss_shadow`] of four pixels at once (`u`, `v`, `z` per lane), each lane equal to the
+/// one-pixel call bit for bit: the lanes are pixels, so every tap's operations are those of
+/// the one-pixel call lane-wise and the sums run in the same tap order, vertically; the
+/// filter runs when any lane found a blocker, and lanes without one are lit.
+#[inline(always)]
+pub fn pcss_shadow4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
+    use crate::pipeline::sampler::texels4;
+    use crate::pipeline::wide::floor4;
+    use crate::shadow::map::kernel::{bilinear_compare4, POISSON16};
+    let size = map.width() as f32;
+    let reference = z - Vec4::splat(PCSS_SEARCH_BIAS);
+    let k = PCSS_SEARCH_TEXELS / size;
+    let (mut sum, mut found) = (Vec4::ZERO, Vec4::ZERO);
+    for p in POISSON16 {
+        // The one-pixel call's `floor().clamp(0, size - 1)`, the clamp inside `texels4`.
+        let tx = floor4((u + Vec4::splat(p.x * k)) * size);
+        let ty = floor4((v + Vec4::splat(p.y * k)) * size);
+        let depth = texels4(map, tx, ty);
+        let blocker = depth.cmplt(reference);
+        sum += Vec4::select(blocker, depth, Vec4::ZERO);
+        found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
+    }
+    let any = found.cmpgt(Vec4::ZERO);
+    if !any.any() {
+        return Vec4::ONE;
+    }
+    // Lanes without a blocker take radius 1 (their result is replaced by 1 below).
+    let r = Vec4::select(
+        any,
+        ((reference - sum / found) * PCSS_PENUMBRA_SCALE).clamp(Vec4::ONE, Vec4::splat(PCSS_SEARCH_TEXELS)),
+        Vec4::ONE,
+    );
+    let s = r / Vec4::splat(size);
+    let mut lit = Vec4::ZERO;
+    for p in POISSON16 {
+        lit += bilinear_compare4(map, u + Vec4::splat(p.x) * s, v + Vec4::splat(p.y) * s, z);
+    }
+    Vec4::select(any, lit / Vec4::splat(16.0), Vec4::ONE)
+}
+
 /// [`crate::shadow::map::kernel::POISSON16`] as four lanes of x and four of y.
 #[inline(always)]
 fn poisson16_lanes() -> ([Vec4; 4], [Vec4; 4]) {
@@ -233,9 +273,7 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let (u, v, z) = map_coords4(f);
         let shadow = match self.mode {
             FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, z, 5),
-            FrameMode::Pcss => Vec4::from_array(std::array::from_fn(|i| {
-                pcss_shadow(self.map, Vec2::new(u[i], v[i]), z[i])
-            })),
+            FrameMode::Pcss => pcss_shadow4(self.map, u, v, z),
             _ => self.sampler.pcf2x2_4(self.map, u, v, z),
         };
         let k = Vec4::splat(0.15) + Vec4::splat(0.85) * ndl * shadow;
@@ -605,11 +643,20 @@ mod tests {
             .collect();
         let map = Surface::from_vec(n, n, data).unwrap();
         let (mut lit, mut mixed) = (0, 0);
+        let mut quad = Vec::new();
         for _ in 0..5000 {
             let uv = Vec2::new(rng.next_f32() * 1.2 - 0.1, rng.next_f32() * 1.2 - 0.1);
             let z = 0.49 + 0.02 * rng.next_f32();
             let (a, b) = (pcss_shadow(&map, uv, z), plain_pcss(&map, uv, z));
             assert_eq!(a.to_bits(), b.to_bits(), "{uv} {z}: {a} vs {b}");
+            quad.push((uv, z, a));
+            if quad.len() == 4 {
+                let lanes = |f: fn(&(Vec2, f32, f32)) -> f32| Vec4::from_array(std::array::from_fn(|i| f(&quad[i])));
+                let four = pcss_shadow4(&map, lanes(|q| q.0.x), lanes(|q| q.0.y), lanes(|q| q.1));
+                for (i, q) in quad.drain(..).enumerate() {
+                    assert_eq!(four[i].to_bits(), q.2.to_bits(), "lane {i} at {} {}", q.0, q.1);
+                }
+            }
             if a == 1.0 {
                 lit += 1;
             } else if a > 0.0 {

@@ -257,44 +257,66 @@ impl CompareSampler {
         let inside = self.inside4(u, v);
         let (w, h) = (s.width() as i64, s.height() as i64);
         let (x, y, fx, fy) = Self::footprint4(s, u, v);
-        let (x0, x1) = (index4(x, w - 1), index4(x + Vec4::ONE, w - 1));
-        let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
         let d = s.data();
-        let ws = w as usize;
-        let fetch =
-            |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| texel(d, ys[i] * ws + xs[i])));
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
         // Both columns in the map for every lane: each row's two texels are adjacent, one
         // 8-byte load per lane and row instead of two (the same texels).
         let paired = w >= 2 && (x.cmpge(Vec4::ZERO) & x.cmple(Vec4::splat((w - 2) as f32))).all();
-        // The texels of columns x0 and x1 in rows `ys`.
-        let row = |ys: [usize; 4]| -> (Vec4, Vec4) {
-            #[cfg(target_arch = "x86_64")]
-            if paired {
-                use std::arch::x86_64::*;
-                let at = |k: usize| {
-                    let i = ys[k] * ws + x0[k];
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+        let ((t0, t1), (b0, b1)) = if paired {
+            use std::arch::x86_64::*;
+            // Rows clamped as `index4` clamps them (y is never NaN here: `footprint4` made
+            // NaN 0); the texel indices `y * w + x` computed on all lanes at once (w * h <
+            // 2^31: both at most MAX_DIMENSION).
+            let hl = Vec4::splat((h - 1) as f32);
+            let (y0, y1) = (hl.min(y.max(Vec4::ZERO)), hl.min((y + Vec4::ONE).max(Vec4::ZERO)));
+            // SAFETY: SSE4.1 is enabled for this build; x0 <= w - 2 and y < h, so texels i and
+            // i + 1 of every index are in the map.
+            unsafe {
+                let wv = _mm_set1_epi32(w as i32);
+                let xi = _mm_cvttps_epi32(x.into());
+                let index = |y: Vec4| _mm_add_epi32(_mm_mullo_epi32(_mm_cvttps_epi32(y.into()), wv), xi);
+                // Indices are below 2^31: zero-extended, not sign-extended.
+                let pair = |i: i32| {
+                    let i = i as u32 as usize;
                     debug_assert!(i + 1 < d.len());
-                    // SAFETY: x0 <= w - 2 and y < h, so texels i and i + 1 are in the map.
-                    unsafe { _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64)) }
+                    _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64))
                 };
-                // SAFETY: SSE is part of x86-64.
-                return unsafe {
-                    let (p01, p23) = (_mm_movelh_ps(at(0), at(1)), _mm_movelh_ps(at(2), at(3)));
+                let row = |i: __m128i| -> (Vec4, Vec4) {
+                    let p01 = _mm_movelh_ps(pair(_mm_cvtsi128_si32(i)), pair(_mm_extract_epi32::<1>(i)));
+                    let p23 = _mm_movelh_ps(pair(_mm_extract_epi32::<2>(i)), pair(_mm_extract_epi32::<3>(i)));
                     (
                         Vec4::from(_mm_shuffle_ps::<0b10_00_10_00>(p01, p23)),
                         Vec4::from(_mm_shuffle_ps::<0b11_01_11_01>(p01, p23)),
                     )
                 };
+                (row(index(y0)), row(index(y1)))
             }
-            let _ = paired;
-            (fetch(ys, x0), fetch(ys, x1))
+        } else {
+            Self::texels2x2_4(s, x, y)
         };
-        let ((t0, t1), (b0, b1)) = (row(y0), row(y1));
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+        let ((t0, t1), (b0, b1)) = {
+            let _ = paired;
+            Self::texels2x2_4(s, x, y)
+        };
         let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
         let top = a + (b - a) * fx;
         let bottom = cc + (dd - cc) * fx;
         self.bordered(inside, top + (bottom - top) * fy)
+    }
+
+    /// The 2 x 2 footprint's texels at corner `(x, y)` of four lanes, clamped to the edge,
+    /// lane by lane: `((x0 y0, x1 y0), (x0 y1, x1 y1))`.
+    #[inline(always)]
+    fn texels2x2_4(s: &Surface<f32>, x: Vec4, y: Vec4) -> ((Vec4, Vec4), (Vec4, Vec4)) {
+        let (w, h) = (s.width() as i64, s.height() as i64);
+        let (x0, x1) = (index4(x, w - 1), index4(x + Vec4::ONE, w - 1));
+        let (y0, y1) = (index4(y, h - 1), index4(y + Vec4::ONE, h - 1));
+        let (d, ws) = (s.data(), w as usize);
+        let fetch =
+            |ys: [usize; 4], xs: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| texel(d, ys[i] * ws + xs[i])));
+        ((fetch(y0, x0), fetch(y0, x1)), (fetch(y1, x0), fetch(y1, x1)))
     }
 
     /// `r` where `inside`, the border value elsewhere.
@@ -337,6 +359,42 @@ impl CompareSampler {
             sum += wy * rs;
         }
         self.bordered(inside, sum / (n * n) as f32)
+    }
+}
+
+/// The texels at whole-number coordinates `(x, y)` of four lanes, clamped into the surface
+/// (NaN lanes read texel 0 of their axis, as [`index4`] makes them): one vector index
+/// computation (`y * width + x`) instead of four scalar ones, then four loads.
+#[inline(always)]
+pub fn texels4(s: &Surface<f32>, x: Vec4, y: Vec4) -> Vec4 {
+    let (w, h) = (s.width(), s.height());
+    let d = s.data();
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+    {
+        use std::arch::x86_64::*;
+        // Clamped in float as `index4` does (`maxps` maps NaN to 0); w * h < 2^31 (both at
+        // most MAX_DIMENSION = 2^14), so the index fits an i32.
+        let cx = Vec4::splat((w - 1) as f32).min(x.max(Vec4::ZERO));
+        let cy = Vec4::splat((h - 1) as f32).min(y.max(Vec4::ZERO));
+        // SAFETY: SSE4.1 is enabled for this build; every index is y * w + x with x < w, y < h.
+        unsafe {
+            let i = _mm_add_epi32(
+                _mm_mullo_epi32(_mm_cvttps_epi32(cy.into()), _mm_set1_epi32(w as i32)),
+                _mm_cvttps_epi32(cx.into()),
+            );
+            let at = |k: u32| texel(d, k as usize);
+            Vec4::new(
+                at(_mm_cvtsi128_si32(i) as u32),
+                at(_mm_extract_epi32::<1>(i) as u32),
+                at(_mm_extract_epi32::<2>(i) as u32),
+                at(_mm_extract_epi32::<3>(i) as u32),
+            )
+        }
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+    {
+        let (xs, ys) = (index4(x, w as i64 - 1), index4(y, h as i64 - 1));
+        Vec4::from_array(std::array::from_fn(|k| texel(d, ys[k] * w as usize + xs[k])))
     }
 }
 
@@ -402,6 +460,22 @@ mod tests {
     /// Equal bits, or both NaN (a NaN's payload is not part of the contract).
     fn same(a: f32, b: f32) -> bool {
         a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    #[test]
+    fn four_lane_texel_reads_clamp_as_one_lane_reads() {
+        let s = Surface::from_vec(7, 5, (0..35).map(|i| i as f32).collect()).unwrap();
+        let coords = [-3.0, -0.0, 0.0, 1.0, 4.0, 6.0, 9.0, 1e30, -1e30, f32::NAN];
+        for &x in &coords {
+            for &y in &coords {
+                let four = texels4(&s, Vec4::new(x, 0.0, x, 2.0), Vec4::new(y, y, 1.0, y));
+                for (k, (xx, yy)) in [(x, y), (0.0, y), (x, 1.0), (2.0, y)].into_iter().enumerate() {
+                    // `as` maps NaN to 0 and saturates, as the clamp does.
+                    let (cx, cy) = ((xx as i64).clamp(0, 6) as u32, (yy as i64).clamp(0, 4) as u32);
+                    assert_eq!(four[k], s.at(cx, cy), "lane {k} at ({xx}, {yy})");
+                }
+            }
+        }
     }
 
     #[test]

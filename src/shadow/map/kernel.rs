@@ -407,27 +407,11 @@ pub fn lanes_index(v: Vec4) -> [usize; 4] {
 }
 
 /// [`bilinear_compare`] of four taps at once (`u`, `v` per lane), each lane equal to the
-/// one-tap call bit for bit: the same operations lane-wise, texels fetched lane by lane.
+/// one-tap call bit for bit: the pipeline's [`CompareSampler::pcf2x2_4`] with its default
+/// compare function and border.
 #[inline(always)]
 pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
-    let (w, h) = (map.width() as f32, map.height() as f32);
-    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
-    let (tx, ty) = (u * w - Vec4::splat(0.5), v * h - Vec4::splat(0.5));
-    let (flx, fly) = (tx.floor(), ty.floor());
-    let (fx, fy) = (tx - flx, ty - fly);
-    let (wl, hl) = (Vec4::splat(w - 1.0), Vec4::splat(h - 1.0));
-    let (x0, x1) = (flx.clamp(Vec4::ZERO, wl), (flx + Vec4::ONE).clamp(Vec4::ZERO, wl));
-    let (y0, y1) = (fly.clamp(Vec4::ZERO, hl), (fly + Vec4::ONE).clamp(Vec4::ZERO, hl));
-    let d = map.data();
-    let ws = map.width() as usize;
-    let (x0, x1, y0, y1) = (lanes_index(x0), lanes_index(x1), lanes_index(y0), lanes_index(y1));
-    let fetch = |xs: [usize; 4], ys: [usize; 4]| Vec4::from_array(std::array::from_fn(|i| d[ys[i] * ws + xs[i]]));
-    let c = |t: Vec4| Vec4::select(z.cmple(t), Vec4::ONE, Vec4::ZERO);
-    let (a, b) = (c(fetch(x0, y0)), c(fetch(x1, y0)));
-    let (cc, dd) = (c(fetch(x0, y1)), c(fetch(x1, y1)));
-    let top = a + (b - a) * fx;
-    let bottom = cc + (dd - cc) * fx;
-    Vec4::select(inside, top + (bottom - top) * fy, Vec4::ONE)
+    CompareSampler::default().pcf2x2_4(map, u, v, z)
 }
 
 /// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps, into the first
