@@ -254,11 +254,61 @@ impl CompareSampler {
     /// [`CompareSampler::pcf2x2`] per lane.
     #[inline(always)]
     pub fn pcf2x2_4(&self, s: &Surface<f32>, u: Vec4, v: Vec4, reference: Vec4) -> Vec4 {
-        let inside = self.inside4(u, v);
         let (w, h) = (s.width() as i64, s.height() as i64);
-        let (x, y, fx, fy) = Self::footprint4(s, u, v);
         let d = s.data();
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+        {
+            use std::arch::x86_64::*;
+            // Every lane's whole footprint inside the map (the common case): no NaN (it fails
+            // the comparisons), no clamp, and inside [0, 1]^2, so no border either
+            // (`floor(u w - 0.5) >= 0` gives `u > 0`, `<= w - 2` gives `u w < w`, so `u < 1`).
+            // The same fractions and texels as below, with the indices `y * w + x` computed
+            // on all lanes at once (w * h < 2^31: both at most MAX_DIMENSION).
+            let tx = u * w as f32 - Vec4::splat(0.5);
+            let ty = v * h as f32 - Vec4::splat(0.5);
+            let (x, y) = (floor4(tx), floor4(ty));
+            let interior = x.cmpge(Vec4::ZERO)
+                & x.cmple(Vec4::splat((w - 2) as f32))
+                & y.cmpge(Vec4::ZERO)
+                & y.cmple(Vec4::splat((h - 2) as f32));
+            if w >= 2 && h >= 2 && interior.all() {
+                let (fx, fy) = (tx - x, ty - y);
+                // SAFETY: SSE4.1 is enabled for this build; x <= w - 2 and y <= h - 2, so texels
+                // i, i + 1, i + w and i + w + 1 of every lane's index i are in the map.
+                let ((t0, t1), (b0, b1)) = unsafe {
+                    let i = _mm_add_epi32(
+                        _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
+                        _mm_cvttps_epi32(x.into()),
+                    );
+                    let lanes = [
+                        _mm_cvtsi128_si32(i) as u32 as usize,
+                        _mm_extract_epi32::<1>(i) as u32 as usize,
+                        _mm_extract_epi32::<2>(i) as u32 as usize,
+                        _mm_extract_epi32::<3>(i) as u32 as usize,
+                    ];
+                    let pair = |i: usize| {
+                        debug_assert!(i + 1 < d.len());
+                        _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64))
+                    };
+                    let row = |off: usize| -> (Vec4, Vec4) {
+                        let p01 = _mm_movelh_ps(pair(lanes[0] + off), pair(lanes[1] + off));
+                        let p23 = _mm_movelh_ps(pair(lanes[2] + off), pair(lanes[3] + off));
+                        (
+                            Vec4::from(_mm_shuffle_ps::<0b10_00_10_00>(p01, p23)),
+                            Vec4::from(_mm_shuffle_ps::<0b11_01_11_01>(p01, p23)),
+                        )
+                    };
+                    (row(0), row(w as usize))
+                };
+                let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
+                let top = a + (b - a) * fx;
+                let bottom = cc + (dd - cc) * fx;
+                return top + (bottom - top) * fy;
+            }
+        }
+        let inside = self.inside4(u, v);
+        let (x, y, fx, fy) = Self::footprint4(s, u, v);
         // Both columns in the map for every lane: each row's two texels are adjacent, one
         // 8-byte load per lane and row instead of two (the same texels).
         let paired = w >= 2 && (x.cmpge(Vec4::ZERO) & x.cmple(Vec4::splat((w - 2) as f32))).all();
