@@ -55,15 +55,29 @@ impl LightView {
     /// ones (only differences of distances mean something there).
     #[inline]
     pub fn distance(&self, z: f32) -> f32 {
+        self.depth_to_distance().at(z)
+    }
+
+    /// [`LightView::distance`] with its constants computed once, for loops over many depths
+    /// (the same operations, so the same values).
+    #[inline]
+    pub fn depth_to_distance(&self) -> DepthToDistance {
         let (r2, r3) = (self.matrix.row(2), self.matrix.row(3));
         if self.perspective {
             // A perspective projection's depth row is `-a * (w row) + b * e_w`, so
             // `z = -a + b / w` and `w` (the distance along the axis) is `b / (z + a)`.
             let a = -r2.truncate().dot(r3.truncate()) / r3.truncate().length_squared();
-            let b = r2.w + a * r3.w;
-            b / (z + a)
+            DepthToDistance {
+                perspective: true,
+                a,
+                b: r2.w + a * r3.w,
+            }
         } else {
-            (z - r2.w) / r2.truncate().length()
+            DepthToDistance {
+                perspective: false,
+                a: r2.w,
+                b: r2.truncate().length(),
+            }
         }
     }
 
@@ -307,6 +321,27 @@ pub fn fitted_overview(p: &Pipeline, frame: &Frame, fitted: &LightView) -> Resul
         super::overview::draw_segment(&mut img, c[i], c[(i + 1) % 4], [230, 40, 40, 255]);
     }
     Ok(img)
+}
+
+/// A view's map depth to distance along its axis ([`LightView::depth_to_distance`]).
+#[derive(Copy, Clone, Debug)]
+pub struct DepthToDistance {
+    perspective: bool,
+    a: f32,
+    b: f32,
+}
+
+impl DepthToDistance {
+    /// The distance of map depth `z`: `b / (z + a)` for perspective views, `(z - a) / b` for
+    /// orthographic ones.
+    #[inline(always)]
+    pub fn at(&self, z: f32) -> f32 {
+        if self.perspective {
+            self.b / (z + self.a)
+        } else {
+            (z - self.a) / self.b
+        }
+    }
 }
 
 #[cfg(test)]

@@ -168,7 +168,9 @@ impl Reference {
         }
     }
 
-    /// Whether every tap compares against the same depth.
+    /// Whether every tap compares against the same depth: [`Reference::at`] adds only zeros
+    /// then, so loops may compare against `z`.
+    #[inline]
     pub fn is_flat(&self) -> bool {
         self.gradient == Vec2::ZERO && self.cone == 0.0
     }
@@ -311,9 +313,14 @@ impl Kernel {
                 // Four taps per vector, summed in tap order (as one at a time, bit for bit).
                 let (mut lit, mut total) = (0.0f32, 0.0f32);
                 let mut chunks = taps.chunks_exact(4);
+                let flat = r.is_flat();
                 for c in &mut chunks {
                     let p: [Vec2; 4] = std::array::from_fn(|i| uv + c[i].0 / size);
-                    let z = Vec4::from_array(std::array::from_fn(|i| r.at(c[i].0)));
+                    let z = if flat {
+                        Vec4::splat(r.z)
+                    } else {
+                        Vec4::from_array(std::array::from_fn(|i| r.at(c[i].0)))
+                    };
                     let u4 = Vec4::new(p[0].x, p[1].x, p[2].x, p[3].x);
                     let v4 = Vec4::new(p[0].y, p[1].y, p[2].y, p[3].y);
                     let v = bilinear_compare4(map, u4, v4, z);

@@ -259,6 +259,8 @@ impl Pcss {
         }
         let inv = Vec2::ONE / size;
         let (mut sum, mut found, mut n) = (0.0f32, 0u32, 0u32);
+        let distance = view.depth_to_distance();
+        let flat = at.r.is_flat();
         SEARCH.with(|t| {
             let mut taps = t.borrow_mut();
             kernel.taps_at(x as u32, y as u32, &mut taps);
@@ -269,8 +271,8 @@ impl Pcss {
                     continue;
                 }
                 let depth = map.at((uv.x * size) as u32, (uv.y * size) as u32);
-                if depth < at.r.at(d) {
-                    sum += view.distance(depth);
+                if depth < if flat { at.r.z } else { at.r.at(d) } {
+                    sum += distance.at(depth);
                     found += 1;
                 }
             }
