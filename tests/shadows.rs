@@ -113,7 +113,7 @@ fn registry_rejects_unknown_names_and_bad_values() {
     };
     assert!(bad("shadow-mop", &[]).contains("unknown technique 'shadow-mop' (known: reference, shadow-map"));
     assert!(bad("shadow-map", &[("sise", "1")]).contains("has no option 'sise' (options: size, format"));
-    assert!(bad("shadow-map", &[("size", "big")]).contains("size=big is not a number"));
+    assert!(bad("shadow-map", &[("size", "big")]).contains("size=big is not a number (an integer is expected)"));
     assert!(bad("shadow-map", &[("size", "0")]).contains("outside [16, 16384]"));
     assert!(bad("shadow-map", &[("filter", "gauss")]).contains("not one of none, pcf2"));
     assert!(shadow::parse_sets(&["size".into()]).is_err());
@@ -188,6 +188,23 @@ fn cli_reports_bad_input_with_what_and_where() {
         (
             vec!["render".into(), good.clone(), "--set".into(), "size".into()],
             "is not key=value",
+        ),
+        // Regression: clap called `-1` an unexpected argument, and `size=-1` "not a number".
+        (
+            vec!["render".into(), good.clone(), "--threads".into(), "-1".into()],
+            "-1 is negative: 0 (all cores) or a number of threads",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "size=-1".into()],
+            "size=-1 is negative",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "size=1e3".into()],
+            "write 1000 in digits",
+        ),
+        (
+            vec!["render".into(), good.clone(), "--set".into(), "units=nan".into()],
+            "units=nan is not finite",
         ),
         (
             vec!["render".into(), "does/not/exist.toml".into()],
@@ -1601,7 +1618,7 @@ fn bad_soft_shadow_options_are_errors() {
         ("pcss", "blockers", "0", "outside [1, 256]"),
         ("pcss", "taps", "257", "outside [1, 256]"),
         ("pcss", "light", "-1", "outside"),
-        ("pcss", "angle", "NaN", "outside"),
+        ("pcss", "angle", "NaN", "not finite"),
         ("pcss", "disk", "grid", "not one of poisson, rotated, spiral"),
         ("multi-sample", "samples", "0", "outside [1, 1024]"),
         ("multi-sample", "method", "rays", "not one of maps, volumes"),
@@ -1882,7 +1899,7 @@ fn one_silhouette_fails_under_a_large_near_light() {
 fn bad_penumbra_volume_options_are_errors() {
     for (t, k, v, says) in [
         ("pvm", "light", "-1", "outside"),
-        ("pvmf", "light", "NaN", "outside"),
+        ("pvmf", "light", "NaN", "not finite"),
         ("pvmf", "spread", "0", "outside (0, 1]"),
         ("pvmf", "spread", "1.5", "outside [0, 1]"),
         ("pvmf", "pcf", "0", "outside [1, 32]"),

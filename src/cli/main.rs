@@ -51,7 +51,7 @@ struct SceneArgs {
     /// Scene file (TOML).
     scene: PathBuf,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Output folder.
     #[arg(long, default_value = "out")]
@@ -69,7 +69,7 @@ struct RenderArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
     #[arg(long, default_value_t = 3)]
@@ -93,7 +93,7 @@ struct InspectArgs {
     #[arg(long)]
     pixel: String,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Print the steps as JSON.
     #[arg(long)]
@@ -108,7 +108,7 @@ struct SweepArgs {
     #[arg(long, default_value = "all")]
     techniques: String,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
     #[arg(long, default_value_t = 2)]
@@ -165,7 +165,7 @@ struct TechniqueArgs {
 #[derive(Args)]
 struct Common {
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after the warm-up (the median is reported).
     #[arg(long, default_value_t = 10)]
@@ -311,4 +311,16 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `--threads`: a whole number of threads, 0 for all cores. Negative and fractional values get
+/// a message that says so (clap alone would call `-1` an unknown argument); the upper limit is
+/// the pipeline's, checked where the pool is made.
+fn parse_threads(s: &str) -> Result<usize, String> {
+    s.trim().parse::<usize>().map_err(|_| match s.trim().parse::<f64>() {
+        Ok(v) if v < 0.0 => format!("{s} is negative: 0 (all cores) or a number of threads"),
+        Ok(v) if v.is_finite() && v.fract() == 0.0 => format!("{s}: write the number of threads in digits"),
+        Ok(_) => format!("{s} is not a whole number of threads"),
+        Err(_) => format!("{s} is not a number: 0 (all cores) or a number of threads"),
+    })
 }

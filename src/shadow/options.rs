@@ -23,14 +23,14 @@ pub trait OptionValue: Clone + 'static {
     fn show(&self) -> String;
 }
 
-macro_rules! numeric_option {
-    ($t:ty, $name:expr) => {
+macro_rules! integer_option {
+    ($t:ty) => {
         impl OptionValue for $t {
             fn type_name() -> String {
-                $name.into()
+                "integer".into()
             }
             fn parse(s: &str) -> Result<Self, String> {
-                s.parse().map_err(|_| "is not a number".to_string())
+                s.parse().map_err(|_| integer_error(s, <$t>::MAX as f64))
             }
             fn show(&self) -> String {
                 self.to_string()
@@ -38,9 +38,40 @@ macro_rules! numeric_option {
         }
     };
 }
-numeric_option!(u32, "integer");
-numeric_option!(usize, "integer");
-numeric_option!(f32, "number");
+integer_option!(u32);
+integer_option!(usize);
+
+/// Why `s` is not an integer in `0..=max`, as the end of a sentence.
+fn integer_error(s: &str, max: f64) -> String {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_nan() => "is not a number".into(),
+        Ok(v) if v < 0.0 => "is negative (a whole number from 0 is expected)".into(),
+        Ok(v) if v > max => format!("is too large (at most {max})"),
+        Ok(v) if v.fract() != 0.0 => "is not a whole number".into(),
+        Ok(v) => format!("is not written as an integer (write {v} in digits)"),
+        Err(_) => "is not a number (an integer is expected)".into(),
+    }
+}
+
+impl OptionValue for f32 {
+    fn type_name() -> String {
+        "number".into()
+    }
+    /// A finite number: NaN and infinities are refused here, before any range check.
+    fn parse(s: &str) -> Result<Self, String> {
+        match s.trim().parse::<f32>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => match s.trim().parse::<f64>() {
+                Ok(w) if w.is_finite() => Err("is too large for a 32-bit float".into()),
+                _ => Err("is not finite (NaN and infinities are not accepted)".into()),
+            },
+            Err(_) => Err("is not a number".into()),
+        }
+    }
+    fn show(&self) -> String {
+        self.to_string()
+    }
+}
 
 impl OptionValue for bool {
     fn type_name() -> String {
@@ -327,8 +358,22 @@ mod tests {
         assert_eq!(d.settings(&o).len(), 4);
         let err = |p: &[(&str, &str)]| d.parse(&pairs(p)).unwrap_err();
         assert_eq!(err(&[("n", "9")]), "technique 't': option n=9 is outside [1, 8]");
-        assert_eq!(err(&[("x", "NaN")]), "technique 't': option x=NaN is outside [-1, 1]");
-        assert_eq!(err(&[("n", "two")]), "technique 't': option n=two is not a number");
+        assert_eq!(
+            err(&[("x", "NaN")]),
+            "technique 't': option x=NaN is not finite (NaN and infinities are not accepted)"
+        );
+        assert!(err(&[("x", "-inf")]).ends_with("is not finite (NaN and infinities are not accepted)"));
+        assert!(err(&[("x", "1e39")]).ends_with("is too large for a 32-bit float"));
+        assert_eq!(
+            err(&[("n", "two")]),
+            "technique 't': option n=two is not a number (an integer is expected)"
+        );
+        // Regression: these all said "is not a number".
+        assert!(err(&[("n", "-1")]).ends_with("is negative (a whole number from 0 is expected)"));
+        assert!(err(&[("n", "1e3")]).ends_with("is not written as an integer (write 1000 in digits)"));
+        assert!(err(&[("n", "2.5")]).ends_with("is not a whole number"));
+        assert!(err(&[("n", "99999999999")]).ends_with("is too large (at most 4294967295)"));
+        assert!(err(&[("n", "nan")]).ends_with("is not a number"));
         assert!(err(&[("on", "yes")]).contains("is not one of true, false"));
         assert_eq!(
             err(&[("m", "1")]),
