@@ -140,48 +140,13 @@ pub const PCSS_PENUMBRA_SCALE: f32 = 400.0;
 /// [`POISSON16`]: crate::shadow::map::kernel::POISSON16
 #[inline]
 pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
-    use crate::shadow::map::kernel::{bilinear_compare4, lanes_index};
-    let size = map.width() as f32;
-    let last = Vec4::splat(size - 1.0);
-    let reference = z - PCSS_SEARCH_BIAS;
-    let (dx, dy) = poisson16_lanes();
-    let d = map.data();
-    let ws = map.width() as usize;
-    // Four taps at a time, each lane's operations those of one tap; sums in tap order.
-    let (mut sum, mut found) = (0.0f32, 0u32);
-    let k = Vec4::splat(PCSS_SEARCH_TEXELS / size);
-    for q in 0..4 {
-        let tx = ((Vec4::splat(uv.x) + dx[q] * k) * size).floor().clamp(Vec4::ZERO, last);
-        let ty = ((Vec4::splat(uv.y) + dy[q] * k) * size).floor().clamp(Vec4::ZERO, last);
-        let (tx, ty) = (lanes_index(tx), lanes_index(ty));
-        let depth = Vec4::from_array(std::array::from_fn(|i| d[ty[i] * ws + tx[i]]));
-        let blocker = depth.cmplt(Vec4::splat(reference));
-        let kept = Vec4::select(blocker, depth, Vec4::ZERO);
-        sum = sum + kept.x + kept.y + kept.z + kept.w;
-        found += blocker.bitmask().count_ones();
-    }
-    if found == 0 {
-        return 1.0;
-    }
-    let r = ((reference - sum / found as f32) * PCSS_PENUMBRA_SCALE).clamp(1.0, PCSS_SEARCH_TEXELS);
-    let s = Vec4::splat(r / size);
-    let mut lit = 0.0f32;
-    for q in 0..4 {
-        let v = bilinear_compare4(
-            map,
-            Vec4::splat(uv.x) + dx[q] * s,
-            Vec4::splat(uv.y) + dy[q] * s,
-            Vec4::splat(z),
-        );
-        lit = lit + v.x + v.y + v.z + v.w;
-    }
-    lit / 16.0
+    pcss_shadow4(map, Vec4::splat(uv.x), Vec4::splat(uv.y), Vec4::splat(z)).x
 }
 
-/// [`pcss_shadow`] of four pixels at once (`u`, `v`, `z` per lane), each lane equal to the
-/// one-pixel call bit for bit: the lanes are pixels, so every tap's operations are those of
-/// the one-pixel call lane-wise and the sums run in the same tap order, vertically; the
-/// filter runs when any lane found a blocker, and lanes without one are lit.
+/// [`pcss_shadow`] of four pixels at once (`u`, `v`, `z` per lane), each lane the shader of
+/// its pixel: the lanes are pixels, so the sums run down the lanes in tap order; the filter
+/// runs when any lane found a blocker, and lanes without one are lit. (The specification,
+/// written tap by tap, is the test's `plain_pcss`.)
 #[inline(always)]
 pub fn pcss_shadow4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
     use crate::pipeline::sampler::texels4;
@@ -216,17 +181,6 @@ pub fn pcss_shadow4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
         lit += bilinear_compare4(map, u + Vec4::splat(p.x) * s, v + Vec4::splat(p.y) * s, z);
     }
     Vec4::select(any, lit / Vec4::splat(16.0), Vec4::ONE)
-}
-
-/// [`crate::shadow::map::kernel::POISSON16`] as four lanes of x and four of y.
-#[inline(always)]
-fn poisson16_lanes() -> ([Vec4; 4], [Vec4; 4]) {
-    use crate::shadow::map::kernel::POISSON16 as P;
-    let lane = |q: usize, f: fn(Vec2) -> f32| Vec4::new(f(P[4 * q]), f(P[4 * q + 1]), f(P[4 * q + 2]), f(P[4 * q + 3]));
-    (
-        std::array::from_fn(|q| lane(q, |p| p.x)),
-        std::array::from_fn(|q| lane(q, |p| p.y)),
-    )
 }
 
 struct CameraFs<'a> {

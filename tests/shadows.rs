@@ -172,40 +172,22 @@ fn cli_reports_bad_input_with_what_and_where() {
     ]);
     assert!(ok, "{text}");
     assert!(text.contains("rmse"), "{text}");
+    // `render GOOD FLAG VALUE`.
+    let render =
+        |flag: &str, value: &str| -> Vec<String> { vec!["render".into(), good.clone(), flag.into(), value.into()] };
     let cases: Vec<(Vec<String>, &str)> = vec![
-        (
-            vec!["render".into(), good.clone(), "--technique".into(), "nope".into()],
-            "unknown technique 'nope'",
-        ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "sise=3".into()],
-            "has no option 'sise'",
-        ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "size=-4".into()],
-            "size=-4",
-        ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "size".into()],
-            "is not key=value",
-        ),
+        (render("--technique", "nope"), "unknown technique 'nope'"),
+        (render("--set", "sise=3"), "has no option 'sise'"),
+        (render("--set", "size=-4"), "size=-4"),
+        (render("--set", "size"), "is not key=value"),
         // Regression: clap called `-1` an unexpected argument, and `size=-1` "not a number".
         (
-            vec!["render".into(), good.clone(), "--threads".into(), "-1".into()],
+            render("--threads", "-1"),
             "-1 is negative: 0 (all cores) or a number of threads",
         ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "size=-1".into()],
-            "size=-1 is negative",
-        ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "size=1e3".into()],
-            "write 1000 in digits",
-        ),
-        (
-            vec!["render".into(), good.clone(), "--set".into(), "units=nan".into()],
-            "units=nan is not finite",
-        ),
+        (render("--set", "size=-1"), "size=-1 is negative"),
+        (render("--set", "size=1e3"), "write 1000 in digits"),
+        (render("--set", "units=nan"), "units=nan is not finite"),
         (
             vec!["render".into(), "does/not/exist.toml".into()],
             "does/not/exist.toml: cannot read scene file",

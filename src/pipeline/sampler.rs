@@ -257,14 +257,20 @@ impl CompareSampler {
         let (w, h) = (s.width() as i64, s.height() as i64);
         let d = s.data();
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
+        // The comparisons of the four texels, filtered bilinearly.
+        let filter = |((t0, t1), (b0, b1)): ((Vec4, Vec4), (Vec4, Vec4)), fx: Vec4, fy: Vec4| {
+            let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
+            let top = a + (b - a) * fx;
+            let bottom = cc + (dd - cc) * fx;
+            top + (bottom - top) * fy
+        };
         #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
         {
             use std::arch::x86_64::*;
             // Every lane's whole footprint inside the map (the common case): no NaN (it fails
             // the comparisons), no clamp, and inside [0, 1]^2, so no border either
             // (`floor(u w - 0.5) >= 0` gives `u > 0`, `<= w - 2` gives `u w < w`, so `u < 1`).
-            // The same fractions and texels as below, with the indices `y * w + x` computed
-            // on all lanes at once (w * h < 2^31: both at most MAX_DIMENSION).
+            // The same fractions and texels as below, each row's two texels one 8-byte load.
             let tx = u * w as f32 - Vec4::splat(0.5);
             let ty = v * h as f32 - Vec4::splat(0.5);
             let (x, y) = (floor4(tx), floor4(ty));
@@ -276,17 +282,8 @@ impl CompareSampler {
                 let (fx, fy) = (tx - x, ty - y);
                 // SAFETY: SSE4.1 is enabled for this build; x <= w - 2 and y <= h - 2, so texels
                 // i, i + 1, i + w and i + w + 1 of every lane's index i are in the map.
-                let ((t0, t1), (b0, b1)) = unsafe {
-                    let i = _mm_add_epi32(
-                        _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
-                        _mm_cvttps_epi32(x.into()),
-                    );
-                    let lanes = [
-                        _mm_cvtsi128_si32(i) as u32 as usize,
-                        _mm_extract_epi32::<1>(i) as u32 as usize,
-                        _mm_extract_epi32::<2>(i) as u32 as usize,
-                        _mm_extract_epi32::<3>(i) as u32 as usize,
-                    ];
+                let lanes = lane_indices(x, y, w as u32);
+                let texels = unsafe {
                     let pair = |i: usize| {
                         debug_assert!(i + 1 < d.len());
                         _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64))
@@ -301,59 +298,13 @@ impl CompareSampler {
                     };
                     (row(0), row(w as usize))
                 };
-                let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
-                let top = a + (b - a) * fx;
-                let bottom = cc + (dd - cc) * fx;
-                return top + (bottom - top) * fy;
+                return filter(texels, fx, fy);
             }
         }
         let inside = self.inside4(u, v);
         let (x, y, fx, fy) = Self::footprint4(s, u, v);
-        // Both columns in the map for every lane: each row's two texels are adjacent, one
-        // 8-byte load per lane and row instead of two (the same texels).
-        let paired = w >= 2 && (x.cmpge(Vec4::ZERO) & x.cmple(Vec4::splat((w - 2) as f32))).all();
-        #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
-        let ((t0, t1), (b0, b1)) = if paired {
-            use std::arch::x86_64::*;
-            // Rows clamped as `index4` clamps them (y is never NaN here: `footprint4` made
-            // NaN 0); the texel indices `y * w + x` computed on all lanes at once (w * h <
-            // 2^31: both at most MAX_DIMENSION).
-            let hl = Vec4::splat((h - 1) as f32);
-            let (y0, y1) = (hl.min(y.max(Vec4::ZERO)), hl.min((y + Vec4::ONE).max(Vec4::ZERO)));
-            // SAFETY: SSE4.1 is enabled for this build; x0 <= w - 2 and y < h, so texels i and
-            // i + 1 of every index are in the map.
-            unsafe {
-                let wv = _mm_set1_epi32(w as i32);
-                let xi = _mm_cvttps_epi32(x.into());
-                let index = |y: Vec4| _mm_add_epi32(_mm_mullo_epi32(_mm_cvttps_epi32(y.into()), wv), xi);
-                // Indices are below 2^31: zero-extended, not sign-extended.
-                let pair = |i: i32| {
-                    let i = i as u32 as usize;
-                    debug_assert!(i + 1 < d.len());
-                    _mm_castpd_ps(_mm_load_sd(d.as_ptr().add(i) as *const f64))
-                };
-                let row = |i: __m128i| -> (Vec4, Vec4) {
-                    let p01 = _mm_movelh_ps(pair(_mm_cvtsi128_si32(i)), pair(_mm_extract_epi32::<1>(i)));
-                    let p23 = _mm_movelh_ps(pair(_mm_extract_epi32::<2>(i)), pair(_mm_extract_epi32::<3>(i)));
-                    (
-                        Vec4::from(_mm_shuffle_ps::<0b10_00_10_00>(p01, p23)),
-                        Vec4::from(_mm_shuffle_ps::<0b11_01_11_01>(p01, p23)),
-                    )
-                };
-                (row(index(y0)), row(index(y1)))
-            }
-        } else {
-            Self::texels2x2_4(s, x, y)
-        };
-        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
-        let ((t0, t1), (b0, b1)) = {
-            let _ = paired;
-            Self::texels2x2_4(s, x, y)
-        };
-        let (a, b, cc, dd) = (c(t0), c(t1), c(b0), c(b1));
-        let top = a + (b - a) * fx;
-        let bottom = cc + (dd - cc) * fx;
-        self.bordered(inside, top + (bottom - top) * fy)
+        // Footprints that reach past an edge, NaN or outside the map: clamped lane by lane.
+        self.bordered(inside, filter(Self::texels2x2_4(s, x, y), fx, fy))
     }
 
     /// The 2 x 2 footprint's texels at corner `(x, y)` of four lanes, clamped to the edge,
@@ -421,30 +372,38 @@ pub fn texels4(s: &Surface<f32>, x: Vec4, y: Vec4) -> Vec4 {
     let d = s.data();
     #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
     {
-        use std::arch::x86_64::*;
-        // Clamped in float as `index4` does (`maxps` maps NaN to 0); w * h < 2^31 (both at
-        // most MAX_DIMENSION = 2^14), so the index fits an i32.
+        // Clamped in float as `index4` does (`maxps` maps NaN to 0).
         let cx = Vec4::splat((w - 1) as f32).min(x.max(Vec4::ZERO));
         let cy = Vec4::splat((h - 1) as f32).min(y.max(Vec4::ZERO));
-        // SAFETY: SSE4.1 is enabled for this build; every index is y * w + x with x < w, y < h.
-        unsafe {
-            let i = _mm_add_epi32(
-                _mm_mullo_epi32(_mm_cvttps_epi32(cy.into()), _mm_set1_epi32(w as i32)),
-                _mm_cvttps_epi32(cx.into()),
-            );
-            let at = |k: u32| texel(d, k as usize);
-            Vec4::new(
-                at(_mm_cvtsi128_si32(i) as u32),
-                at(_mm_extract_epi32::<1>(i) as u32),
-                at(_mm_extract_epi32::<2>(i) as u32),
-                at(_mm_extract_epi32::<3>(i) as u32),
-            )
-        }
+        let i = lane_indices(cx, cy, w);
+        Vec4::new(texel(d, i[0]), texel(d, i[1]), texel(d, i[2]), texel(d, i[3]))
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
     {
         let (xs, ys) = (index4(x, w as i64 - 1), index4(y, h as i64 - 1));
         Vec4::from_array(std::array::from_fn(|k| texel(d, ys[k] * w as usize + xs[k])))
+    }
+}
+
+/// The texel indices `y * w + x` of four lanes of whole, in-surface coordinates, computed on
+/// all lanes at once (w * h < 2^31: both sides at most MAX_DIMENSION = 2^14, so the indices
+/// fit an i32 and are zero-extended).
+#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+#[inline(always)]
+fn lane_indices(x: Vec4, y: Vec4, w: u32) -> [usize; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE4.1 is enabled for this build.
+    unsafe {
+        let i = _mm_add_epi32(
+            _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
+            _mm_cvttps_epi32(x.into()),
+        );
+        [
+            _mm_cvtsi128_si32(i) as u32 as usize,
+            _mm_extract_epi32::<1>(i) as u32 as usize,
+            _mm_extract_epi32::<2>(i) as u32 as usize,
+            _mm_extract_epi32::<3>(i) as u32 as usize,
+        ]
     }
 }
 

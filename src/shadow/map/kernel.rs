@@ -395,24 +395,6 @@ pub fn bilinear_compare(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
     CompareSampler::default().pcf2x2(map, uv, z)
 }
 
-/// Four whole, non-negative lane values below 2^31 (texel coordinates clamped into a map) as
-/// indices: one vector conversion instead of four scalar ones.
-#[inline(always)]
-pub fn lanes_index(v: Vec4) -> [usize; 4] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{__m128, __m128i, _mm_cvttps_epi32};
-        // SAFETY: SSE2 is part of x86_64; `__m128i` and `[i32; 4]` have the same size and
-        // every bit pattern is a valid `[i32; 4]`.
-        let i: [i32; 4] = unsafe { std::mem::transmute::<__m128i, [i32; 4]>(_mm_cvttps_epi32(__m128::from(v))) };
-        i.map(|x| x as usize)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        v.to_array().map(|x| x as usize)
-    }
-}
-
 /// [`bilinear_compare`] of four taps at once (`u`, `v` per lane), each lane equal to the
 /// one-tap call bit for bit: the pipeline's [`CompareSampler::pcf2x2_4`] with its default
 /// compare function and border.
