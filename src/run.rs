@@ -7,8 +7,8 @@ use crate::hash::{fnv1a, FNV_OFFSET};
 use crate::metrics::{self, Errors};
 use crate::pipeline::{Pipeline, Rgba8, Surface};
 use crate::reference::{Reference, ReferenceOptions};
-use crate::scene::Scene;
-use crate::shadow;
+use crate::scene::{Scene, SceneClass};
+use crate::shadow::{self, Family};
 use crate::visibility::Visibility;
 use std::time::Instant;
 
@@ -84,10 +84,17 @@ pub fn reference(
 /// One technique run on one scene.
 #[derive(Clone, Debug)]
 pub struct RunResult {
+    /// Position in the sweep's run list (0 outside a sweep): the order of the CSV's rows,
+    /// which merging shards restores.
+    pub index: usize,
     /// Scene name.
     pub scene: String,
+    /// The scene's class (which error judges it on the charts).
+    pub class: SceneClass,
     /// Technique name.
     pub technique: String,
+    /// The technique's family.
+    pub family: Family,
     /// Its settings, `k=v;k=v` (empty: defaults).
     pub settings: String,
     /// Errors against the reference.
@@ -110,9 +117,9 @@ pub struct RunResult {
     /// worth showing).
     pub counted_path: bool,
     /// The technique's own pass times (ms) of its last run on the first frame.
-    pub passes: Vec<(&'static str, f64)>,
+    pub passes: Vec<(String, f64)>,
     /// The technique's work counters on the first frame.
-    pub counters: Vec<(&'static str, f64)>,
+    pub counters: Vec<(String, f64)>,
 }
 
 impl RunResult {
@@ -122,6 +129,15 @@ impl RunResult {
             self.technique.clone()
         } else {
             format!("{} [{}]", self.technique, self.settings)
+        }
+    }
+
+    /// The error that judges this run on its scene class's chart ([`SceneClass::metric`]).
+    pub fn class_error(&self) -> f64 {
+        match self.class {
+            SceneClass::Hard => self.errors.wrong_pct,
+            SceneClass::Area => self.errors.penumbra_rmse,
+            SceneClass::Transparent => self.errors.rmse,
         }
     }
 }
@@ -331,8 +347,11 @@ pub fn render_prepared(
         .collect::<Vec<_>>()
         .join(";");
     let result = RunResult {
+        index: 0,
         scene: scene.name.clone(),
+        class: scene.class(),
         technique: name.into(),
+        family: Family::of(name).unwrap_or(Family::Reference),
         settings,
         errors,
         transparent,
@@ -342,8 +361,11 @@ pub fn render_prepared(
         discontinuity,
         banding,
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
-        passes: pass_times.clone(),
-        counters: path.first().map(|f| f.counters.clone()).unwrap_or_default(),
+        passes: pass_times.iter().map(|&(k, v)| (k.to_string(), v)).collect(),
+        counters: path
+            .first()
+            .map(|f| f.counters.iter().map(|&(k, v)| (k.to_string(), v)).collect())
+            .unwrap_or_default(),
     };
     Ok(RenderOutput {
         result,

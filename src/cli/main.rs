@@ -119,6 +119,14 @@ struct SweepArgs {
     /// Also run every technique's extended option sets (variants and slow settings).
     #[arg(long)]
     all: bool,
+    /// Run only the I-th of N deterministic slices of the run list (0-based, `I/N`) and
+    /// write its partial results.csv; combine the slices' folders with --merge.
+    #[arg(long, value_parser = sweep::parse_shard, conflicts_with = "merge")]
+    shard: Option<(usize, usize)>,
+    /// Combine the output folders of shards into --out: the CSV, charts and report one
+    /// unsharded run writes. Takes no scenes.
+    #[arg(long, num_args = 1.., value_name = "DIR")]
+    merge: Vec<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -275,12 +283,20 @@ fn main() -> ExitCode {
                 reps: 2,
                 out: PathBuf::from("out/sweep"),
                 all: false,
+                shard: (0, 1),
             })
         }
         Some(Cmd::Render(a)) => scene::render(&a.scene, &a.technique, &a.sets, a.threads, a.reps, &a.out),
         Some(Cmd::Dump(a)) => scene::dump(&a.scene, &a.technique, &a.sets, a.threads, &a.out),
         Some(Cmd::Inspect(a)) => scene::inspect(&a.scene, &a.technique, &a.sets, &a.pixel, a.threads, a.json),
         Some(Cmd::Reference(a)) => scene::reference(&a.scene, a.threads, &a.out),
+        Some(Cmd::Sweep(a)) if !a.merge.is_empty() => {
+            if a.scenes.is_empty() {
+                sweep::merge(&a.merge, &a.out)
+            } else {
+                Err("sweep --merge combines finished shards and takes no scene files".into())
+            }
+        }
         Some(Cmd::Sweep(a)) => sweep::sweep(sweep::SweepOpts {
             scenes: a.scenes,
             techniques: a.techniques,
@@ -288,6 +304,7 @@ fn main() -> ExitCode {
             reps: a.reps,
             out: a.out,
             all: a.all,
+            shard: a.shard.unwrap_or((0, 1)),
         }),
         Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),
         Some(Cmd::List) => export::list(),

@@ -1,12 +1,16 @@
 //! `penumbra sweep` (and the default `cargo run`): every technique's sweep sets on every
-//! scene against the reference; CSV, charts, the summary table and the report page.
+//! scene against the reference; CSV, charts, the summary table and the report page. A run
+//! list can be split into deterministic shards (`--shard I/N`) whose folders `--merge`
+//! combines into what one run would have written.
 
 use super::scene::{load, pipeline, FIXTURES};
-use penumbra::report::{self, DirCache};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use penumbra::report::files::{read_sweep_data, write_sweep, write_sweep_data, Manifest};
+use penumbra::report::{self, DirCache, SceneInfo};
 use penumbra::run::{self, RunResult};
 use penumbra::scene::Scene;
 use penumbra::shadow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Options of `penumbra sweep`.
@@ -23,6 +27,38 @@ pub struct SweepOpts {
     pub out: PathBuf,
     /// Also run every technique's extended option sets.
     pub all: bool,
+    /// Run only shard `I` of `N` (`(0, 1)`: everything).
+    pub shard: (usize, usize),
+}
+
+/// Parses `I/N` with 0 <= I < N.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("--shard '{s}': expected I/N with 0 <= I < N (for example 0/4)");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n) = (
+        i.trim().parse::<usize>().map_err(|_| bad())?,
+        n.trim().parse::<usize>().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// The run list's slice of shard `i` of `n`: contiguous, so that each scene's reference is
+/// built by as few shards as possible, and sized within one run of the others.
+pub fn shard_range(total: usize, (i, n): (usize, usize)) -> std::ops::Range<usize> {
+    (total * i / n)..(total * (i + 1) / n)
+}
+
+fn progress(total: usize) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed} {msg}")
+            .expect("a valid template")
+            .progress_chars("#>."),
+    );
+    bar
 }
 
 /// `penumbra sweep`.
@@ -65,63 +101,70 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
     }
     let p = pipeline(o.threads)?;
     let loaded: Vec<(Scene, String)> = scenes.iter().map(|s| load(s)).collect::<Result<_, _>>()?;
+    // One name, one scene: rows, images and charts are keyed by it.
+    for (i, (s, _)) in loaded.iter().enumerate() {
+        if let Some(j) = loaded[..i].iter().position(|(t, _)| t.name == s.name) {
+            return Err(format!(
+                "{} and {} are both scene '{}': rows, images and charts would share a name (rename one file)",
+                scenes[j].display(),
+                scenes[i].display(),
+                s.name
+            ));
+        }
+    }
     let total = loaded.len() * jobs.len();
+    let mine = shard_range(total, o.shard);
     let thumbs_dir = o.out.join("images");
     let cache = DirCache(o.out.join("cache"));
     let mut results: Vec<RunResult> = Vec::new();
     let t0 = Instant::now();
-    let mut k = 0;
-    for (s, text) in &loaded {
+    let bar = progress(mine.len());
+    for (si, (s, text)) in loaded.iter().enumerate() {
+        let runs = si * jobs.len()..(si + 1) * jobs.len();
+        if runs.end <= mine.start || runs.start >= mine.end {
+            continue;
+        }
         let prepared = run::Prepared::new(&p, s, text, Some(&cache))?;
-        for (name, sets) in &jobs {
-            k += 1;
+        for (ji, (name, sets)) in jobs.iter().enumerate() {
+            let index = si * jobs.len() + ji;
+            if !mine.contains(&index) {
+                continue;
+            }
+            bar.set_message(format!("{} / {name}", s.name));
             let reps = if *name == "reference" { 0 } else { o.reps };
-            let bar = 30 * k / total.max(1);
-            eprint!(
-                "\r[{}{}] {k}/{total} {:.0} s  {} / {:<40}",
-                "#".repeat(bar),
-                ".".repeat(30 - bar),
-                t0.elapsed().as_secs_f64(),
-                s.name,
-                name
-            );
             let r = run::render_prepared(&p, &prepared, name, sets, reps)?;
             report::files::write_run(&thumbs_dir, &r)?;
-            results.push(r.result);
+            results.push(RunResult { index, ..r.result });
+            bar.inc(1);
         }
     }
-    eprintln!();
-    std::fs::create_dir_all(&o.out).map_err(|e| format!("cannot create {}: {e}", o.out.display()))?;
-    let write = |name: &str, body: &str| -> Result<(), String> {
-        let path = o.out.join(name);
-        std::fs::write(&path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    bar.finish_and_clear();
+    let manifest = Manifest {
+        runs: total,
+        shard: format!("{}/{}", o.shard.0, o.shard.1),
+        scenes: loaded
+            .iter()
+            .map(|(s, _)| SceneInfo {
+                name: s.name.clone(),
+                description: s.description.clone(),
+                class: s.class(),
+            })
+            .collect(),
     };
-    write("results.csv", &report::csv(&results))?;
-    write(
-        "chart_all.svg",
-        &report::chart_svg("all scenes: time vs RMSE", &results),
-    )?;
-    let mut scene_list = Vec::new();
-    for (s, _) in &loaded {
-        let rs: Vec<RunResult> = results.iter().filter(|r| r.scene == s.name).cloned().collect();
-        write(
-            &format!("chart_{}.svg", s.name),
-            &report::chart_svg(&format!("{}: time vs RMSE", s.name), &rs),
-        )?;
-        scene_list.push((s.name.clone(), s.description.clone()));
+    if o.shard.1 > 1 {
+        write_sweep_data(&o.out, &results, &manifest)?;
+        println!(
+            "sweep shard {}: runs {}..{} of {total} in {:.1} s, {} threads; merge the shards' folders with `penumbra sweep --merge DIR...`",
+            manifest.shard,
+            mine.start,
+            mine.end,
+            t0.elapsed().as_secs_f64(),
+            p.threads()
+        );
+        println!("data:   {}", o.out.join("results.csv").display());
+        return Ok(());
     }
-    let md = report::report_markdown(
-        &results,
-        &scene_list,
-        &|r| Some(format!("images/{}.png", report::files::stem(&r.scene, &r.label()))),
-        &|r| {
-            r.counted_path
-                .then(|| format!("images/{}_path.svg", report::files::stem(&r.scene, &r.label())))
-        },
-    );
-    write("report.md", &md)?;
-    write("summary.md", &report::summary_markdown(&results))?;
-    write("report.html", &report::report_html(&md))?;
+    write_sweep(&o.out, &results, &manifest)?;
     println!(
         "sweep: {} runs on {} scenes in {:.1} s, {} threads",
         results.len(),
@@ -129,8 +172,77 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
         t0.elapsed().as_secs_f64(),
         p.threads()
     );
-    println!("report: {}", o.out.join("report.html").display());
-    println!("        {}", o.out.join("report.md").display());
-    println!("data:   {}", o.out.join("results.csv").display());
+    print_outputs(&o.out);
+    Ok(())
+}
+
+fn print_outputs(out: &Path) {
+    println!("report: {}", out.join("report.html").display());
+    println!("        {}", out.join("report.md").display());
+    println!("data:   {}", out.join("results.csv").display());
+}
+
+/// `penumbra sweep --merge DIR...`: the shards' rows in run order, their images, and every
+/// chart and report page, as one unsharded run writes them. Errors name the folder that is
+/// missing, inconsistent or duplicated.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
+    if dirs.is_empty() {
+        return Err("--merge needs the shards' output folders".into());
+    }
+    let mut all: Vec<RunResult> = Vec::new();
+    let mut manifest: Option<(Manifest, &PathBuf)> = None;
+    for d in dirs {
+        let (rs, m) = read_sweep_data(d)?;
+        if let Some((first, fd)) = &manifest {
+            if first.runs != m.runs || first.scenes != m.scenes {
+                return Err(format!(
+                    "{} and {} are shards of different sweeps (their scenes or run lists differ)",
+                    fd.display(),
+                    d.display()
+                ));
+            }
+        } else {
+            manifest = Some((m, d));
+        }
+        all.extend(rs);
+        let images = d.join("images");
+        if images.is_dir() {
+            let to = out.join("images");
+            std::fs::create_dir_all(&to).map_err(|e| format!("cannot create {}: {e}", to.display()))?;
+            let rd = std::fs::read_dir(&images).map_err(|e| format!("{}: cannot list: {e}", images.display()))?;
+            for e in rd.flatten() {
+                let dest = to.join(e.file_name());
+                if e.path() != dest {
+                    std::fs::copy(e.path(), &dest)
+                        .map_err(|err| format!("cannot copy {} to {}: {err}", e.path().display(), dest.display()))?;
+                }
+            }
+        }
+    }
+    let (mut m, _) = manifest.expect("at least one folder");
+    all.sort_by_key(|r| r.index);
+    for w in all.windows(2) {
+        if w[0].index == w[1].index {
+            return Err(format!(
+                "run {} is in two shards (a folder was given twice?)",
+                w[0].index
+            ));
+        }
+    }
+    let missing: Vec<usize> = (0..m.runs)
+        .filter(|i| all.binary_search_by_key(i, |r| r.index).is_err())
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "{} of {} runs are in none of the folders (first missing: run {}): merge every shard",
+            missing.len(),
+            m.runs,
+            missing[0]
+        ));
+    }
+    m.shard = "0/1".into();
+    write_sweep(out, &all, &m)?;
+    println!("merged {} runs from {} folders", all.len(), dirs.len());
+    print_outputs(out);
     Ok(())
 }

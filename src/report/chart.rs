@@ -1,8 +1,11 @@
-//! SVG charts: speed against accuracy (time on a log axis, RMSE up, the Pareto front drawn)
-//! and time and counters along a camera path.
+//! SVG charts: speed against accuracy per scene class (time on a log axis, the class's error
+//! up, families coloured, the Pareto front drawn) and time and counters along a camera path.
 
 use super::xml;
+use crate::metrics;
 use crate::run::{PathFrame, RunResult};
+use crate::scene::SceneClass;
+use crate::shadow::Family;
 use std::fmt::Write as _;
 
 /// Indices of the Pareto-optimal points (no other point both faster and more accurate).
@@ -27,65 +30,141 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
-/// A speed/accuracy chart as SVG: x = milliseconds (log scale), y = RMSE, one labelled point
-/// per result, the Pareto front as a line.
-pub fn chart_svg(title: &str, results: &[RunResult]) -> String {
-    let (w, h, ml, mr, mt, mb) = (760.0, 480.0, 70.0, 30.0, 40.0, 60.0);
-    let pts: Vec<(f64, f64)> = results.iter().map(|r| (r.ms.max(1e-3), r.errors.rmse)).collect();
-    let (xmin, xmax) = pts
+/// One point of a speed/accuracy chart: a technique setting over the scenes of a class.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChartPoint {
+    /// `technique [settings]`.
+    pub label: String,
+    /// Technique name.
+    pub technique: String,
+    /// Whether the setting is the technique's defaults.
+    pub default: bool,
+    /// Its family (the point's colour).
+    pub family: Family,
+    /// Median milliseconds over the scenes.
+    pub ms: f64,
+    /// Mean error over the scenes (the class's metric).
+    pub error: f64,
+    /// The scenes it was measured on.
+    pub scenes: Vec<String>,
+}
+
+/// The chart's points for `results` (all of one [`SceneClass`], or of one scene): one per
+/// technique setting, its median time and mean [`RunResult::class_error`] over its scenes, in
+/// first-seen order.
+pub fn chart_points(results: &[RunResult]) -> Vec<ChartPoint> {
+    let mut points: Vec<ChartPoint> = Vec::new();
+    let mut times: Vec<Vec<f64>> = Vec::new();
+    for r in results {
+        let label = r.label();
+        let i = match points.iter().position(|p| p.label == label) {
+            Some(i) => i,
+            None => {
+                points.push(ChartPoint {
+                    label,
+                    technique: r.technique.clone(),
+                    default: r.settings.is_empty(),
+                    family: r.family,
+                    ms: 0.0,
+                    error: 0.0,
+                    scenes: Vec::new(),
+                });
+                times.push(Vec::new());
+                points.len() - 1
+            }
+        };
+        points[i].error += r.class_error();
+        points[i].scenes.push(r.scene.clone());
+        times[i].push(r.ms);
+    }
+    for (p, t) in points.iter_mut().zip(times) {
+        p.error /= p.scenes.len() as f64;
+        p.ms = metrics::median(t);
+    }
+    points
+}
+
+/// The colour of a family on every chart (a qualitative palette, distinct in greyscale too).
+pub fn family_colour(f: Family) -> &'static str {
+    match f {
+        Family::Reference => "#000000",
+        Family::Map => "#1f77b4",
+        Family::Volume => "#d62728",
+        Family::Planar => "#8c564b",
+        Family::Exact => "#2ca02c",
+        Family::Penumbra => "#9467bd",
+        Family::Volumetric => "#ff7f0e",
+    }
+}
+
+/// A speed/accuracy chart as SVG for the scenes of one class (or one scene): x = median
+/// milliseconds (log scale), y = the class's error ([`SceneClass::metric`]); one point per
+/// technique setting coloured by family with a legend, the reference as its own mark (a
+/// diamond), the Pareto front as a line, labels on the front's points and on each technique's
+/// defaults where they do not overlap, and every point's numbers in a tooltip (`<title>`).
+pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) -> String {
+    let points = chart_points(results);
+    let (w, h, ml, mr, mt, mb) = (860.0, 520.0, 70.0, 200.0, 40.0, 60.0);
+    let finite: Vec<&ChartPoint> = points
         .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let ymax = pts.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3) * 1.1;
-    let (lx0, lx1) = (
-        (xmin.max(1e-3)).log10().floor(),
-        (xmax.max(1e-3))
-            .log10()
-            .ceil()
-            .max(xmin.max(1e-3).log10().floor() + 1.0),
-    );
-    let px = |x: f64| ml + (x.log10() - lx0) / (lx1 - lx0) * (w - ml - mr);
+        .filter(|p| p.ms.is_finite() && p.error.is_finite())
+        .collect();
+    let xs = || finite.iter().map(|p| p.ms.max(1e-3));
+    let xmin = xs().fold(f64::INFINITY, f64::min);
+    let xmax = xs().fold(0.0, f64::max);
+    let (xmin, xmax) = if xmin.is_finite() { (xmin, xmax) } else { (1.0, 10.0) };
+    let ymax = finite.iter().map(|p| p.error).fold(0.0, f64::max).max(1e-3) * 1.1;
+    let lx0 = xmin.log10().floor();
+    let lx1 = xmax.log10().ceil().max(lx0 + 1.0);
+    let px = |x: f64| ml + (x.max(1e-3).log10() - lx0) / (lx1 - lx0) * (w - ml - mr);
     let py = |y: f64| h - mb - y / ymax * (h - mt - mb);
     let mut s = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
     let _ = writeln!(
         s,
         "<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>",
-        w / 2.0,
+        (w - mr + ml) / 2.0,
         xml(title)
     );
+    // Axes, decades and error ticks.
     let _ = writeln!(
         s,
-        "<line x1=\"{ml}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>",
-        h - mb,
-        w - mr,
-        h - mb
-    );
-    let _ = writeln!(
-        s,
-        "<line x1=\"{ml}\" y1=\"{mt}\" x2=\"{ml}\" y2=\"{}\" stroke=\"black\"/>",
-        h - mb
+        "<line x1=\"{ml}\" y1=\"{b}\" x2=\"{r}\" y2=\"{b}\" stroke=\"black\"/><line x1=\"{ml}\" y1=\"{mt}\" x2=\"{ml}\" y2=\"{b}\" stroke=\"black\"/>",
+        b = h - mb,
+        r = w - mr
     );
     let mut d = lx0;
     while d <= lx1 + 1e-9 {
         let x = px(10f64.powf(d));
-        let _ = writeln!(s, "<line x1=\"{x}\" y1=\"{mt}\" x2=\"{x}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{} ms</text>", h - mb, h - mb + 16.0, 10f64.powf(d));
+        let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{mt}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{} ms</text>", h - mb, h - mb + 16.0, 10f64.powf(d));
         d += 1.0;
     }
     for k in 0..=4 {
         let y = ymax * k as f64 / 4.0;
-        let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py}\" x2=\"{}\" y2=\"{py}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{y:.3}</text>", w - mr, ml - 6.0, py(y) + 4.0, py = py(y));
+        let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{y:.3}</text>", w - mr, ml - 6.0, py(y) + 4.0, py = py(y));
     }
     let _ = writeln!(
         s,
-        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">time per frame (ms, log scale)</text>",
-        w / 2.0,
+        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">median time per frame (ms, log scale)</text>",
+        (w - mr + ml) / 2.0,
         h - 18.0
     );
     let _ = writeln!(
         s,
-        "<text x=\"16\" y=\"{}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {})\">RMSE of visibility</text>",
-        h / 2.0,
-        h / 2.0
+        "<text x=\"16\" y=\"{c}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {c})\">mean {}</text>",
+        xml(class.metric()),
+        c = h / 2.0
     );
+    // The Pareto front (the reference is exact by definition: left out of the front).
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .map(|p| {
+            if p.family == Family::Reference {
+                (f64::NAN, f64::NAN)
+            } else {
+                (p.ms.max(1e-3), p.error)
+            }
+        })
+        .collect();
     let front = pareto(&pts);
     let line: Vec<String> = front
         .iter()
@@ -94,21 +173,93 @@ pub fn chart_svg(title: &str, results: &[RunResult]) -> String {
     if line.len() > 1 {
         let _ = writeln!(
             s,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"#c33\" stroke-width=\"1.5\" stroke-dasharray=\"4 3\"/>",
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-width=\"1.2\" stroke-dasharray=\"4 3\"/>",
             line.join(" ")
         );
     }
-    for (i, r) in results.iter().enumerate() {
-        let (x, y) = (px(pts[i].0), py(pts[i].1));
-        let fill = if front.contains(&i) { "#c33" } else { "#369" };
+    // Points, each with its numbers as a tooltip.
+    for p in points.iter().filter(|p| p.ms.is_finite() && p.error.is_finite()) {
+        let (x, y) = (px(p.ms), py(p.error));
+        let tip = format!(
+            "{}\nfamily: {}\nmedian time: {:.2} ms\nmean {}: {:.4}\nscenes ({}): {}",
+            p.label,
+            p.family.title(),
+            p.ms,
+            class.metric(),
+            p.error,
+            p.scenes.len(),
+            p.scenes.join(", ")
+        );
+        let colour = family_colour(p.family);
+        if p.family == Family::Reference {
+            let _ = writeln!(
+                s,
+                "<path d=\"M{x:.1} {:.1} l6 6 l-6 6 l-6 -6 z\" fill=\"{colour}\"><title>{}</title></path>",
+                y - 6.0,
+                xml(&tip)
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"4.5\" fill=\"{colour}\" fill-opacity=\"0.85\" stroke=\"white\" stroke-width=\"0.8\"><title>{}</title></circle>",
+                xml(&tip)
+            );
+        }
+    }
+    // Labels: the reference, the front, then each technique's defaults; a label that would
+    // overlap one already placed is left to the tooltip.
+    let mut order: Vec<usize> = points
+        .iter()
+        .position(|p| p.family == Family::Reference)
+        .into_iter()
+        .collect();
+    order.extend(front.iter().copied());
+    order.extend((0..points.len()).filter(|&i| points[i].default));
+    let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for i in order {
+        let p = &points[i];
+        if !p.ms.is_finite() || !p.error.is_finite() {
+            continue;
+        }
+        let (x, y) = (px(p.ms) + 7.0, py(p.error) - 5.0);
+        let bw = 6.0 * p.label.chars().count() as f64;
+        let b = (x, y - 10.0, x + bw, y + 2.0);
+        let overlaps = placed.iter().any(|q| b.0 < q.2 && q.0 < b.2 && b.1 < q.3 && q.1 < b.3);
+        if overlaps || placed.iter().any(|q| q.0 == b.0 && q.1 == b.1) {
+            continue;
+        }
+        placed.push(b);
+        let _ = writeln!(s, "<text x=\"{x:.1}\" y=\"{y:.1}\">{}</text>", xml(&p.label));
+    }
+    // Legend: the families present, and the marks.
+    let (lx, mut ly) = (w - mr + 16.0, mt + 10.0);
+    let mut fams: Vec<Family> = points.iter().map(|p| p.family).collect();
+    fams.sort();
+    fams.dedup();
+    for f in fams {
         let _ = writeln!(
             s,
-            "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"4\" fill=\"{fill}\"/><text x=\"{:.1}\" y=\"{:.1}\">{}</text>",
-            x + 6.0,
-            y - 4.0,
-            xml(&r.label())
+            "<circle cx=\"{lx}\" cy=\"{ly}\" r=\"5\" fill=\"{}\"/><text x=\"{}\" y=\"{}\">{}</text>",
+            family_colour(f),
+            lx + 10.0,
+            ly + 4.0,
+            xml(f.title())
         );
+        ly += 18.0;
     }
+    let _ = writeln!(
+        s,
+        "<line x1=\"{}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"#888\" stroke-dasharray=\"4 3\"/><text x=\"{}\" y=\"{}\">Pareto front</text>",
+        lx - 6.0,
+        lx + 6.0,
+        lx + 10.0,
+        ly + 4.0
+    );
+    let _ = writeln!(
+        s,
+        "<text x=\"{lx}\" y=\"{}\" fill=\"#555\">hover a point for its numbers</text>",
+        ly + 26.0
+    );
     s.push_str("</svg>\n");
     s
 }

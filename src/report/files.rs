@@ -1,10 +1,102 @@
 //! A run's files in a folder: the shaded image, visibility, error and reference (PNG) and,
 //! for camera paths, the path's CSV and chart.
 
-use super::{chart, csv, file_safe, images};
+use super::{chart, csv, file_safe, images, markdown, SceneInfo};
 use crate::image_io::write_png;
-use crate::run::RenderOutput;
+use crate::run::{RenderOutput, RunResult};
+use crate::scene::SceneClass;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// What a sweep folder holds beside its CSV (`sweep.json`): every scene of the run (in run
+/// order, whichever shard this is) and the run list's length, so that merged shards can be
+/// checked complete.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// The run list's length (all shards together).
+    pub runs: usize,
+    /// This folder's shard, `I/N` (`0/1`: the whole run).
+    pub shard: String,
+    /// The scenes.
+    pub scenes: Vec<SceneInfo>,
+}
+
+fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result<(), String> {
+    let path = dir.join(name);
+    std::fs::write(&path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    files.push(path);
+    Ok(())
+}
+
+/// Writes a sweep's data (`results.csv`, `sweep.json`): what a shard writes and a merge reads.
+pub fn write_sweep_data(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let mut files = Vec::new();
+    write(dir, "results.csv", &csv::csv(results), &mut files)?;
+    let json = serde_json::to_string_pretty(manifest).map_err(|e| e.to_string())?;
+    write(dir, "sweep.json", &json, &mut files)?;
+    Ok(files)
+}
+
+/// Reads what [`write_sweep_data`] wrote in `dir`.
+pub fn read_sweep_data(dir: &Path) -> Result<(Vec<RunResult>, Manifest), String> {
+    let read = |name: &str| -> Result<(String, String), String> {
+        let path = dir.join(name);
+        let shown = path.display().to_string();
+        std::fs::read_to_string(&path).map(|t| (t, shown.clone())).map_err(|e| {
+            format!(
+                "{shown}: cannot read: {e} (is {} a sweep's output folder?)",
+                dir.display()
+            )
+        })
+    };
+    let (text, shown) = read("results.csv")?;
+    let results = csv::read_csv(&text, &shown)?;
+    let (text, shown) = read("sweep.json")?;
+    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| format!("{shown}:{}: {e}", e.line()))?;
+    Ok((results, manifest))
+}
+
+/// Writes everything a sweep shows from its results: the data ([`write_sweep_data`]), one
+/// chart per scene class and per scene, `summary.md` (the README's technique table),
+/// `report.md` and `report.html`. Images are the runs' own ([`write_run`], in `images/`).
+pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, String> {
+    let mut files = write_sweep_data(dir, results, manifest)?;
+    for c in SceneClass::ALL {
+        let rs: Vec<RunResult> = results.iter().filter(|r| r.class == c).cloned().collect();
+        if !rs.is_empty() {
+            let svg = chart::class_chart_svg(&format!("{}: time vs {}", c.title(), c.metric()), c, &rs);
+            write(dir, &format!("chart_{}.svg", c.key()), &svg, &mut files)?;
+        }
+    }
+    let charts = dir.join("charts");
+    std::fs::create_dir_all(&charts).map_err(|e| format!("cannot create {}: {e}", charts.display()))?;
+    for s in &manifest.scenes {
+        let rs: Vec<RunResult> = results.iter().filter(|r| r.scene == s.name).cloned().collect();
+        let svg = chart::class_chart_svg(&format!("{}: time vs {}", s.name, s.class.metric()), s.class, &rs);
+        write(&charts, &format!("{}.svg", file_safe(&s.name)), &svg, &mut files)?;
+    }
+    let thumb = |r: &RunResult| format!("images/{}.png", stem(&r.scene, &r.label()));
+    let path_chart = |r: &RunResult| {
+        r.counted_path
+            .then(|| format!("images/{}_path.svg", stem(&r.scene, &r.label())))
+    };
+    let scene_list: Vec<(String, String)> = manifest
+        .scenes
+        .iter()
+        .map(|s| (s.name.clone(), s.description.clone()))
+        .collect();
+    let md = markdown::report_markdown(results, &scene_list, &|r| Some(thumb(r)), &path_chart);
+    write(dir, "report.md", &md, &mut files)?;
+    write(dir, "summary.md", &markdown::summary_markdown(results), &mut files)?;
+    let images = |r: &RunResult| {
+        let s = stem(&r.scene, &r.label());
+        Some(["_visibility", "_reference", "_error"].map(|k| format!("images/{s}{k}.png")))
+    };
+    let html = super::html::report_html(results, &manifest.scenes, &images, &path_chart);
+    write(dir, "report.html", &html, &mut files)?;
+    Ok(files)
+}
 
 /// The file stem of a run: `scene_label`, file-safe.
 pub fn stem(scene: &str, label: &str) -> String {

@@ -53,9 +53,14 @@ pub fn report_markdown(
     thumbs: &dyn Fn(&RunResult) -> Option<String>,
     paths: &dyn Fn(&RunResult) -> Option<String>,
 ) -> String {
-    let mut s = String::from("# penumbra sweep\n\nEvery technique on every scene against the ray-traced reference. Time is the median of the technique's visibility pass; errors are over pixels covered by geometry and facing the light.\n\n![all scenes](chart_all.svg)\n\n");
+    let mut s = String::from("# penumbra sweep\n\nEvery technique on every scene against the ray-traced reference. Time is the median of the technique's visibility pass; errors are over pixels covered by geometry and facing the light. Errors of different kinds do not average, so the charts are per scene class.\n\n");
+    for c in crate::scene::SceneClass::ALL {
+        if results.iter().any(|r| r.class == c) {
+            let _ = write!(s, "![{}](chart_{}.svg)\n\n", c.title(), c.key());
+        }
+    }
     for (name, desc) in scenes {
-        let _ = write!(s, "## {name}\n\n{desc}\n\n![{name}](chart_{name}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | transparent RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        let _ = write!(s, "## {name}\n\n{desc}\n\n![{name}](charts/{}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | transparent RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", super::file_safe(name));
         for r in results.iter().filter(|r| &r.scene == name) {
             let e = &r.errors;
             let img = thumbs(r).map(|t| format!("![]({t})")).unwrap_or_default();

@@ -12,11 +12,38 @@ pub mod images;
 pub mod markdown;
 
 pub use cache::DirCache;
-pub use chart::{chart_svg, pareto, path_chart_svg};
-pub use csv::{csv, path_csv};
+pub use chart::{chart_points, class_chart_svg, pareto, path_chart_svg, ChartPoint};
+pub use csv::{csv, path_csv, read_csv};
 pub use html::report_html;
 pub use images::{error_image, visibility_image};
 pub use markdown::{report_markdown, summary_markdown};
+
+/// What the report says of a scene: its name, the failure it shows (the scene file's opening
+/// comment) and its class. The sweep writes it beside the CSV (`scenes.json`) so shards merge.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SceneInfo {
+    /// Scene name.
+    pub name: String,
+    /// What it shows and the failure it is for.
+    pub description: String,
+    /// Its class.
+    #[serde(with = "class_key")]
+    pub class: crate::scene::SceneClass,
+}
+
+mod class_key {
+    use crate::scene::SceneClass;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(c: &SceneClass, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(c.key())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<SceneClass, D::Error> {
+        let k = String::deserialize(d)?;
+        SceneClass::from_key(&k).ok_or_else(|| serde::de::Error::custom(format!("unknown scene class '{k}'")))
+    }
+}
 
 /// A file-name-safe version of a label.
 pub fn file_safe(s: &str) -> String {

@@ -245,6 +245,56 @@ pub struct Keyframe {
     pub target: Vec3,
 }
 
+/// What a scene's errors mean, for charts that average errors only where they are of one
+/// kind: hard-light scenes are judged by wrong pixels, area-light scenes by the penumbra's
+/// RMSE, scenes with transparent objects by the transmittance's RMSE.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum SceneClass {
+    /// Opaque objects under a point, spot or directional light (or an area light's centre).
+    Hard,
+    /// Opaque objects under an area light (penumbrae).
+    Area,
+    /// Some object transmits light (coloured or partial shadows).
+    Transparent,
+}
+
+impl SceneClass {
+    /// Every class, in chart order.
+    pub const ALL: [SceneClass; 3] = [SceneClass::Hard, SceneClass::Area, SceneClass::Transparent];
+
+    /// The name the CSV writes (`hard`, `area`, `transparent`).
+    pub fn key(self) -> &'static str {
+        match self {
+            SceneClass::Hard => "hard",
+            SceneClass::Area => "area",
+            SceneClass::Transparent => "transparent",
+        }
+    }
+
+    /// The class of [`SceneClass::key`] `key`.
+    pub fn from_key(key: &str) -> Option<SceneClass> {
+        SceneClass::ALL.into_iter().find(|c| c.key() == key)
+    }
+
+    /// A title for charts.
+    pub fn title(self) -> &'static str {
+        match self {
+            SceneClass::Hard => "hard-light scenes",
+            SceneClass::Area => "area-light scenes",
+            SceneClass::Transparent => "transparent scenes",
+        }
+    }
+
+    /// The error that judges a technique on this class, and its axis label.
+    pub fn metric(self) -> &'static str {
+        match self {
+            SceneClass::Hard => "wrong pixels (%)",
+            SceneClass::Area => "penumbra RMSE",
+            SceneClass::Transparent => "transmittance RMSE",
+        }
+    }
+}
+
 /// A whole scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -265,6 +315,22 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The scene's [`SceneClass`]: transparent when any object transmits light, else area
+    /// when the first light is an area light, else hard.
+    pub fn class(&self) -> SceneClass {
+        if self
+            .objects
+            .iter()
+            .any(|o| self.materials.get(o.material).is_some_and(Material::is_transparent))
+        {
+            SceneClass::Transparent
+        } else if matches!(self.lights.first().map(|l| l.kind), Some(LightKind::Area(_))) {
+            SceneClass::Area
+        } else {
+            SceneClass::Hard
+        }
+    }
+
     /// The scene-wide id of each object's first triangle (objects' triangles numbered in
     /// scene order).
     pub fn triangle_bases(&self) -> Vec<u32> {

@@ -105,10 +105,81 @@ pub trait ShadowTechnique: Send {
     }
 }
 
+/// The family a technique belongs to: its folder under `src/shadow/` (DESIGN.md section 3).
+/// Charts colour techniques by it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Family {
+    /// The ray tracer as a technique (the ground truth).
+    Reference,
+    /// Shadow maps and their filters ([`map`]).
+    Map,
+    /// Shadow volumes ([`volume`]).
+    Volume,
+    /// Planar shadows and cookies ([`planar`]).
+    Planar,
+    /// The irregular z-buffer and its hybrid ([`exact`]).
+    Exact,
+    /// Penumbra volumes ([`penumbra`]).
+    Penumbra,
+    /// Volumetric shadows ([`volumetric`]).
+    Volumetric,
+}
+
+impl Family {
+    /// Every family, in legend order.
+    pub const ALL: [Family; 7] = [
+        Family::Reference,
+        Family::Map,
+        Family::Volume,
+        Family::Planar,
+        Family::Exact,
+        Family::Penumbra,
+        Family::Volumetric,
+    ];
+
+    /// The folder name (`map`, `volume`...), as the CSV writes it.
+    pub fn key(self) -> &'static str {
+        match self {
+            Family::Reference => "reference",
+            Family::Map => "map",
+            Family::Volume => "volume",
+            Family::Planar => "planar",
+            Family::Exact => "exact",
+            Family::Penumbra => "penumbra",
+            Family::Volumetric => "volumetric",
+        }
+    }
+
+    /// A name for legends.
+    pub fn title(self) -> &'static str {
+        match self {
+            Family::Reference => "reference (ray traced)",
+            Family::Map => "shadow maps and filtering",
+            Family::Volume => "shadow volumes",
+            Family::Planar => "planar and projective",
+            Family::Exact => "exact hard (IZB)",
+            Family::Penumbra => "penumbra volumes",
+            Family::Volumetric => "volumetric",
+        }
+    }
+
+    /// The family of [`Family::key`] `key`.
+    pub fn from_key(key: &str) -> Option<Family> {
+        Family::ALL.into_iter().find(|f| f.key() == key)
+    }
+
+    /// The family of the registered technique `name`.
+    pub fn of(name: &str) -> Option<Family> {
+        registry().into_iter().find(|t| t.name == name).map(|t| t.family)
+    }
+}
+
 /// A registered technique.
 pub struct TechniqueInfo {
     /// Name for `--technique`.
     pub name: &'static str,
+    /// Its family (its folder).
+    pub family: Family,
     /// One line: what it is, the source, the failure it is known for.
     pub summary: &'static str,
     /// Its options (from its [`Declaration`]).

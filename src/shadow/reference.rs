@@ -5,7 +5,7 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::reference::{Reference, ReferenceOptions};
 use crate::shadow::inspect::{self, Step};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
 /// Options of the reference technique.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +50,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "reference",
+        family: Family::Reference,
         summary: "BVH ray tracer: exact hard visibility; area lights by stratified sampling (ground truth)",
         options: declaration().infos(),
         sweep: &[&[]],

@@ -20,7 +20,7 @@ use crate::shadow::exact::izb::{self, Izb};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::map::pcss::{self, Pcss};
 use crate::shadow::pixels::per_pixel;
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
 /// Options of the hybrid.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,6 +84,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "hybrid",
+        family: Family::Exact,
         summary: "hybrid frustum-traced shadows (Story and Wyman): the IZB's exact shadow where PCSS's penumbra is narrow, PCSS where wide",
         options: declaration().infos(),
         sweep: &[&[], &[("units", "100000")]],

@@ -61,7 +61,7 @@ use crate::scene::{Light, LightKind};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::volume::silhouette::Adjacency;
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -177,6 +177,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "izb",
+        family: Family::Exact,
         summary: "irregular z-buffer (RTR 7.9): camera samples in light-space lists, occluders conservatively rasterized and tested exactly; long lists at grazing views",
         options: declaration().infos(),
         sweep: &[

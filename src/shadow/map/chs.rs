@@ -31,7 +31,7 @@ use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::LightView;
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::Vec2;
 
 /// Taps per axis of the blocker search (8x8 texels in 16 gathers).
@@ -89,6 +89,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "chs",
+        family: Family::Map,
         summary:
             "contact-hardening shadows (AMD): PCSS on a min/max mip chain, 8x8 search, filter level from the penumbra",
         options: declaration().infos(),

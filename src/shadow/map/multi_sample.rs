@@ -24,7 +24,7 @@ use crate::reference::concentric_disk;
 use crate::scene::{AreaShape, Light, LightKind};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 
 choice_enum! {
@@ -99,6 +99,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "multi-sample",
+        family: Family::Map,
         summary:
             "N hard shadows from points over the area light, averaged (Heckbert and Herf): converges to the reference",
         options: declaration().infos(),

@@ -43,7 +43,7 @@ use crate::scene::LightKind;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::LightView;
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::Vec2;
 
 choice_enum! {
@@ -151,6 +151,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "pcss",
+        family: Family::Map,
         summary:
             "percentage-closer soft shadows (Fernando 2005): blocker search, penumbra by RTR eq. 7.6, PCF that wide",
         options: declaration().infos(),

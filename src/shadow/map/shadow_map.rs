@@ -31,7 +31,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
 use crate::shadow::pixels::per_pixel_counted;
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
 choice_enum! {
@@ -266,6 +266,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "shadow-map",
+        family: Family::Map,
         summary:
             "depth map from the light, one comparison per pixel (RTR 7.4): acne, Peter Panning, aliasing, shimmering",
         options: declaration().infos(),

@@ -50,7 +50,7 @@ use crate::shadow::map::kernel::bilinear_compare;
 use crate::shadow::map::shadow_map::{self, Prepared, ShadowMap};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
@@ -100,6 +100,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "pvm",
+        family: Family::Penumbra,
         summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
         options: declaration().infos(),
         sweep: &[&[], &[("smooth", "false")]],

@@ -59,7 +59,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
 use crate::shadow::map::shadow_map::{self, At, Layer, Prepared, ShadowMap};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
@@ -201,6 +201,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "pvmf",
+        family: Family::Penumbra,
         summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
         options: declaration().infos(),
         sweep: &[&[], &[("size", "2048")], &[("blur", "0")]],

@@ -18,7 +18,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, LightView};
 use crate::shadow::pixels::per_pixel;
-use crate::shadow::{object_named, Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
 choice_enum! {
@@ -83,6 +83,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "cookie",
+        family: Family::Planar,
         summary: "projective shadow texture (RTR 7.2): occluder mask projected from the light; no self-shadowing, shadows cast backward",
         options: declaration().infos(),
         sweep: &[&[], &[("filter", "bilinear")]],

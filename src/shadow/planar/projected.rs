@@ -27,7 +27,7 @@ use crate::pipeline::*;
 use crate::scene::Mesh;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::homogeneous_position;
-use crate::shadow::{object_named, Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
 /// Options of planar projected shadows.
@@ -92,6 +92,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "planar",
+        family: Family::Planar,
         summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
         options: declaration().infos(),
         sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],

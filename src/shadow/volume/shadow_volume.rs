@@ -29,7 +29,7 @@ use crate::scene::LightKind;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Mat4, Vec3, Vec4};
 use std::time::Instant;
 
@@ -80,6 +80,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "shadow-volume",
+        family: Family::Volume,
         summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
         options: declaration().infos(),
         sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],

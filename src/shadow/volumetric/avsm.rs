@@ -32,7 +32,7 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
@@ -115,6 +115,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "avsm",
+        family: Family::Volumetric,
         summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
         options: declaration().infos(),
         sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],

@@ -33,7 +33,7 @@ use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -124,6 +124,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "deep-shadow-map",
+        family: Family::Volumetric,
         summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
         options: declaration().infos(),
         sweep: &[&[]],

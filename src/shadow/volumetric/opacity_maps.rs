@@ -28,7 +28,7 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3, Vec4};
 use std::time::Instant;
 
@@ -107,6 +107,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "opacity-maps",
+        family: Family::Volumetric,
         summary: "opacity shadow maps (Kim and Neumann 2001) and deep opacity maps (Yuksel and Keyser 2008): optical depth in K slices, interpolated; banding between slices",
         options: declaration().infos(),
         sweep: &[

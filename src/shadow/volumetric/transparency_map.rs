@@ -19,7 +19,7 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
-use crate::shadow::{Declaration, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3, Vec4};
 use std::time::Instant;
 
@@ -68,6 +68,7 @@ pub fn declaration() -> Declaration<Options> {
 pub fn info() -> TechniqueInfo {
     TechniqueInfo {
         name: "transparency-map",
+        family: Family::Volumetric,
         summary: "coloured transparency map (RTR 7.8): opaque depth map plus the nearest transparent surface's depth and colour; one layer only, transparent receivers wrong",
         options: declaration().infos(),
         sweep: &[&[], &[("size", "512")]],
