@@ -182,3 +182,204 @@ fn sharded_and_merged_sweep_equals_one_run() {
     assert!(!html.contains("https://") && !html.contains("src=\"http"));
     assert!(merged.join("chart_hard.svg").exists() && merged.join("charts").join("second.svg").exists());
 }
+
+/// A small glTF 2.0 file: a ground quad under a floating, half-transparent triangle (placed
+/// by a parent node's translation and a child's scale), a camera and a sun.
+fn gltf_text(indices: &[u16], mode: u32) -> String {
+    let positions: [[f32; 3]; 7] = [
+        [-2.0, 0.0, -2.0],
+        [2.0, 0.0, -2.0],
+        [2.0, 0.0, 2.0],
+        [-2.0, 0.0, 2.0],
+        [-0.5, 0.0, -0.5],
+        [0.5, 0.0, -0.5],
+        [0.0, 0.0, 0.5],
+    ];
+    let mut bytes: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+    let index_offset = bytes.len();
+    bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    while !bytes.len().is_multiple_of(4) {
+        bytes.push(0);
+    }
+    let b64 = base64(&bytes);
+    let n = indices.len();
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {{"KHR_lights_punctual": {{"lights": [{{"type": "directional"}}]}}}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 2, 3]}}],
+  "nodes": [
+    {{"name": "lift", "translation": [0, 1, 0], "children": [1]}},
+    {{"name": "leaf", "mesh": 1, "scale": [2, 1, 2]}},
+    {{"name": "ground", "mesh": 0}},
+    {{"name": "rig", "children": [4, 5]}},
+    {{"name": "cam", "camera": 0, "translation": [0, 3, 6], "rotation": [-0.2297529, 0, 0, 0.9732489]}},
+    {{"name": "sun", "rotation": [-0.7071068, 0, 0, 0.7071068], "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}}
+  ],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.8, "znear": 0.1, "zfar": 50, "aspectRatio": 1.3333334}}}}],
+  "materials": [
+    {{"name": "floor", "pbrMetallicRoughness": {{"baseColorFactor": [0.5, 0.6, 0.7, 1]}}}},
+    {{"name": "veil", "alphaMode": "BLEND", "doubleSided": true, "pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 0.25]}}}}
+  ],
+  "meshes": [
+    {{"name": "quad", "primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0, "mode": {mode}}}]}},
+    {{"name": "tri", "primitives": [{{"attributes": {{"POSITION": 2}}, "material": 1}}]}}
+  ],
+  "buffers": [{{"byteLength": {len}, "uri": "data:application/octet-stream;base64,{b64}"}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 84}},
+    {{"buffer": 0, "byteOffset": {index_offset}, "byteLength": {ilen}}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-2, 0, -2], "max": [2, 0, 2]}},
+    {{"bufferView": 1, "componentType": 5123, "count": {n}, "type": "SCALAR"}},
+    {{"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 3, "type": "VEC3", "min": [-0.5, 0, -0.5], "max": [0.5, 0, 0.5]}}
+  ]
+}}"#,
+        len = bytes.len(),
+        ilen = n * 2,
+    )
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in bytes.chunks(3) {
+        let v = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(A[(v >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn gltf_scenes_load_with_transforms_materials_camera_and_lights() {
+    let dir = temp_dir("gltf");
+    let path = dir.join("leaf.gltf");
+    std::fs::write(&path, gltf_text(&[0, 2, 1, 0, 3, 2], 4)).unwrap();
+    let s = penumbra::scene::file::load(&path).unwrap();
+    assert_eq!(s.objects.len(), 2);
+    assert_eq!(s.triangles(), 3);
+    // The leaf: scaled by its node, lifted by its parent.
+    let leaf = &s.objects[0];
+    assert_eq!(leaf.name, "leaf/tri/0");
+    assert!(leaf.mesh.positions.iter().all(|p| (p.y - 1.0).abs() < 1e-6));
+    assert!(
+        (leaf.mesh.positions[0].x + 1.0).abs() < 1e-6,
+        "{:?}",
+        leaf.mesh.positions
+    );
+    let veil = &s.materials[leaf.material];
+    assert_eq!((veil.name.as_str(), veil.opacity, veil.two_sided), ("veil", 0.25, true));
+    let floor = &s.materials[s.objects[1].material];
+    assert!((floor.albedo.y - 0.6).abs() < 1e-6 && floor.opacity == 1.0);
+    // The camera at its node, looking down its -z; the aspect ratio sets the resolution.
+    assert!((s.camera.position - glam::Vec3::new(0.0, 3.0, 6.0)).length() < 1e-5);
+    assert!((s.camera.fov_deg - 0.8f32.to_degrees()).abs() < 1e-3);
+    assert_eq!((s.camera.width, s.camera.height), (640, 480));
+    // The sun points down.
+    assert_eq!(s.lights.len(), 1);
+    assert!(
+        (s.lights[0].direction - glam::Vec3::new(0.0, -1.0, 0.0)).length() < 1e-5,
+        "{:?}",
+        s.lights[0]
+    );
+    // It renders: the translucent leaf's shadow is partial under the reference and the
+    // transparency map.
+    let (ok, text) = cli(&[
+        "render",
+        path.to_str().unwrap(),
+        "--technique",
+        "transparency-map",
+        "--reps",
+        "1",
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    assert!(
+        dir.join("out").join("leaf_transparency-map_visibility.exr").exists(),
+        "{text}"
+    );
+    // A scene file may take the glTF as the whole scene, or as one object's mesh.
+    std::fs::write(
+        dir.join("wrap.toml"),
+        "# wrapped\ngltf = \"leaf.gltf\"\n[[light]]\ntype = \"point\"\nposition = [0, 4, 0]\n",
+    )
+    .unwrap();
+    let w = penumbra::scene::file::load(&dir.join("wrap.toml")).unwrap();
+    assert_eq!(
+        (w.objects.len(), w.lights[0].kind),
+        (2, penumbra::scene::LightKind::Point)
+    );
+    std::fs::write(
+        dir.join("mesh.toml"),
+        "# as a mesh\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n[[object]]\nmesh = \"leaf.gltf\"\ntranslate = [0, 1, 0]\n",
+    )
+    .unwrap();
+    let m = penumbra::scene::file::load(&dir.join("mesh.toml")).unwrap();
+    assert_eq!((m.objects.len(), m.triangles()), (1, 3));
+}
+
+#[test]
+fn bad_gltf_files_name_the_file_and_what_is_wrong() {
+    let dir = temp_dir("gltf-bad");
+    let cases: [(&str, String, &str); 4] = [
+        ("index.gltf", gltf_text(&[0, 2, 9], 4), "index 9 beyond the 4 positions"),
+        ("lines.gltf", gltf_text(&[0, 1], 1), "only TRIANGLES"),
+        ("junk.gltf", "{ not json".into(), "cannot load glTF"),
+        ("partial.gltf", gltf_text(&[0, 2, 1, 0], 4), "not whole triangles"),
+    ];
+    for (name, body, want) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, body).unwrap();
+        let e = penumbra::scene::file::load(&p).err().unwrap_or_default();
+        assert!(e.contains(name) && e.contains(want), "{name}: {e}");
+        let (ok, text) = cli(&["render", p.to_str().unwrap(), "--technique", "shadow-map"]);
+        assert!(!ok && text.contains(want), "{text}");
+    }
+    let e = penumbra::scene::file::load(&dir.join("missing.glb")).unwrap_err();
+    assert!(e.contains("missing.glb"), "{e}");
+    // Through a scene file, the error names the scene's line and field too.
+    std::fs::write(dir.join("s.toml"), "# s\ngltf = \"index.gltf\"\n").unwrap();
+    let e = penumbra::scene::file::load(&dir.join("s.toml")).unwrap_err();
+    assert!(
+        e.contains("s.toml:2") && e.contains("`gltf`") && e.contains("index 9"),
+        "{e}"
+    );
+}
+
+#[test]
+fn export_writes_materials_and_structured_json() {
+    let dir = temp_dir("export");
+    let scene = dir.join("x.toml");
+    std::fs::write(
+        &scene,
+        "# glass over a floor\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [32, 24]\n[[light]]\ntype = \"disk\"\nposition = [0, 4, 0]\nradius = 0.35\n[[material]]\nname = \"glass\"\nopacity = 0.5\ntransmittance = [1, 0.2, 0.2]\ntwo_sided = true\n[[object]]\nmesh = \"plane\"\nsize = 4\nname = \"floor\\nv 1 2 3\"\n[[object]]\nmesh = \"box\"\nmaterial = \"glass\"\ntranslate = [0, 1, 0]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (ok, text) = cli(&["export", scene.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let mtl = std::fs::read_to_string(out.join("x.mtl")).unwrap();
+    assert!(
+        mtl.contains("newmtl glass\nKd 0.8 0.8 0.8\nd 0.5\nTf 1 0.2 0.2"),
+        "{mtl}"
+    );
+    let obj = std::fs::read_to_string(out.join("x.obj")).unwrap();
+    assert!(obj.contains("mtllib x.mtl") && obj.contains("usemtl glass"));
+    // A newline in an object's name cannot add statements (here a vertex) to the OBJ.
+    assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), 4 + 24, "{obj}");
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("x.json")).unwrap()).unwrap();
+    assert_eq!(j["lights"][0]["type"], "disk");
+    assert!((j["lights"][0]["radius"].as_f64().unwrap() - 0.35).abs() < 1e-6);
+    assert_eq!(j["materials"][1]["two_sided"], true);
+    assert!(j["reference_sampling"].as_str().unwrap().contains("stratified"));
+}

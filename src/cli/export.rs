@@ -1,19 +1,109 @@
 //! `penumbra export` (a scene in world space for other renderers) and `penumbra list`.
 
 use super::scene::{load, FIXTURES};
-use penumbra::scene::LightKind;
+use glam::Vec3;
+use penumbra::scene::{AreaShape, Light, LightKind};
 use penumbra::shadow;
+use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// `penumbra export`.
+/// An OBJ/MTL name: one line, no spaces or control characters (they would start new
+/// statements or shift the file's numbering).
+fn obj_name(s: &str) -> String {
+    let n: String = s
+        .chars()
+        .map(|c| {
+            if c.is_whitespace() || c.is_control() || c == '#' {
+                '_'
+            } else {
+                c
+            }
+        })
+        .collect();
+    if n.is_empty() {
+        "unnamed".into()
+    } else {
+        n
+    }
+}
+
+fn v3(v: Vec3) -> serde_json::Value {
+    json!([v.x, v.y, v.z])
+}
+
+/// A light as structured JSON: its type, its shape's fields and the placement every type has.
+fn light_json(l: &Light) -> serde_json::Value {
+    let mut j = match l.kind {
+        LightKind::Directional => json!({"type": "directional"}),
+        LightKind::Spot { angle_deg } => json!({"type": "spot", "angle_deg": angle_deg}),
+        LightKind::Point => json!({"type": "point"}),
+        LightKind::Area(AreaShape::Disk { radius }) => json!({"type": "disk", "radius": radius}),
+        LightKind::Area(AreaShape::Sphere { radius }) => json!({"type": "sphere", "radius": radius}),
+        LightKind::Area(AreaShape::Rectangle { width, height }) => {
+            let (t1, t2) = l.tangents();
+            json!({"type": "rectangle", "width": width, "height": height, "width_axis": v3(t1), "height_axis": v3(t2)})
+        }
+    };
+    j["position"] = v3(l.position);
+    j["direction"] = v3(l.direction);
+    j["intensity"] = json!(l.intensity);
+    j
+}
+
+/// How the reference samples lights and averages visibility, for another renderer to
+/// reproduce the ground truth (src/reference/mod.rs).
+const SAMPLING: &str = "Visibility of a shading point is the transmittance along shadow rays from the point, offset along its geometric normal (Wachter and Binder, Ray Tracing Gems ch. 6), to the light. Opaque surfaces (opacity 1) stop a ray; a surface with opacity below 1 multiplies it by its transmittance (Tf in the MTL, 1 - d where Tf is absent), per channel, front to back; a mesh is seen from both sides. Hard shadows: one ray to the light's position (directional lights: along -direction, unbounded). Area lights: the fraction of the light seen, by stratified jittered sampling; a pilot of 8 x 8 strata and 32 rim points, and if the pilot rays disagree, 32 x 32 fresh strata (1024 rays), averaged with equal weights. Disk: points by the concentric map (Shirley and Chiu) of the strata over the disk around position, spanned by the light's tangents. Rectangle: uniform over width_axis x height_axis around position. Sphere: uniform directions within the cone the sphere subtends, ending at its near surface. The jitter is a hash of (pixel, sample, pass), so the reference is deterministic; matching it to within sampling noise needs the same strata, not the same jitter.";
+
+/// `penumbra export`: the scene in world space as OBJ + MTL (every material: albedo `Kd`,
+/// opacity `d`, transmittance colour `Tf`, two-sidedness as a comment and in the JSON) and a
+/// JSON of the camera, its path, structured lights and the reference's light-sample
+/// convention, so that another renderer can reproduce the ground truth.
 pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
     let (s, _) = load(scene)?;
+    // Non-finite geometry would make files other tools cannot read (and that say nothing).
+    for o in &s.objects {
+        if let Some(p) = o.mesh.positions.iter().find(|p| !p.is_finite()) {
+            return Err(format!(
+                "{}: object '{}' has a vertex at {p} after its transform: not finite, so not exported (lower its scale or translate)",
+                scene.display(),
+                o.name
+            ));
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-    let mut obj = format!("# {} exported by penumbra (world space)\n", s.name);
+    let stem = match penumbra::report::file_safe(&s.name) {
+        n if n.is_empty() => "scene".to_string(),
+        n => n,
+    };
+    let mut mtl = format!("# {} materials, exported by penumbra\n", obj_name(&s.name));
+    for m in &s.materials {
+        let tf = m.transmittance_rgb();
+        let _ = writeln!(
+            mtl,
+            "\nnewmtl {}\nKd {} {} {}\nd {}\nTf {} {} {}\n# two_sided {}",
+            obj_name(&m.name),
+            m.albedo.x,
+            m.albedo.y,
+            m.albedo.z,
+            m.opacity,
+            tf.x,
+            tf.y,
+            tf.z,
+            m.two_sided
+        );
+    }
+    let mut obj = format!(
+        "# {} exported by penumbra (world space)\nmtllib {stem}.mtl\n",
+        obj_name(&s.name)
+    );
     let mut base = 1;
     for o in &s.objects {
-        let _ = writeln!(obj, "o {}", o.name);
+        let mat = s
+            .materials
+            .get(o.material)
+            .map_or("default".into(), |m| obj_name(&m.name));
+        let _ = writeln!(obj, "o {}\nusemtl {mat}", obj_name(&o.name));
         for p in &o.mesh.positions {
             let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
         }
@@ -27,43 +117,38 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
         base += o.mesh.positions.len();
     }
     let c = &s.camera;
-    let v3 = |v: glam::Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
-    let mut json = format!(
-        "{{\n  \"scene\": \"{}\",\n  \"camera\": {{\"position\": {}, \"target\": {}, \"up\": {}, \"fov_deg\": {}, \"near\": {}, \"far\": {}, \"width\": {}, \"height\": {}}},\n  \"lights\": [\n",
-        s.name,
-        v3(c.position),
-        v3(c.target),
-        v3(c.up),
-        c.fov_deg,
-        c.near,
-        c.far,
-        c.width,
-        c.height
-    );
-    for (i, l) in s.lights.iter().enumerate() {
-        let kind = match l.kind {
-            LightKind::Directional => "\"type\": \"directional\"".to_string(),
-            LightKind::Spot { angle_deg } => format!("\"type\": \"spot\", \"angle_deg\": {angle_deg}"),
-            LightKind::Point => "\"type\": \"point\"".to_string(),
-            LightKind::Area(a) => format!("\"type\": \"area\", \"shape\": \"{a:?}\""),
-        };
-        let _ = writeln!(
-            json,
-            "    {{{kind}, \"position\": {}, \"direction\": {}, \"intensity\": {}}}{}",
-            v3(l.position),
-            v3(l.direction),
-            l.intensity,
-            if i + 1 < s.lights.len() { "," } else { "" }
-        );
+    let doc = json!({
+        "scene": s.name,
+        "description": s.description,
+        "files": {"obj": format!("{stem}.obj"), "mtl": format!("{stem}.mtl")},
+        "camera": {
+            "position": v3(c.position), "target": v3(c.target), "up": v3(c.up),
+            "fov_y_deg": c.fov_deg, "near": c.near, "far": c.far,
+            "width": c.width, "height": c.height,
+        },
+        "camera_path": s.camera_path.iter().map(|k| json!({"position": v3(k.position), "target": v3(k.target)})).collect::<Vec<_>>(),
+        "lights": s.lights.iter().map(light_json).collect::<Vec<_>>(),
+        "materials": s.materials.iter().map(|m| json!({
+            "name": obj_name(&m.name), "albedo": v3(m.albedo), "opacity": m.opacity,
+            "transmittance": v3(m.transmittance_rgb()), "two_sided": m.two_sided,
+        })).collect::<Vec<_>>(),
+        "objects": s.objects.iter().map(|o| json!({
+            "name": obj_name(&o.name),
+            "material": s.materials.get(o.material).map_or("default".into(), |m| obj_name(&m.name)),
+            "triangles": o.mesh.triangles(),
+        })).collect::<Vec<_>>(),
+        "reference_sampling": SAMPLING,
+    });
+    let json = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
+    let files = [
+        (out.join(format!("{stem}.obj")), obj),
+        (out.join(format!("{stem}.mtl")), mtl),
+        (out.join(format!("{stem}.json")), json),
+    ];
+    for (path, body) in &files {
+        std::fs::write(path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
     }
-    json.push_str("  ]\n}\n");
-    let (po, pj) = (
-        out.join(format!("{}.obj", s.name)),
-        out.join(format!("{}.json", s.name)),
-    );
-    std::fs::write(&po, obj).map_err(|e| format!("cannot write {}: {e}", po.display()))?;
-    std::fs::write(&pj, json).map_err(|e| format!("cannot write {}: {e}", pj.display()))?;
-    println!("wrote {}\nwrote {}", po.display(), pj.display());
     Ok(())
 }
 

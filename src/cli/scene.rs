@@ -2,7 +2,7 @@
 //! report know about files on disk beyond scene loading and image writing.)
 
 use penumbra::frame;
-use penumbra::image_io::write_png;
+use penumbra::image_io::{write_exr, write_pfm, write_png};
 use penumbra::pipeline::{Pipeline, Rgba8, Surface};
 use penumbra::reference::{Reference, ReferenceOptions};
 use penumbra::report::{self, DirCache};
@@ -15,8 +15,7 @@ use std::path::Path;
 pub const FIXTURES: &str = "fixtures/scenes";
 
 pub fn load(path: &Path) -> Result<(Scene, String), String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
-    Ok((file::parse(&text, path)?, text))
+    file::load_with_text(path)
 }
 
 pub fn pipeline(threads: usize) -> Result<Pipeline, String> {
@@ -41,7 +40,14 @@ pub fn render(
     let (s, text) = load(scene)?;
     let p = pipeline(threads)?;
     let r = run::render(&p, &s, &text, technique, &sets, reps, Some(&cache(out)))?;
-    let files = report::files::write_run(out, &r)?;
+    let mut files = report::files::write_run(out, &r)?;
+    // The float data beside the pictures, for image tools (NaN where no geometry).
+    let stem = report::files::stem(&r.result.scene, &r.result.label());
+    for (what, v) in [("visibility", &r.first.visibility), ("reference", &r.first.reference)] {
+        let path = out.join(format!("{stem}_{what}.exr"));
+        write_visibility_exr(&path, v, r.first.width, r.first.height)?;
+        files.push(path);
+    }
     let e = &r.result.errors;
     println!(
         "scene {} ({} triangles, {}x{}), technique {}, {} threads",
@@ -107,17 +113,6 @@ pub fn render(
     Ok(())
 }
 
-/// Writes a float image as PFM (grey, rows bottom-up as the format requires).
-fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), String> {
-    let mut bytes = format!("{}\n{w} {h}\n-1.0\n", if channels == 3 { "PF" } else { "Pf" }).into_bytes();
-    for y in (0..h as usize).rev() {
-        for v in &data[y * w as usize * channels..(y + 1) * w as usize * channels] {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
-}
-
 /// False colour (blue -> green -> yellow -> red) of a scalar in [lo, hi]; NaN grey.
 fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
     let k = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
@@ -135,6 +130,16 @@ fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
         [b(c[0]), b(c[1]), b(c[2]), 255]
     })
 }
+
+/// Writes a visibility image as OpenEXR (one channel, or RGB transmittance).
+fn write_visibility_exr(path: &Path, v: &penumbra::visibility::Visibility, w: u32, h: u32) -> Result<(), String> {
+    write_exr(path, w, h, if v.is_rgb() { 3 } else { 1 }, &v.to_flat())
+}
+
+/// The float formats `dump` writes every float buffer in: PFM (simple, any tool) and OpenEXR
+/// (what image tools open).
+type FloatWriter = fn(&Path, u32, u32, usize, &[f32]) -> Result<(), String>;
+const FLOAT_FORMATS: [(&str, FloatWriter); 2] = [("pfm", write_pfm), ("exr", write_exr)];
 
 /// `penumbra dump`.
 pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out: &Path) -> Result<(), String> {
@@ -157,9 +162,11 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
         match &st {
             Stage::Scalar { data, lo, hi, .. } => {
                 write_png(&path, &false_color(data, *lo, *hi))?;
-                let pf = dir.join(format!("{name}.pfm"));
-                write_pfm(&pf, data.width(), data.height(), 1, data.data())?;
-                written.push(pf);
+                for (ext, write) in FLOAT_FORMATS {
+                    let pf = dir.join(format!("{name}.{ext}"));
+                    write(&pf, data.width(), data.height(), 1, data.data())?;
+                    written.push(pf);
+                }
             }
             Stage::Color { data, .. } => write_png(&path, data)?,
         }
@@ -175,9 +182,11 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
         ("visibility", if v.is_rgb() { 3 } else { 1 }, &vis),
         ("depth", 1, &gb.depth.data().to_vec()),
     ] {
-        let path = dir.join(format!("{name}.pfm"));
-        write_pfm(&path, w, h, ch, data)?;
-        written.push(path);
+        for (ext, write) in FLOAT_FORMATS {
+            let path = dir.join(format!("{name}.{ext}"));
+            write(&path, w, h, ch, data)?;
+            written.push(path);
+        }
     }
     write_png(&dir.join("visibility.png"), &report::visibility_image(&v, w, h))?;
     write_png(
@@ -219,6 +228,9 @@ pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), String>
     }
     let path = out.join(format!("{}_reference.png", s.name));
     write_png(&path, &report::visibility_image(&v, f.width(), f.height()))?;
+    println!("wrote {}", path.display());
+    let path = out.join(format!("{}_reference.exr", s.name));
+    write_visibility_exr(&path, &v, f.width(), f.height())?;
     println!("wrote {}", path.display());
     Ok(())
 }

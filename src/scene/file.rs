@@ -41,7 +41,9 @@ pub const MAX_RESOLUTION: u32 = 8192;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
-    camera: Spanned<RawCamera>,
+    /// A glTF file whose objects, materials, lights and camera the scene takes (see [`parse`]).
+    gltf: Option<Spanned<String>>,
+    camera: Option<Spanned<RawCamera>>,
     #[serde(default, rename = "light")]
     lights: Vec<Spanned<RawLight>>,
     #[serde(default, rename = "material")]
@@ -52,7 +54,7 @@ struct RawScene {
     camera_path: Vec<Spanned<RawKey>>,
 }
 
-#[derive(Deserialize)]
+#[derive(Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
     position: [f32; 3],
@@ -156,11 +158,31 @@ fn finite3(v: [f32; 3]) -> Option<Vec3> {
 
 /// Loads a scene file. Relative OBJ paths resolve against the file's folder.
 pub fn load(path: &Path) -> Result<Scene, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
-    parse(&text, path)
+    load_with_text(path).map(|(s, _)| s)
 }
 
-/// Parses scene text; `path` names the file in errors and anchors relative OBJ paths.
+/// [`load`], also returning the scene's text (for a glTF file, the one-line scene that
+/// stands for it).
+pub fn load_with_text(path: &Path) -> Result<(Scene, String), String> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+        // A glTF file alone is the scene `gltf = "<its name>"`.
+        let file = path
+            .file_name()
+            .map_or(String::new(), |f| f.to_string_lossy().into_owned());
+        let text = format!("# {file} (glTF)\ngltf = {}\n", toml::Value::String(file.clone()));
+        return parse(&text, path).map(|s| (s, text));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
+    parse(&text, path).map(|s| (s, text))
+}
+
+/// Parses scene text; `path` names the file in errors and anchors relative OBJ and glTF paths.
+///
+/// A top-level `gltf = "file.glb"` (or `.gltf`) takes that file's primitives as objects after
+/// the `[[object]]`s, its materials after the `[[material]]`s, its punctual lights when the
+/// scene has no `[[light]]`, and its first perspective camera when the scene has no
+/// `[camera]` ([`super::gltf`]).
 pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     let ctx = Ctx { path, text };
     let raw: RawScene = toml::from_str(text).map_err(|e| {
@@ -174,8 +196,40 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
         .collect::<Vec<_>>()
         .join(" ");
 
+    // glTF.
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let gltf = match &raw.gltf {
+        None => None,
+        Some(g) => {
+            Some(super::gltf::load(&dir.join(g.get_ref())).or_else(|e| ctx.err(g.span(), "top level", "gltf", e))?)
+        }
+    };
+
     // Camera.
-    let (cs, c) = (raw.camera.span(), raw.camera.get_ref());
+    let (cs, c) = match (&raw.camera, &gltf) {
+        (Some(c), _) => (c.span(), c.get_ref().clone()),
+        (None, Some(g)) => match g.camera {
+            Some(gc) => (
+                raw.gltf.as_ref().map_or(0..0, |g| g.span()),
+                RawCamera {
+                    position: gc.position.to_array(),
+                    target: gc.target.to_array(),
+                    up: Some(gc.up.to_array()),
+                    fov: Some(gc.fov_deg),
+                    near: Some(gc.near),
+                    far: gc.far.or(Some(gc.near * 1e4)),
+                    resolution: g.scene_camera(None).map(|c| [c.width, c.height]),
+                },
+            ),
+            None => {
+                return Err(format!(
+                    "{}: the scene has no [camera] and its glTF file has no perspective camera",
+                    path.display()
+                ))
+            }
+        },
+        (None, None) => return Err(format!("{}: the scene has no [camera]", path.display())),
+    };
     let cam = "[camera]";
     let position = finite3(c.position).map_or_else(|| ctx.err(cs.clone(), cam, "position", "not finite"), Ok)?;
     let target = finite3(c.target).map_or_else(|| ctx.err(cs.clone(), cam, "target", "not finite"), Ok)?;
@@ -251,7 +305,6 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     }
 
     // Objects.
-    let dir = path.parent().unwrap_or(Path::new("."));
     let mut objects = Vec::new();
     for (i, o) in raw.objects.iter().enumerate() {
         let (s, o) = (o.span(), o.get_ref());
@@ -337,13 +390,19 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
                 let full: PathBuf = dir.join(p);
                 mesh::load_obj(&full).or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
             }
+            p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
+                let full: PathBuf = dir.join(p);
+                super::gltf::load(&full)
+                    .map(|g| g.merged())
+                    .or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
+            }
             other => {
                 return ctx.err(
                     s,
                     &what,
                     "mesh",
                     format!(
-                        "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated or a .obj path)"
+                        "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated, or a .obj, .gltf or .glb path)"
                     ),
                 )
             }
@@ -375,6 +434,26 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
             mesh: mesh.transformed(m),
             material,
         });
+    }
+
+    // The glTF's objects and materials, after the file's own.
+    let mut gltf_lights = Vec::new();
+    if let Some(g) = gltf {
+        let base = materials.len();
+        for mut m in g.materials {
+            while materials.iter().any(|x| x.name == m.name) {
+                m.name = format!("gltf:{}", m.name);
+            }
+            materials.push(m);
+        }
+        for o in g.objects {
+            objects.push(Object {
+                name: o.name,
+                mesh: o.mesh,
+                material: base + o.material,
+            });
+        }
+        gltf_lights = g.lights;
     }
 
     // Lights.
@@ -461,6 +540,9 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
             direction: dir,
             intensity,
         });
+    }
+    if lights.is_empty() {
+        lights = gltf_lights;
     }
     if lights.is_empty() {
         return Err(format!("{}: the scene has no [[light]]", path.display()));

@@ -4,6 +4,7 @@
 //! Scenes are written as TOML files ([`mod@file`]) naming procedural or OBJ meshes ([`mesh`]).
 
 pub mod file;
+pub mod gltf;
 pub mod mesh;
 pub mod spheres;
 
