@@ -1,10 +1,61 @@
 //! penumbra: a pure-CPU, deterministic software rasterizer with the GPU features real-time
-//! shadow algorithms need, and (on it) the shadow algorithms themselves.
+//! shadow algorithms need, and (on it) the shadow algorithms themselves, each measured against
+//! a ray-traced ground truth.
+//!
+//! # Data flow
+//!
+//! ```text
+//! scene file (TOML, OBJ, glTF) --scene--> Scene { objects, materials, camera, lights, path }
+//!     |
+//!     +--frame--> camera pass through the pipeline: G-buffer (depth, position, normal, object)
+//!     |               |                                     |
+//!     |               v                                     v
+//!     |     shadow technique (shadow::create):     reference ray tracer (reference):
+//!     |     light-space passes through the         exact hard or area-light visibility
+//!     |     pipeline -> Visibility                 -> Visibility
+//!     |               |                                     |
+//!     |               +-------------> metrics <-------------+   (RMSE, wrong %, penumbra RMSE)
+//!     v               v
+//!   frame::shade -> image      run (timing, camera paths) -> report (CSV, charts, HTML)
+//! ```
 //!
 //! - [`pipeline`]: the software GPU (tiled raster, depth, stencil, conservative raster,
-//!   fragment lists, samplers, compute helpers).
+//!   fragment lists, samplers, compute helpers). It knows nothing of scenes or shadows.
+//! - [`scene`]: scene data and its files ([`scene::file`] for TOML, [`scene::gltf`] for glTF).
+//! - [`frame`]: the camera's G-buffer pass and shading.
+//! - [`shadow`]: every technique, by family, behind one trait ([`shadow::ShadowTechnique`]);
+//!   [`shadow::registry`] lists them with their options.
+//! - [`reference`]: the ray tracer, independent of the pipeline; [`metrics`]: errors against it.
+//! - [`run`]: timing and camera paths; [`report`]: the files a sweep writes.
 //! - [`mod@bench`]: the benchmark workloads (the "spheres" frame and random triangles).
 //! - [`hash`]: stable hashing of outputs for golden tests.
+//!
+//! # A scene, a technique and its error
+//!
+//! ```
+//! # fn main() -> Result<(), String> {
+//! use penumbra::pipeline::Pipeline;
+//! use penumbra::reference::{Reference, ReferenceOptions};
+//! use penumbra::{frame, metrics, scene, shadow};
+//!
+//! let text = "# a box on a plane\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [64, 48]\n\
+//!             [[light]]\ntype = \"directional\"\ndirection = [0.3, -1, 0.2]\n\
+//!             [[object]]\nmesh = \"plane\"\nsize = 4\n\
+//!             [[object]]\nmesh = \"box\"\ntranslate = [0, 0.5, 0]\n";
+//! let s = scene::file::parse(text, std::path::Path::new("box.toml"))?;
+//! let p = Pipeline::new(2).map_err(|e| e.to_string())?;
+//! let f = frame::frame(&p, &s, 0, 0)?; // the camera's G-buffer for light 0, frame 0
+//! let mut t = shadow::create("shadow-volume", &[])?; // or "pcss", "izb", with ("key", "value") options
+//! let v = t.visibility(&p, &f)?;
+//! let r = Reference::new(&s).visibility(f.points(), f.width() as usize, &f.light, &ReferenceOptions::default());
+//! let e = metrics::compare(&v, &r, &f.metric_mask());
+//! assert!(e.wrong_pct < 0.5, "shadow volumes are exact: {e:?}");
+//! let _picture = frame::shade(&f, &v); // an RGBA8 surface, for image_io::write_png
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! # The pipeline alone
 //!
 //! ```
 //! # fn main() -> Result<(), penumbra::pipeline::PipelineError> {
@@ -22,6 +73,8 @@
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! Runnable programs are in `examples/`: `render_scene`, `draw_triangles`, `technique_stages`.
 #![warn(missing_docs)]
 
 pub mod alloc;

@@ -113,11 +113,33 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
     let xmin = xs().fold(f64::INFINITY, f64::min);
     let xmax = xs().fold(0.0, f64::max);
     let (xmin, xmax) = if xmin.is_finite() { (xmin, xmax) } else { (1.0, 10.0) };
-    let ymax = finite.iter().map(|p| p.error).fold(0.0, f64::max).max(1e-3) * 1.1;
+    // Errors span decades (exact techniques at 0.001 %, acne at 50 %): a log axis from the
+    // decade of the smallest positive error (at most five decades below the largest); errors
+    // at or below its floor, zero among them, sit on the bottom line.
+    let ymax = finite.iter().map(|p| p.error).fold(0.0, f64::max);
+    let ypos = finite
+        .iter()
+        .map(|p| p.error)
+        .filter(|&e| e > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let ly1 = if ymax > 0.0 { ymax.log10().ceil() } else { 0.0 };
+    let ly0 = if ypos.is_finite() {
+        ypos.log10().floor().max(ly1 - 5.0)
+    } else {
+        ly1 - 1.0
+    }
+    .min(ly1 - 1.0);
     let lx0 = xmin.log10().floor();
     let lx1 = xmax.log10().ceil().max(lx0 + 1.0);
     let px = |x: f64| ml + (x.max(1e-3).log10() - lx0) / (lx1 - lx0) * (w - ml - mr);
-    let py = |y: f64| h - mb - y / ymax * (h - mt - mb);
+    let py = |y: f64| {
+        let t = if y > 0.0 {
+            ((y.log10() - ly0) / (ly1 - ly0)).max(0.0)
+        } else {
+            0.0
+        };
+        h - mb - t * (h - mt - mb)
+    };
     let mut s = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
     let _ = writeln!(
         s,
@@ -138,9 +160,16 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
         let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{mt}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{} ms</text>", h - mb, h - mb + 16.0, 10f64.powf(d));
         d += 1.0;
     }
-    for k in 0..=4 {
-        let y = ymax * k as f64 / 4.0;
-        let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{y:.3}</text>", w - mr, ml - 6.0, py(y) + 4.0, py = py(y));
+    let mut d = ly0;
+    while d <= ly1 + 1e-9 {
+        let y = 10f64.powf(d);
+        let label = if d == ly0 {
+            format!("\u{2264} {y}")
+        } else {
+            format!("{y}")
+        };
+        let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{label}</text>", w - mr, ml - 6.0, py(y) + 4.0, py = py(y));
+        d += 1.0;
     }
     let _ = writeln!(
         s,
@@ -150,7 +179,7 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
     );
     let _ = writeln!(
         s,
-        "<text x=\"16\" y=\"{c}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {c})\">mean {}</text>",
+        "<text x=\"16\" y=\"{c}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {c})\">mean {} (log scale)</text>",
         xml(class.metric()),
         c = h / 2.0
     );

@@ -87,10 +87,11 @@ pub fn report_html(
         names.dedup();
         let _ = writeln!(
             h,
-            "<h2 id=\"class-{}\">{}</h2>\n<p>{} scenes: {}.</p>\n{}",
+            "<h2 id=\"class-{}\">{}</h2>\n<p>{} scene{}: {}.</p>\n{}",
             c.key(),
             xml(c.title()),
             names.len(),
+            if names.len() == 1 { "" } else { "s" },
             xml(&names.join(", ")),
             chart::class_chart_svg(&format!("{}: time vs {}", c.title(), c.metric()), c, &rs)
         );
