@@ -25,7 +25,7 @@
 //! - [`frame`]: the camera's G-buffer pass and shading.
 //! - [`shadow`]: every technique, by family, behind one trait ([`shadow::ShadowTechnique`]);
 //!   [`shadow::registry`] lists them with their options.
-//! - [`reference`]: the ray tracer, independent of the pipeline; [`metrics`]: errors against it.
+//! - [`mod@reference`]: the ray tracer, independent of the pipeline; [`metrics`]: errors against it.
 //! - [`run`]: timing and camera paths; [`report`]: the files a sweep writes.
 //! - [`mod@bench`]: the benchmark workloads (the "spheres" frame and random triangles).
 //! - [`hash`]: stable hashing of outputs for golden tests.
