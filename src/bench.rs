@@ -518,17 +518,24 @@ pub fn export_frame(
         .iter()
         .flat_map(|v| [v.pos.to_array(), v.normal.to_array(), v.albedo.to_array()].concat())
         .collect();
-    let list = |v: &[f32]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
     let [r, g, b, a] = FRAME_CLEAR_COLOR;
-    let meta = format!(
-        "{{\"kind\":\"frame\",\"floats_per_vertex\":9,\"mode\":\"{}\",\"map\":{map},\"width\":{width},\"height\":{height},\"polygon_offset\":[{}],\"light_vp\":[{}],\"camera_vp\":[{}],\"to_light\":[{}],\"clear_color\":[{r},{g},{b},{a}],\"camera_cull\":\"{}\"}}\n",
-        format!("{mode:?}").to_lowercase(),
-        list(&[FRAME_POLYGON_OFFSET.factor, FRAME_POLYGON_OFFSET.units]),
-        list(&setup.light_vp.to_cols_array()),
-        list(&setup.camera_vp.to_cols_array()),
-        list(&setup.to_light.to_array()),
-        setup.camera_cull.name(),
-    );
+    // f32 values in their shortest form that reads back to the same f32.
+    let meta = serde_json::json!({
+        "kind": "frame",
+        "floats_per_vertex": 9,
+        "mode": format!("{mode:?}").to_lowercase(),
+        "map": map,
+        "width": width,
+        "height": height,
+        "polygon_offset": [FRAME_POLYGON_OFFSET.factor, FRAME_POLYGON_OFFSET.units],
+        "light_vp": setup.light_vp.to_cols_array(),
+        "camera_vp": setup.camera_vp.to_cols_array(),
+        "to_light": setup.to_light.to_array(),
+        "clear_color": [r, g, b, a],
+        "camera_cull": setup.camera_cull.name(),
+    })
+    .to_string()
+        + "\n";
     export_workload(dir, &verts, &mesh.indices, &meta)
 }
 
@@ -545,10 +552,15 @@ pub fn export_raster(
         .iter()
         .flat_map(|(p, c)| [p.to_array(), c.to_array()].concat())
         .collect();
-    let meta = format!(
-        "{{\"kind\":\"raster\",\"floats_per_vertex\":8,\"mode\":\"{}\",\"width\":{width},\"height\":{height}}}\n",
-        if color { "color" } else { "depth" }
-    );
+    let meta = serde_json::json!({
+        "kind": "raster",
+        "floats_per_vertex": 8,
+        "mode": if color { "color" } else { "depth" },
+        "width": width,
+        "height": height,
+    })
+    .to_string()
+        + "\n";
     export_workload(dir, &floats, indices, &meta)
 }
 

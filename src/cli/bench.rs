@@ -7,7 +7,7 @@ use penumbra::bench::*;
 use penumbra::hash::{hash_f32, hash_rgba8};
 use penumbra::image_io::{grey, write_png};
 use penumbra::pipeline::*;
-use std::fmt::Write as _;
+use serde_json::json;
 use std::time::Instant;
 
 fn check_triangles(t: usize) -> Result<(), String> {
@@ -96,13 +96,17 @@ pub fn frame(a: FrameArgs) -> Result<(), String> {
         println!("wrote {}", dir.join("spheres.png").display());
     }
     if a.common.json {
-        println!(
-            "{{\"triangles\":{},\"threads\":{},\"mode\":\"{:?}\",\"ms_depth_pass\":{md:.4},\"ms_main_pass\":{mm:.4},\"ms_frame\":{mf:.4},\"mtri_per_s_depth\":{:.4},\"hash\":\"{hash:016x}\"}}",
-            mesh.triangles(),
-            p.threads(),
-            a.mode,
-            tris / md / 1e3
-        );
+        let j = json!({
+            "triangles": mesh.triangles(),
+            "threads": p.threads(),
+            "mode": format!("{:?}", a.mode),
+            "ms_depth_pass": md,
+            "ms_main_pass": mm,
+            "ms_frame": mf,
+            "mtri_per_s_depth": tris / md / 1e3,
+            "hash": format!("{hash:016x}"),
+        });
+        println!("{j}");
     }
     Ok(())
 }
@@ -164,14 +168,17 @@ pub fn raster(a: RasterArgs) -> Result<(), String> {
     );
     print_stage_times(&st);
     if a.common.json {
-        println!(
-            "{{\"triangles\":{},\"area\":{},\"mode\":\"{}\",\"threads\":{},\"ms\":{:.4},\"mtri_per_s\":{mtri:.4},\"gpix_per_s\":{gpix:.4},\"hash\":\"{hash:016x}\"}}",
-            a.triangles,
-            a.area,
-            a.mode,
-            p.threads(),
-            s * 1e3
-        );
+        let j = json!({
+            "triangles": a.triangles,
+            "area": a.area,
+            "mode": a.mode.to_string(),
+            "threads": p.threads(),
+            "ms": s * 1e3,
+            "mtri_per_s": mtri,
+            "gpix_per_s": gpix,
+            "hash": format!("{hash:016x}"),
+        });
+        println!("{j}");
     }
     Ok(())
 }
@@ -318,13 +325,14 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
         100.0 * occluded as f64 / a.rays as f64
     );
     if a.common.json {
-        println!(
-            "{{\"triangles\":{},\"rays\":{},\"threads\":{},\"mrays_per_s\":{mrays:.4},\"ms_build\":{:.3}}}",
-            scene.triangles(),
-            a.rays,
-            p.threads(),
-            build * 1e3
-        );
+        let j = json!({
+            "triangles": scene.triangles(),
+            "rays": a.rays,
+            "threads": p.threads(),
+            "mrays_per_s": mrays,
+            "ms_build": build * 1e3,
+        });
+        println!("{j}");
     }
     Ok(())
 }
@@ -387,18 +395,18 @@ pub fn technique(a: TechniqueArgs) -> Result<(), String> {
     let ms = penumbra::metrics::median(total);
     let hash = v.hash();
     println!("total     {ms:.3} ms (median of {})", a.common.reps.max(1));
-    let mut json = format!(
-        "{{\"technique\":\"{}\",\"threads\":{},\"triangles\":{tris},\"ms\":{ms:.4},\"mtri_per_s\":{:.3}",
-        a.technique,
-        p.threads(),
-        tris as f64 / ms / 1e3
-    );
+    let mut json = serde_json::Map::new();
+    json.insert("technique".into(), json!(a.technique));
+    json.insert("threads".into(), json!(p.threads()));
+    json.insert("triangles".into(), json!(tris));
+    json.insert("ms".into(), json!(ms));
+    json.insert("mtri_per_s".into(), json!(tris as f64 / ms / 1e3));
     // The light-space passes (all but the lookup), for the fragments' insertion rate.
     let mut light_ms = 0.0;
     for (name, list) in passes {
         let m = penumbra::metrics::median(list);
         println!("  {name:<18} {m:.3} ms");
-        let _ = write!(json, ",\"ms_{}\":{m:.4}", name.replace(' ', "_"));
+        json.insert(format!("ms_{}", name.replace(' ', "_")), json!(m));
         if !name.starts_with("lookup") {
             light_ms += m;
         }
@@ -406,20 +414,20 @@ pub fn technique(a: TechniqueArgs) -> Result<(), String> {
     let counters = t.counters();
     for (name, c) in &counters {
         println!("  {name:<18} {c}");
-        let _ = write!(json, ",\"{}\":{c}", name.replace(' ', "_"));
+        json.insert(name.replace(' ', "_"), json!(c));
     }
     if let Some((_, frags)) = counters.iter().find(|(n, _)| n.starts_with("fragments")) {
         if light_ms > 0.0 {
             let rate = frags / light_ms / 1e3;
             println!("fragments {rate:.2} M/s through the light pass");
-            let _ = write!(json, ",\"mfragments_per_s\":{rate:.3}");
+            json.insert("mfragments_per_s".into(), json!(rate));
         }
     }
     println!("throughput {:.2} Mtri/s", tris as f64 / ms / 1e3);
     println!("hash      {hash:016x}");
-    let _ = write!(json, ",\"hash\":\"{hash:016x}\"}}");
+    json.insert("hash".into(), json!(format!("{hash:016x}")));
     if a.common.json {
-        println!("{json}");
+        println!("{}", serde_json::Value::Object(json));
     }
     Ok(())
 }
