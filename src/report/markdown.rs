@@ -2,10 +2,13 @@
 
 use crate::metrics;
 use crate::run::RunResult;
+use crate::scene::SceneClass;
 use std::fmt::Write as _;
 
-/// One row per technique and settings across all scenes: median time, mean RMSE, mean and
-/// worst wrong % (with the scene), mean penumbra RMSE. The README's technique table.
+/// One row per technique and settings across all scenes: median time, and per scene class its
+/// own error averaged over the class's scenes (hard-light: wrong %, area-light: penumbra RMSE,
+/// transparent: transmittance RMSE; errors of different kinds are never averaged together),
+/// and the worst wrong % with its scene. The README's technique table.
 pub fn summary_markdown(results: &[RunResult]) -> String {
     let mut labels: Vec<String> = Vec::new();
     for r in results {
@@ -13,34 +16,45 @@ pub fn summary_markdown(results: &[RunResult]) -> String {
             labels.push(r.label());
         }
     }
-    let mut s = String::from(
-        "| technique [settings] | median ms | mean RMSE | mean wrong % | worst wrong % (scene) | mean penumbra RMSE |\n| --- | --- | --- | --- | --- | --- |\n",
+    let count = |c: SceneClass| {
+        let mut names: Vec<&str> = results
+            .iter()
+            .filter(|r| r.class == c)
+            .map(|r| r.scene.as_str())
+            .collect();
+        names.sort();
+        names.dedup();
+        names.len()
+    };
+    let mut s = format!(
+        "| technique [settings] | median ms | hard-light: wrong % ({} scenes) | area-light: penumbra RMSE ({}) | transparent: transmittance RMSE ({}) | worst wrong % (scene) |\n| --- | --- | --- | --- | --- | --- |\n",
+        count(SceneClass::Hard),
+        count(SceneClass::Area),
+        count(SceneClass::Transparent)
     );
     for label in labels {
         let rs: Vec<&RunResult> = results.iter().filter(|r| r.label() == label).collect();
-        let n = rs.len() as f64;
-        let mean = |f: &dyn Fn(&RunResult) -> f64| rs.iter().map(|r| f(r)).sum::<f64>() / n;
+        let class_mean = |c: SceneClass, digits: usize| -> String {
+            let v: Vec<f64> = rs.iter().filter(|r| r.class == c).map(|r| r.class_error()).collect();
+            if v.is_empty() {
+                "-".into()
+            } else {
+                format!("{:.digits$}", v.iter().sum::<f64>() / v.len() as f64)
+            }
+        };
         let worst = rs
             .iter()
             .max_by(|a, b| a.errors.wrong_pct.total_cmp(&b.errors.wrong_pct))
             .expect("at least one run");
         let _ = writeln!(
             s,
-            "| {label} | {:.1} | {:.4} | {:.2} | {:.2} ({}) | {:.3} |",
+            "| {label} | {:.1} | {} | {} | {} | {:.2} ({}) |",
             metrics::median(rs.iter().map(|r| r.ms).collect()),
-            mean(&|r| r.errors.rmse),
-            mean(&|r| r.errors.wrong_pct),
+            class_mean(SceneClass::Hard, 3),
+            class_mean(SceneClass::Area, 3),
+            class_mean(SceneClass::Transparent, 3),
             worst.errors.wrong_pct,
             worst.scene,
-            {
-                // Over the scenes that have a penumbra (area lights) only.
-                let soft: Vec<f64> = rs
-                    .iter()
-                    .filter(|r| r.errors.penumbra_pixels > 0)
-                    .map(|r| r.errors.penumbra_rmse)
-                    .collect();
-                soft.iter().sum::<f64>() / soft.len().max(1) as f64
-            },
         );
     }
     s
