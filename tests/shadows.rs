@@ -265,7 +265,7 @@ fn cli_export_and_list() {
     let obj = std::fs::read_to_string(out.join("contact.obj")).unwrap();
     assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), 14);
     let json = std::fs::read_to_string(out.join("contact.json")).unwrap();
-    assert!(json.contains("\"type\": \"area\""), "{json}");
+    assert!(json.contains("\"type\": \"disk\""), "{json}");
     let (ok, text) = cli(&["list"]);
     assert!(ok && text.contains("shadow-map") && text.contains("contact"), "{text}");
 }

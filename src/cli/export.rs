@@ -28,26 +28,33 @@ fn obj_name(s: &str) -> String {
     }
 }
 
+/// An `f32` as the JSON number it reads as (0.1, not 0.10000000149011612).
+fn f(x: f32) -> serde_json::Value {
+    x.to_string()
+        .parse::<f64>()
+        .map_or(serde_json::Value::Null, |v| json!(v))
+}
+
 fn v3(v: Vec3) -> serde_json::Value {
-    json!([v.x, v.y, v.z])
+    json!([f(v.x), f(v.y), f(v.z)])
 }
 
 /// A light as structured JSON: its type, its shape's fields and the placement every type has.
 fn light_json(l: &Light) -> serde_json::Value {
     let mut j = match l.kind {
         LightKind::Directional => json!({"type": "directional"}),
-        LightKind::Spot { angle_deg } => json!({"type": "spot", "angle_deg": angle_deg}),
+        LightKind::Spot { angle_deg } => json!({"type": "spot", "angle_deg": f(angle_deg)}),
         LightKind::Point => json!({"type": "point"}),
-        LightKind::Area(AreaShape::Disk { radius }) => json!({"type": "disk", "radius": radius}),
-        LightKind::Area(AreaShape::Sphere { radius }) => json!({"type": "sphere", "radius": radius}),
+        LightKind::Area(AreaShape::Disk { radius }) => json!({"type": "disk", "radius": f(radius)}),
+        LightKind::Area(AreaShape::Sphere { radius }) => json!({"type": "sphere", "radius": f(radius)}),
         LightKind::Area(AreaShape::Rectangle { width, height }) => {
             let (t1, t2) = l.tangents();
-            json!({"type": "rectangle", "width": width, "height": height, "width_axis": v3(t1), "height_axis": v3(t2)})
+            json!({"type": "rectangle", "width": f(width), "height": f(height), "width_axis": v3(t1), "height_axis": v3(t2)})
         }
     };
     j["position"] = v3(l.position);
     j["direction"] = v3(l.direction);
-    j["intensity"] = json!(l.intensity);
+    j["intensity"] = f(l.intensity);
     j
 }
 
@@ -123,13 +130,13 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
         "files": {"obj": format!("{stem}.obj"), "mtl": format!("{stem}.mtl")},
         "camera": {
             "position": v3(c.position), "target": v3(c.target), "up": v3(c.up),
-            "fov_y_deg": c.fov_deg, "near": c.near, "far": c.far,
+            "fov_y_deg": f(c.fov_deg), "near": f(c.near), "far": f(c.far),
             "width": c.width, "height": c.height,
         },
         "camera_path": s.camera_path.iter().map(|k| json!({"position": v3(k.position), "target": v3(k.target)})).collect::<Vec<_>>(),
         "lights": s.lights.iter().map(light_json).collect::<Vec<_>>(),
         "materials": s.materials.iter().map(|m| json!({
-            "name": obj_name(&m.name), "albedo": v3(m.albedo), "opacity": m.opacity,
+            "name": obj_name(&m.name), "albedo": v3(m.albedo), "opacity": f(m.opacity),
             "transmittance": v3(m.transmittance_rgb()), "two_sided": m.two_sided,
         })).collect::<Vec<_>>(),
         "objects": s.objects.iter().map(|o| json!({

@@ -20,6 +20,29 @@ mod sweep;
 struct Cli {
     #[command(subcommand)]
     cmd: Option<Cmd>,
+    /// Memory budget of all render targets, maps and buffers alive at once (bytes, or with a
+    /// K, M or G suffix). A surface past it is refused, before it is allocated, with an error
+    /// that says how large it was. Default: 4G.
+    #[arg(long, global = true, allow_hyphen_values = true, value_parser = parse_bytes, value_name = "BYTES")]
+    max_memory: Option<u64>,
+}
+
+/// Parses `4G`, `512M`, `64K` or a byte count.
+fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (num, mul) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 1u64 << 10),
+        Some('M') => (&t[..t.len() - 1], 1 << 20),
+        Some('G') => (&t[..t.len() - 1], 1 << 30),
+        _ => (t, 1),
+    };
+    let n: u64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a size (bytes, or a whole number with K, M or G: 4G)"))?;
+    n.checked_mul(mul)
+        .filter(|&b| b > 0)
+        .ok_or_else(|| format!("'{s}' must be above 0 and below 16 EiB"))
 }
 
 #[derive(Subcommand)]
@@ -271,6 +294,9 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    if let Some(bytes) = cli.max_memory {
+        penumbra::pipeline::set_memory_limit(bytes);
+    }
     let result = match cli.cmd {
         None => {
             println!(

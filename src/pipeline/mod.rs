@@ -55,7 +55,10 @@ pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentP
 pub use lists::{FragmentLists, ListNode};
 pub use ordered::{OrderedProgram, PixelStore};
 pub use state::*;
-pub use surface::{CubeFace, CubeMap, MipChain, Surface, SurfaceArray, MAX_DIMENSION};
+pub use surface::{
+    check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Surface, SurfaceArray,
+    DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
+};
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
 pub use wide::{Color4, Fragment4, Vec3x4};
 
@@ -119,6 +122,21 @@ pub enum PipelineError {
     },
     /// Any other invalid argument, described.
     BadArgument(String),
+    /// A surface (or a set of them: a cube map's faces, an array's layers; `bytes` counts them
+    /// all) would take the live surfaces past the memory budget
+    /// ([`surface::set_memory_limit`]); nothing was allocated.
+    OverBudget {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// Its bytes.
+        bytes: u64,
+        /// Bytes of the surfaces alive when it was asked for.
+        live: u64,
+        /// The budget.
+        limit: u64,
+    },
 }
 
 impl fmt::Display for PipelineError {
@@ -156,6 +174,22 @@ impl fmt::Display for PipelineError {
                 write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
             }
             PipelineError::BadArgument(s) => write!(f, "{s}"),
+            PipelineError::OverBudget {
+                width,
+                height,
+                bytes,
+                live,
+                limit,
+            } => {
+                let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+                write!(
+                    f,
+                    "{width}x{height} surfaces of {:.0} MiB would bring the surfaces alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the limit with --max-memory)",
+                    mib(*bytes),
+                    mib(live + bytes),
+                    mib(*limit)
+                )
+            }
         }
     }
 }

@@ -5,6 +5,7 @@
 
 use super::PipelineError;
 use glam::{Vec3, Vec4};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest width or height of any surface the pipeline accepts.
 pub const MAX_DIMENSION: u32 = 16384;
@@ -14,11 +15,99 @@ pub trait Texel: Copy + Send + Sync + 'static {}
 impl<T: Copy + Send + Sync + 'static> Texel for T {}
 
 /// A 2D buffer of texels, row-major, origin top-left.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// Every surface counts against one process-wide memory budget ([`set_memory_limit`]): a
+/// surface that would take the live surfaces past it is refused before it is allocated, with
+/// an error that says how large it is and how to raise the limit.
+#[derive(Debug, PartialEq)]
 pub struct Surface<T> {
     width: u32,
     height: u32,
     data: Vec<T>,
+}
+
+/// Default memory budget of all live surfaces together (4 GiB).
+pub const DEFAULT_MEMORY_LIMIT: u64 = 4 << 30;
+
+static LIVE_BYTES: AtomicU64 = AtomicU64::new(0);
+static MEMORY_LIMIT: AtomicU64 = AtomicU64::new(DEFAULT_MEMORY_LIMIT);
+
+/// Sets the memory budget of all live surfaces together, in bytes (the CLI's `--max-memory`).
+pub fn set_memory_limit(bytes: u64) {
+    MEMORY_LIMIT.store(bytes, Ordering::Relaxed);
+}
+
+/// The memory budget in force.
+pub fn memory_limit() -> u64 {
+    MEMORY_LIMIT.load(Ordering::Relaxed)
+}
+
+/// Bytes held by live surfaces now.
+pub fn live_surface_bytes() -> u64 {
+    LIVE_BYTES.load(Ordering::Relaxed)
+}
+
+/// Whether `count` surfaces of `width` x `height` fit in the budget now (nothing reserved):
+/// the check for a set of surfaces before the first is allocated.
+///
+/// Techniques call it with everything a pass will allocate (maps × faces × layers) before
+/// the pass, so that a request past the budget is refused at once rather than after the
+/// first surfaces were filled.
+pub fn check_room(width: u32, height: u32, texel: usize, count: u64) -> Result<(), PipelineError> {
+    let bytes = width as u64 * height as u64 * texel as u64 * count;
+    let (live, limit) = (live_surface_bytes(), memory_limit());
+    if live.saturating_add(bytes) > limit {
+        return Err(PipelineError::OverBudget {
+            width,
+            height,
+            bytes,
+            live,
+            limit,
+        });
+    }
+    Ok(())
+}
+
+/// Reserves `bytes` in the budget, or says why not.
+fn reserve(width: u32, height: u32, texel: usize) -> Result<(), PipelineError> {
+    let bytes = width as u64 * height as u64 * texel as u64;
+    let limit = memory_limit();
+    let mut live = LIVE_BYTES.load(Ordering::Relaxed);
+    loop {
+        if live.saturating_add(bytes) > limit {
+            return Err(PipelineError::OverBudget {
+                width,
+                height,
+                bytes,
+                live,
+                limit,
+            });
+        }
+        match LIVE_BYTES.compare_exchange_weak(live, live + bytes, Ordering::Relaxed, Ordering::Relaxed) {
+            Ok(_) => return Ok(()),
+            Err(now) => live = now,
+        }
+    }
+}
+
+/// A surface made from a smaller one (a mapped copy, a mip level): counted in the budget, not
+/// refused (its source already passed).
+fn counted<T>(width: u32, height: u32, data: Vec<T>) -> Surface<T> {
+    LIVE_BYTES.fetch_add((data.len() * std::mem::size_of::<T>()) as u64, Ordering::Relaxed);
+    Surface { width, height, data }
+}
+
+impl<T> Drop for Surface<T> {
+    fn drop(&mut self) {
+        LIVE_BYTES.fetch_sub((self.data.len() * std::mem::size_of::<T>()) as u64, Ordering::Relaxed);
+    }
+}
+
+impl<T: Clone> Clone for Surface<T> {
+    /// A copy counts in the budget too (it cannot be refused: `Clone` cannot fail).
+    fn clone(&self) -> Self {
+        counted(self.width, self.height, self.data.clone())
+    }
 }
 
 /// Checks a surface size against the pipeline's limits.
@@ -35,6 +124,7 @@ impl<T: Texel> Surface<T> {
     /// Errors when a side is zero or above [`MAX_DIMENSION`].
     pub fn new(width: u32, height: u32, value: T) -> Result<Self, PipelineError> {
         check_size(width, height)?;
+        reserve(width, height, std::mem::size_of::<T>())?;
         Ok(Surface {
             width,
             height,
@@ -48,6 +138,7 @@ impl<T: Texel> Surface<T> {
         if data.len() != width as usize * height as usize {
             return Err(PipelineError::BadSize { width, height });
         }
+        reserve(width, height, std::mem::size_of::<T>())?;
         Ok(Surface { width, height, data })
     }
 
@@ -121,11 +212,7 @@ impl<T: Texel> Surface<T> {
 
     /// A new surface of the same size with `f` applied to every texel.
     pub fn map<U: Texel>(&self, f: impl Fn(T) -> U) -> Surface<U> {
-        Surface {
-            width: self.width,
-            height: self.height,
-            data: self.data.iter().map(|&t| f(t)).collect(),
-        }
+        counted(self.width, self.height, self.data.iter().map(|&t| f(t)).collect())
     }
 }
 
@@ -213,6 +300,9 @@ pub struct CubeMap<T> {
 impl<T: Texel> CubeMap<T> {
     /// A cube map with `size` x `size` faces filled with `value`.
     pub fn new(size: u32, value: T) -> Result<Self, PipelineError> {
+        // All six faces are checked against the budget before the first is allocated.
+        check_size(size, size)?;
+        check_room(size, size, std::mem::size_of::<T>(), 6)?;
         let f = Surface::new(size, size, value)?;
         Ok(CubeMap {
             faces: [f.clone(), f.clone(), f.clone(), f.clone(), f.clone(), f],
@@ -250,6 +340,8 @@ impl<T: Texel> SurfaceArray<T> {
                 "surface array layer count {count} (must be 1..=64)"
             )));
         }
+        check_size(width, height)?;
+        check_room(width, height, std::mem::size_of::<T>(), count as u64)?;
         let s = Surface::new(width, height, value)?;
         Ok(SurfaceArray { layers: vec![s; count] })
     }
@@ -302,11 +394,7 @@ impl<T: Texel> MipChain<T> {
                     data.push(reduce(&buf));
                 }
             }
-            levels.push(Surface {
-                width: nw,
-                height: nh,
-                data,
-            });
+            levels.push(counted(nw, nh, data));
         }
         MipChain { levels }
     }

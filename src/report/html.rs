@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:auto;padding:0 12px;color:#222}\
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}\
 td:first-child,th:first-child{text-align:left}th{background:#f3f3f3;cursor:pointer;user-select:none}\
-th.asc::after{content:' \\25B2'}th.desc::after{content:' \\25BC'}td img{width:120px;cursor:zoom-in;margin:1px}\
+th.asc::after{content:' \\25B2'}th.desc::after{content:' \\25BC'}td img{width:110px;cursor:zoom-in;margin:1px}td.imgs{white-space:nowrap}\
 .fail{background:#fff8e0;border-left:4px solid #e0b000;padding:6px 10px}nav a{margin-right:10px}\
 #box{display:none;position:fixed;inset:0;background:rgba(0,0,0,.85);align-items:center;justify-content:center;cursor:zoom-out}\
 #box img{max-width:95vw;max-height:90vh;image-rendering:pixelated}#box div{color:#fff;position:fixed;top:8px;left:12px}\
@@ -128,7 +128,7 @@ pub fn report_html(
                 num(r.discontinuity, 4),
                 num(r.banding, 4),
             );
-            h.push_str("<td data-v=\"\">");
+            h.push_str("<td class=\"imgs\" data-v=\"\">");
             if let Some(imgs) = images(r) {
                 for (src, what) in imgs.iter().zip(["visibility", "reference", "error"]) {
                     let _ = write!(

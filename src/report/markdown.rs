@@ -5,6 +5,26 @@ use crate::run::RunResult;
 use crate::scene::SceneClass;
 use std::fmt::Write as _;
 
+/// Text from a scene file as Markdown that shows it literally: every character Markdown or
+/// HTML would act on is escaped (no images, links, raw HTML or table cells from a scene's
+/// comment), and line breaks become spaces.
+pub fn md(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '\\' | '`' | '*' | '_' | '{' | '}' | '[' | ']' | '(' | ')' | '#' | '+' | '-' | '.' | '!' | '|' | '<'
+            | '>' | '&' | '~' => {
+                out.push('\\');
+                out.push(c);
+            }
+            '\n' | '\r' => out.push(' '),
+            c if c.is_control() => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
 /// One row per technique and settings across all scenes: median time, and per scene class its
 /// own error averaged over the class's scenes (hard-light: wrong %, area-light: penumbra RMSE,
 /// transparent: transmittance RMSE; errors of different kinds are never averaged together),
@@ -74,7 +94,8 @@ pub fn report_markdown(
         }
     }
     for (name, desc) in scenes {
-        let _ = write!(s, "## {name}\n\n{desc}\n\n![{name}](charts/{}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | transparent RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", super::file_safe(name));
+        let (name_md, desc) = (md(name), md(desc));
+        let _ = write!(s, "## {name_md}\n\n{desc}\n\n![{name_md}](charts/{}.svg)\n\n| technique | ms | RMSE | MAE | wrong % | penumbra RMSE | transparent RMSE | flicker | image |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", super::file_safe(name));
         for r in results.iter().filter(|r| &r.scene == name) {
             let e = &r.errors;
             let img = thumbs(r).map(|t| format!("![]({t})")).unwrap_or_default();
@@ -105,7 +126,7 @@ pub fn report_markdown(
         if !charts.is_empty() {
             let _ = writeln!(
                 s,
-                "### {name}: along the camera path
+                "### {name_md}: along the camera path
 "
             );
             for (label, p) in charts {
@@ -118,4 +139,25 @@ pub fn report_markdown(
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scene_text_shows_literally_in_markdown() {
+        let m = md("![x](javascript:alert(1)) <img src=x> | cell\nline");
+        assert_eq!(
+            m,
+            "\\!\\[x\\]\\(javascript:alert\\(1\\)\\) \\<img src=x\\> \\| cell line"
+        );
+        let page = report_markdown(
+            &[],
+            &[("s".into(), "![x](javascript:alert(1))".into())],
+            &|_| None,
+            &|_| None,
+        );
+        assert!(!page.contains("![x]"), "{page}");
+    }
 }

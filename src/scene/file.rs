@@ -38,6 +38,83 @@ use toml::Spanned;
 /// Largest image side a scene may ask for.
 pub const MAX_RESOLUTION: u32 = 8192;
 
+/// Largest absolute world coordinate (camera, lights, translations, vertices after their
+/// transforms): beyond it products of coordinates overflow `f32` in the techniques' and the
+/// ray tracer's arithmetic.
+pub const MAX_COORDINATE: f32 = 1e7;
+
+/// Largest scene file read (bytes): scene files are short; a larger "scene" is not one.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Default scene-wide triangle budget, counted from the objects' parameters before any is
+/// tessellated; the environment variable `PENUMBRA_MAX_TRIANGLES` raises or lowers it.
+pub const MAX_TRIANGLES: u64 = 20_000_000;
+
+/// Largest camera path.
+pub const MAX_KEYFRAMES: usize = 1000;
+
+/// The triangle budget in force ([`MAX_TRIANGLES`] or `PENUMBRA_MAX_TRIANGLES`).
+pub fn triangle_budget() -> u64 {
+    std::env::var("PENUMBRA_MAX_TRIANGLES")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(MAX_TRIANGLES)
+}
+
+/// Reads a regular file of at most `limit` bytes: devices, pipes and folders are refused by
+/// name before anything is read (a read from `/dev/zero` would never end).
+pub fn read_regular(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let len = check_regular(path, what, limit)?;
+    let f = std::fs::File::open(path).map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+    let mut bytes = Vec::with_capacity(len as usize);
+    f.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+    if bytes.len() as u64 > limit {
+        return Err(format!("{}: {what} grew past {limit} bytes while read", path.display()));
+    }
+    Ok(bytes)
+}
+
+/// Checks that `path` is a regular file of at most `limit` bytes (see [`read_regular`]);
+/// returns its length.
+pub fn check_regular(path: &Path, what: &str, limit: u64) -> Result<u64, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+    let kind = meta.file_type();
+    if kind.is_dir() {
+        return Err(format!("{}: cannot read {what}: it is a folder", path.display()));
+    }
+    if !kind.is_file() {
+        return Err(format!(
+            "{}: cannot read {what}: not a regular file (a device, pipe or socket)",
+            path.display()
+        ));
+    }
+    if meta.len() > limit {
+        return Err(format!(
+            "{}: {what} of {} bytes is larger than the {limit} bytes read at most",
+            path.display(),
+            meta.len()
+        ));
+    }
+    Ok(meta.len())
+}
+
+/// A list of exactly `N` values (TOML arrays with more or fewer are errors, not truncated).
+fn exact<'de, D: serde::Deserializer<'de>, T: Deserialize<'de>, const N: usize>(d: D) -> Result<[T; N], D::Error> {
+    let v: Vec<T> = Vec::deserialize(d)?;
+    let n = v.len();
+    v.try_into()
+        .map_err(|_| serde::de::Error::custom(format!("expected a list of {N} values, got {n}")))
+}
+
+fn exact_opt<'de, D: serde::Deserializer<'de>, T: Deserialize<'de>, const N: usize>(
+    d: D,
+) -> Result<Option<[T; N]>, D::Error> {
+    exact::<D, T, N>(d).map(Some)
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
@@ -57,12 +134,16 @@ struct RawScene {
 #[derive(Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
+    #[serde(deserialize_with = "exact")]
     position: [f32; 3],
+    #[serde(deserialize_with = "exact")]
     target: [f32; 3],
+    #[serde(default, deserialize_with = "exact_opt")]
     up: Option<[f32; 3]>,
     fov: Option<f32>,
     near: Option<f32>,
     far: Option<f32>,
+    #[serde(default, deserialize_with = "exact_opt")]
     resolution: Option<[u32; 2]>,
 }
 
@@ -71,11 +152,15 @@ struct RawCamera {
 struct RawLight {
     #[serde(rename = "type")]
     kind: String,
+    #[serde(default, deserialize_with = "exact_opt")]
     position: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact_opt")]
     direction: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact_opt")]
     target: Option<[f32; 3]>,
     angle: Option<f32>,
     radius: Option<f32>,
+    #[serde(default, deserialize_with = "exact_opt")]
     size: Option<[f32; 2]>,
     intensity: Option<f32>,
 }
@@ -84,17 +169,46 @@ struct RawLight {
 #[serde(deny_unknown_fields)]
 struct RawMaterial {
     name: String,
+    #[serde(default, deserialize_with = "exact_opt")]
     albedo: Option<[f32; 3]>,
     opacity: Option<f32>,
+    #[serde(default, deserialize_with = "exact_opt")]
     transmittance: Option<[f32; 3]>,
     two_sided: Option<bool>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
 enum NumOrVec {
     Num(f32),
     Vec(Vec<f32>),
+}
+
+impl<'de> Deserialize<'de> for NumOrVec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = NumOrVec;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or a list of numbers")
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<NumOrVec, E> {
+                Ok(NumOrVec::Num(v as f32))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<NumOrVec, E> {
+                Ok(NumOrVec::Num(v as f32))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<NumOrVec, E> {
+                Ok(NumOrVec::Num(v as f32))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<NumOrVec, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<f32>()? {
+                    v.push(x);
+                }
+                Ok(NumOrVec::Vec(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 #[derive(Deserialize)]
@@ -113,7 +227,9 @@ struct RawObject {
     seed: Option<u64>,
     pleats: Option<u32>,
     material: Option<String>,
+    #[serde(default, deserialize_with = "exact_opt")]
     translate: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact_opt")]
     rotate: Option<[f32; 3]>,
     scale: Option<NumOrVec>,
 }
@@ -121,7 +237,9 @@ struct RawObject {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawKey {
+    #[serde(deserialize_with = "exact")]
     position: [f32; 3],
+    #[serde(deserialize_with = "exact")]
     target: [f32; 3],
 }
 
@@ -151,9 +269,60 @@ impl Ctx<'_> {
     }
 }
 
+/// The key whose value starts at or contains `offset` (`translate` in `translate = [0, "x"]`):
+/// the nearest `key =` at or before it on its line.
+fn key_before(text: &str, offset: usize) -> Option<String> {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
+    let line = &text[line_start..line_end];
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    (!key.is_empty() && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')).then(|| key.to_string())
+}
+
 fn finite3(v: [f32; 3]) -> Option<Vec3> {
     let v = Vec3::from(v);
     v.is_finite().then_some(v)
+}
+
+/// A point: finite and within [`MAX_COORDINATE`].
+fn point3(v: [f32; 3]) -> Result<Vec3, String> {
+    let p = Vec3::from(v);
+    if !p.is_finite() {
+        Err(format!("{p} is not finite"))
+    } else if p.abs().max_element() > MAX_COORDINATE {
+        Err(format!(
+            "{p} is beyond ±{MAX_COORDINATE:e}, the largest coordinate a scene may use"
+        ))
+    } else {
+        Ok(p)
+    }
+}
+
+/// A direction of any finite length (scaled before it is normalized, so that 1e38 is as
+/// good a length as 1), unit; `None` if zero or not finite.
+fn unit3(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    (v.is_finite() && m > 0.0).then(|| (v / m).normalize())
+}
+
+/// Checks a camera's view: position and target points, distinct, `up` not along the view.
+fn check_view(
+    position: [f32; 3],
+    target: [f32; 3],
+    up: Option<[f32; 3]>,
+) -> Result<(Vec3, Vec3, Vec3), (&'static str, String)> {
+    let position = point3(position).map_err(|e| ("position", e))?;
+    let target = point3(target).map_err(|e| ("target", e))?;
+    let Some(view) = unit3(target - position).filter(|_| (target - position).length() >= 1e-6) else {
+        return Err(("target", "equals the position".into()));
+    };
+    let up_v = finite3(up.unwrap_or([0.0, 1.0, 0.0])).unwrap_or(Vec3::ZERO);
+    match unit3(up_v) {
+        Some(u) if u.cross(view).length() >= 1e-4 => Ok((position, target, up_v)),
+        _ => Err(("up", "zero, not finite, or parallel to the view direction".into())),
+    }
 }
 
 /// Loads a scene file. Relative OBJ paths resolve against the file's folder.
@@ -173,7 +342,15 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), String> {
         let text = format!("# {file} (glTF)\ngltf = {}\n", toml::Value::String(file.clone()));
         return parse(&text, path).map(|s| (s, text));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
+    let bytes = read_regular(path, "scene file", MAX_SCENE_BYTES)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let line = e.as_bytes()[..e.utf8_error().valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        format!("{}:{line}: not UTF-8 text (a scene file is TOML)", path.display())
+    })?;
     parse(&text, path).map(|s| (s, text))
 }
 
@@ -187,7 +364,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     let ctx = Ctx { path, text };
     let raw: RawScene = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| ctx.line(s.start)).unwrap_or(0);
-        format!("{}:{line}: {}", path.display(), e.message())
+        match e.span().and_then(|s| key_before(text, s.start)) {
+            Some(key) => format!("{}:{line}: field `{key}`: {}", path.display(), e.message().trim_end()),
+            None => format!("{}:{line}: {}", path.display(), e.message().trim_end()),
+        }
     })?;
     let description: String = text
         .lines()
@@ -231,15 +411,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
         (None, None) => return Err(format!("{}: the scene has no [camera]", path.display())),
     };
     let cam = "[camera]";
-    let position = finite3(c.position).map_or_else(|| ctx.err(cs.clone(), cam, "position", "not finite"), Ok)?;
-    let target = finite3(c.target).map_or_else(|| ctx.err(cs.clone(), cam, "target", "not finite"), Ok)?;
-    if (target - position).length() < 1e-6 {
-        return ctx.err(cs, cam, "target", "equals the position");
-    }
-    let up = finite3(c.up.unwrap_or([0.0, 1.0, 0.0])).unwrap_or(Vec3::ZERO);
-    if up.length() < 1e-6 || up.normalize().cross((target - position).normalize()).length() < 1e-4 {
-        return ctx.err(cs, cam, "up", "zero, not finite, or parallel to the view direction");
-    }
+    let (position, target, up) = match check_view(c.position, c.target, c.up) {
+        Ok(v) => v,
+        Err((field, msg)) => return ctx.err(cs, cam, field, msg),
+    };
     let fov = c.fov.unwrap_or(45.0);
     if !(fov > 0.0 && fov < 180.0) {
         return ctx.err(cs, cam, "fov", format!("{fov} is outside (0, 180) degrees"));
@@ -292,7 +467,8 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
                 None => return ctx.err(s, &what, "transmittance", "each channel must be in [0, 1]"),
             },
         };
-        if materials.iter().any(|x| x.name == m.name) {
+        // (The built-in material at index 0 has no name users can clash with.)
+        if materials[1..].iter().any(|x| x.name == m.name) {
             return ctx.err(s, &what, "name", "used by an earlier material");
         }
         materials.push(Material {
@@ -305,7 +481,9 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     }
 
     // Objects.
-    let mut objects = Vec::new();
+    let mut objects: Vec<Object> = Vec::new();
+    let budget = triangle_budget();
+    let mut triangles = 0u64;
     for (i, o) in raw.objects.iter().enumerate() {
         let (s, o) = (o.span(), o.get_ref());
         let what = format!("[[object]] #{} ({})", i + 1, o.mesh);
@@ -340,6 +518,32 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
                 ctx.err(s.clone(), &what, field, format!("{v} is outside 1..={max}"))
             }
         };
+        // The scene-wide triangle budget, from the parameters, before anything is tessellated
+        // (each parameter clamped to its own limit, which `count` checks below).
+        let param = |v: Option<u32>, default: u32, max: u32| v.unwrap_or(default).min(max) as u64;
+        let estimate = match o.mesh.as_str() {
+            "plane" => 2 * param(o.subdivisions, 1, 1024).pow(2),
+            "box" => 12,
+            "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
+            "cylinder" => 4 * param(o.segments, 32, 4096),
+            "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
+            "pleated" => {
+                let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
+                2 * n * (n / 4).max(1)
+            }
+            _ => 0,
+        };
+        triangles += estimate;
+        if triangles > budget {
+            return ctx.err(
+                s,
+                &what,
+                "mesh",
+                format!(
+                    "about {estimate} triangles here make {triangles} in the scene, beyond its budget of {budget} (lower stacks, slices, segments or subdivisions, or raise the budget with PENUMBRA_MAX_TRIANGLES)"
+                ),
+            );
+        }
         let mesh = match o.mesh.as_str() {
             "plane" => {
                 let sz = size_vec(2, &[10.0, 10.0])?;
@@ -424,16 +628,51 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
         let m = Mat4::from_scale_rotation_translation(sc, rot, t);
         let material = match &o.material {
             None => 0,
-            Some(name) => match materials.iter().position(|m| &m.name == name) {
-                Some(k) => k,
+            Some(name) => match materials[1..].iter().position(|m| &m.name == name) {
+                Some(k) => k + 1,
                 None => return ctx.err(s, &what, "material", format!("no material named '{name}'")),
             },
         };
-        objects.push(Object {
-            name: o.name.clone().unwrap_or_else(|| format!("object{}", i + 1)),
-            mesh: mesh.transformed(m),
-            material,
-        });
+        let name = o.name.clone().unwrap_or_else(|| format!("object{}", i + 1));
+        if let Some(j) = objects.iter().position(|x| x.name == name) {
+            return ctx.err(
+                s,
+                &what,
+                "name",
+                format!("'{name}' is also object #{}'s name (options such as receiver= and occluders= pick objects by name)", j + 1),
+            );
+        }
+        if estimate == 0 {
+            // Files: their real count.
+            triangles += mesh.triangles() as u64;
+            if triangles > budget {
+                return ctx.err(
+                    s,
+                    &what,
+                    "mesh",
+                    format!("{} triangles make {triangles} in the scene, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)", mesh.triangles()),
+                );
+            }
+        }
+        let mesh = mesh.transformed(m);
+        if let Some(p) = mesh
+            .positions
+            .iter()
+            .find(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
+        {
+            let field = if t.abs().max_element() > MAX_COORDINATE {
+                "translate"
+            } else {
+                "scale"
+            };
+            return ctx.err(
+                s,
+                &what,
+                field,
+                format!("a vertex lands at {p} after the transform, beyond ±{MAX_COORDINATE:e} (the largest coordinate a scene may use)"),
+            );
+        }
+        objects.push(Object { name, mesh, material });
     }
 
     // The glTF's objects and materials, after the file's own.
@@ -446,9 +685,33 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
             }
             materials.push(m);
         }
+        let gs = raw.gltf.as_ref().map_or(0..0, |g| g.span());
         for o in g.objects {
+            triangles += o.mesh.triangles() as u64;
+            if triangles > budget {
+                return ctx.err(
+                    gs,
+                    "top level",
+                    "gltf",
+                    format!("{triangles} triangles in the scene with the glTF's, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)"),
+                );
+            }
+            if let Some(p) = o.mesh.positions.iter().find(|p| p.abs().max_element() > MAX_COORDINATE) {
+                return ctx.err(
+                    gs,
+                    "top level",
+                    "gltf",
+                    format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
+                );
+            }
+            let mut name = o.name;
+            let mut k = 2;
+            while objects.iter().any(|x| x.name == name) {
+                name = format!("{name}#{k}");
+                k += 1;
+            }
             objects.push(Object {
-                name: o.name,
+                name,
                 mesh: o.mesh,
                 material: base + o.material,
             });
@@ -467,22 +730,43 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
         let (s, l) = (l.span(), l.get_ref());
         let what = format!("[[light]] #{} ({})", i + 1, l.kind);
         let pos = match l.position {
-            Some(p) => Some(finite3(p).map_or_else(|| ctx.err(s.clone(), &what, "position", "not finite"), Ok)?),
+            Some(p) => Some(point3(p).or_else(|e| ctx.err(s.clone(), &what, "position", e))?),
             None => None,
         };
+        let directional = l.kind == "directional";
+        // Lights that shine the same way everywhere need not face anywhere.
+        let omni = matches!(l.kind.as_str(), "point" | "sphere");
+        if pos.is_none() && !directional && ["spot", "point", "disk", "sphere", "rectangle"].contains(&l.kind.as_str())
+        {
+            return ctx.err(s, &what, "position", format!("a {} light needs a position", l.kind));
+        }
         let dir = match (l.direction, l.target, pos) {
-            (Some(d), _, _) => finite3(d),
-            (None, Some(t), Some(p)) => finite3(t).map(|t| t - p),
-            (None, None, Some(p)) => Some(center - p),
-            _ => None,
-        };
-        let Some(dir) = dir.filter(|d| d.length() > 1e-6).map(|d| d.normalize()) else {
-            return ctx.err(
-                s,
-                &what,
-                "direction",
-                "missing, zero or not finite (give direction, or position and target)",
-            );
+            (Some(d), _, _) => match finite3(d).and_then(unit3) {
+                Some(d) => d,
+                None => return ctx.err(s, &what, "direction", "zero or not finite"),
+            },
+            (None, Some(t), Some(p)) => {
+                let t = point3(t).or_else(|e| ctx.err(s.clone(), &what, "target", e))?;
+                match unit3(t - p).filter(|_| (t - p).length() > 1e-6) {
+                    Some(d) => d,
+                    None => return ctx.err(s, &what, "target", "equals the position"),
+                }
+            }
+            (None, None, Some(p)) => match unit3(center - p).filter(|_| (center - p).length() > 1e-6) {
+                Some(d) => d,
+                None if omni => Vec3::NEG_Y,
+                None => {
+                    return ctx.err(
+                        s,
+                        &what,
+                        "direction",
+                        "missing, and the light sits at the centre of the scene's bounds, so it faces nowhere (give direction or target)",
+                    )
+                }
+            },
+            (None, _, None) => {
+                return ctx.err(s, &what, "direction", "missing (a directional light needs direction = [x, y, z])")
+            }
         };
         let radius = |default: f32| -> Result<f32, String> {
             let r = l.radius.unwrap_or(default);
@@ -550,13 +834,25 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     if objects.is_empty() {
         return Err(format!("{}: the scene has no [[object]]", path.display()));
     }
+    if raw.camera_path.len() > MAX_KEYFRAMES {
+        let s = raw.camera_path[MAX_KEYFRAMES].span();
+        return ctx.err(
+            s,
+            &format!("[[camera_path]] #{}", MAX_KEYFRAMES + 1),
+            "position",
+            format!(
+                "a camera path has at most {MAX_KEYFRAMES} keyframes (this one has {})",
+                raw.camera_path.len()
+            ),
+        );
+    }
     let mut camera_path = Vec::new();
     for (i, k) in raw.camera_path.iter().enumerate() {
         let (s, k) = (k.span(), k.get_ref());
         let what = format!("[[camera_path]] #{}", i + 1);
-        let (Some(position), Some(target)) = (finite3(k.position), finite3(k.target)) else {
-            return ctx.err(s, &what, "position", "position and target must be finite");
-        };
+        // Checked as [camera] is (with its up), so that no frame of the path is blank.
+        let (position, target, _) = check_view(k.position, k.target, Some(camera.up.to_array()))
+            .or_else(|(field, msg)| ctx.err(s, &what, field, msg))?;
         camera_path.push(Keyframe { position, target });
     }
     let name = path
@@ -651,7 +947,7 @@ translate = [0, 0.5, 0]
         let e = err(&OK.replace("mesh = \"box\"", "mesh = \"teapot\""));
         assert!(e.contains("unknown mesh 'teapot'"), "{e}");
         let e = err(&OK.replace("target = [0, 0.5, 0]", "target = [0, nan, 0]"));
-        assert!(e.contains("field `target`: not finite"), "{e}");
+        assert!(e.contains("field `target`: [0, NaN, 0] is not finite"), "{e}");
         let e = err(&OK.replace("size = 1", "sise = 1"));
         assert!(e.starts_with("s.toml:") && e.contains("sise"), "{e}");
         let e = err(&OK.replace("mesh = \"box\"", "mesh = \"missing.obj\""));
@@ -660,5 +956,194 @@ translate = [0, 0.5, 0]
         assert!(e.contains("target"), "{e}");
         let e = err(&OK.replace("[camera]", "[camera\n"));
         assert!(e.starts_with("s.toml:2:"), "{e}");
+    }
+
+    /// The hostile-input cases of the scene format, each a clear error naming the field (or a
+    /// documented, correct behaviour), never garbage.
+    #[test]
+    fn hostile_scene_fields_get_errors_that_name_them() {
+        let cases: &[(&str, &str, &str)] = &[
+            // Fixed-length arrays take exactly their length.
+            (
+                "translate = [0, 0.5, 0]",
+                "translate = [0, 0.5, 0, \"junk\", true]",
+                "s.toml:23: field `translate`: invalid type: string \"junk\", expected f32",
+            ),
+            (
+                "translate = [0, 0.5, 0]",
+                "translate = [0, 0.5, 0, 4]",
+                "expected a list of 3 values, got 4",
+            ),
+            (
+                "resolution = [64, 32]",
+                "resolution = [64, 36, 99999]",
+                "field `resolution`: expected a list of 2 values, got 3",
+            ),
+            // Type errors name the field and say what was expected, not an internal type.
+            (
+                "size = 1",
+                "size = \"big\"",
+                "field `size`: invalid type: string \"big\", expected a number or a list of numbers",
+            ),
+            // Coordinates beyond the scene's range blame the field the user wrote.
+            (
+                "position = [4, 3, 6]",
+                "position = [1e38, 3, 6]",
+                "[camera], field `position`: [100000000000000000000000000000000000000, 3, 6] is beyond",
+            ),
+            (
+                "translate = [0, 0.5, 0]",
+                "translate = [0, 0.5, 0]\nscale = 1e34",
+                "[[object]] #2 (box), field `scale`: a vertex lands at",
+            ),
+            (
+                "translate = [0, 0.5, 0]",
+                "translate = [3e38, 0, 0]",
+                "field `translate`",
+            ),
+            // Lights: a point light needs a position, and the error says so.
+            (
+                "type = \"directional\"\ndirection = [-0.4, -1, -0.3]",
+                "type = \"point\"",
+                "[[light]] #1 (point), field `position`: a point light needs a position",
+            ),
+            (
+                "direction = [-0.4, -1, -0.3]",
+                "position = [1e38, 0, 0]",
+                "field `position`",
+            ),
+            // Duplicate object names would make receiver= and occluders= pick the first.
+            ("mesh = \"box\"", "mesh = \"box\"\nname = \"a\"", ""),
+        ];
+        for (from, to, want) in cases {
+            assert!(OK.contains(from), "{from}");
+            let text = OK.replacen(from, to, 1);
+            let r = parse(&text, Path::new("s.toml"));
+            if want.is_empty() {
+                assert!(r.is_ok(), "{to}: {:?}", r.err());
+            } else {
+                let e = r.unwrap_err();
+                assert!(e.contains(want), "{to}:\n  got  {e}\n  want {want}");
+            }
+        }
+        let dup = OK
+            .replace("mesh = \"plane\"", "mesh = \"plane\"\nname = \"a\"")
+            .replace("mesh = \"box\"", "mesh = \"box\"\nname = \"a\"");
+        let e = err(&dup);
+        assert!(e.contains("field `name`: 'a' is also object #1's name"), "{e}");
+    }
+
+    #[test]
+    fn valid_but_unusual_scenes_are_taken() {
+        // A huge direction is a direction.
+        let s = parse(&OK.replace("[-0.4, -1, -0.3]", "[0, -1e38, 0]"), Path::new("s.toml")).unwrap();
+        assert_eq!(s.lights[0].direction, Vec3::NEG_Y);
+        // A point light exactly at the centre of the scene's bounds (it shines everywhere).
+        let at_centre = OK.replace(
+            "type = \"directional\"\ndirection = [-0.4, -1, -0.3]",
+            "type = \"point\"\nposition = [0, 0.5, 0]",
+        );
+        let s = parse(&at_centre, Path::new("s.toml")).unwrap();
+        assert_eq!(s.lights[0].position, Vec3::new(0.0, 0.5, 0.0));
+        assert!(s.lights[0].direction.is_normalized());
+        // A spot there faces nowhere: it needs a direction.
+        let e = err(&at_centre.replace("\"point\"", "\"spot\""));
+        assert!(e.contains("field `direction`") && e.contains("faces nowhere"), "{e}");
+        // A material may be called `default` (the built-in one has no name to clash with).
+        let d = OK
+            .replace("name = \"ground\"", "name = \"default\"")
+            .replace("material = \"ground\"", "material = \"default\"");
+        let s = parse(&d, Path::new("s.toml")).unwrap();
+        assert_eq!(s.materials[s.objects[0].material].albedo, Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn camera_paths_are_checked_as_the_camera_is() {
+        let with = |k: &str| format!("{OK}\n[[camera_path]]\n{k}\n");
+        let e = err(&with("position = [1, 2, 3]\ntarget = [1, 2, 3]"));
+        assert!(
+            e.contains("[[camera_path]] #1, field `target`: equals the position"),
+            "{e}"
+        );
+        let e = err(&with("position = [0, 5, 0]\ntarget = [0, 0, 0]"));
+        assert!(e.contains("[[camera_path]] #1, field `up`"), "{e}");
+        let e = err(&with("position = [1e38, 2, 3]\ntarget = [0, 0, 0]"));
+        assert!(e.contains("field `position`") && e.contains("beyond"), "{e}");
+        let many: String = (0..=MAX_KEYFRAMES)
+            .map(|i| format!("[[camera_path]]\nposition = [{i}, 3, 6]\ntarget = [0, 0, 0]\n"))
+            .collect();
+        let e = err(&format!("{OK}\n{many}"));
+        assert!(e.contains("at most 1000 keyframes"), "{e}");
+    }
+
+    #[test]
+    fn the_triangle_budget_is_checked_before_tessellating() {
+        let spheres: String = (0..8)
+            .map(|i| format!("[[object]]\nmesh = \"sphere\"\nstacks = 2048\nslices = 4096\ntranslate = [{i}, 0, 0]\n"))
+            .collect();
+        let t = std::time::Instant::now();
+        let e = err(&format!("{OK}\n{spheres}"));
+        assert!(
+            e.contains("beyond its budget") && e.contains("PENUMBRA_MAX_TRIANGLES"),
+            "{e}"
+        );
+        assert!(e.contains("[[object]] #4 (sphere)"), "the second sphere passes it: {e}");
+        // Refused before any allocation of the meshes (16 M triangles each): well within a second.
+        assert!(t.elapsed().as_secs_f64() < 5.0);
+    }
+
+    #[test]
+    fn files_that_are_not_scene_or_obj_files_are_refused_by_name() {
+        let dir = std::env::temp_dir().join(format!("penumbra-hostile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        #[cfg(unix)]
+        {
+            let e = load(Path::new("/dev/zero")).unwrap_err();
+            assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
+            let e = parse(
+                &OK.replace("mesh = \"box\"", "mesh = \"/dev/zero.obj\""),
+                Path::new("s.toml"),
+            )
+            .unwrap_err();
+            assert!(e.contains("field `mesh`"), "{e}");
+        }
+        let e = load(&dir).unwrap_err();
+        assert!(e.contains("it is a folder"), "{e}");
+        let e = load(&dir.join("missing.toml")).unwrap_err();
+        assert!(e.contains("missing.toml") && e.contains("No such file"), "{e}");
+        std::fs::write(dir.join("bin.toml"), b"# ok\n\xff\xfe\n").unwrap();
+        let e = load(&dir.join("bin.toml")).unwrap_err();
+        assert!(e.contains("bin.toml:2: not UTF-8"), "{e}");
+        // OBJ files: a folder, faces of fewer than three vertices, indices past the vertices
+        // (with line numbers), polylines only, and a non-UTF-8 comment (fine).
+        let obj = |name: &str, body: &[u8]| -> String {
+            let p = dir.join(name);
+            if !p.is_dir() {
+                std::fs::write(&p, body).unwrap();
+            }
+            let scene = dir.join(format!("{name}.toml"));
+            std::fs::write(&scene, OK.replace("mesh = \"box\"", &format!("mesh = \"{name}\""))).unwrap();
+            match load(&scene) {
+                Ok(s) => format!("ok {}", s.triangles()),
+                Err(e) => e,
+            }
+        };
+        let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        assert!(obj("f1.obj", format!("{v}f 1\n").as_bytes())
+            .contains("f1.obj:4: a face needs 3 or more vertices, this one has 1"));
+        assert!(obj("f2.obj", format!("{v}f 1 2\n").as_bytes()).contains("this one has 2"));
+        let e = obj("far.obj", format!("{v}f 1 2 9\n").as_bytes());
+        assert!(
+            e.contains("far.obj:4: face vertex `9` names vertex 9, but 3 are defined"),
+            "{e}"
+        );
+        let e = obj("lines.obj", format!("{v}l 1 2\nl 2 3\n").as_bytes());
+        assert!(e.contains("no triangles in the file"), "{e}");
+        let mut bytes = b"# caf\xe9\n".to_vec();
+        bytes.extend_from_slice(format!("{v}f 1 2 3\n").as_bytes());
+        assert_eq!(obj("latin1.obj", &bytes), "ok 3");
+        std::fs::create_dir_all(dir.join("folder.obj")).unwrap();
+        let e = obj("folder.obj", b"");
+        assert!(e.contains("folder.obj: cannot read OBJ file: it is a folder"), "{e}");
     }
 }

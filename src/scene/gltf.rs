@@ -94,6 +94,7 @@ impl GltfScene {
 /// Loads a `.gltf` (with its buffers) or `.glb` file.
 pub fn load(path: &Path) -> Result<GltfScene, String> {
     let shown = path.display();
+    super::file::check_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
     let (doc, buffers, _) = gltf::import(path).map_err(|e| format!("{shown}: cannot load glTF: {e}"))?;
     let mut materials: Vec<Material> = doc
         .materials()

@@ -206,15 +206,73 @@ pub fn pleated(size: Vec2, n: u32, amplitude: f32, pleats: u32) -> Mesh {
     m
 }
 
+/// Largest OBJ file read (bytes).
+pub const MAX_OBJ_BYTES: u64 = 1 << 30;
+
+/// Checks an OBJ's element lines before parsing, so that errors carry line numbers: every
+/// face (`f`) has three or more vertices whose position indices are integers naming a vertex
+/// defined so far (1-based, or negative: relative). Points and polylines (`p`, `l`) have no
+/// area: they are dropped (and counted). Returns the text to parse and the dropped count.
+fn check_obj(text: &str, path: &Path) -> Result<(String, usize), String> {
+    let mut out = String::with_capacity(text.len());
+    let (mut vertices, mut dropped) = (0i64, 0usize);
+    for (i, line) in text.lines().enumerate() {
+        let at = |msg: String| format!("{}:{}: {msg}", path.display(), i + 1);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => vertices += 1,
+            Some("l" | "p") => {
+                dropped += 1;
+                continue;
+            }
+            Some("f") => {
+                let refs: Vec<&str> = words.collect();
+                if refs.len() < 3 {
+                    return Err(at(format!(
+                        "a face needs 3 or more vertices, this one has {} (`{}`)",
+                        refs.len(),
+                        line.trim()
+                    )));
+                }
+                for r in refs {
+                    let first = r.split('/').next().unwrap_or("");
+                    let k: i64 = first
+                        .parse()
+                        .map_err(|_| at(format!("face vertex `{r}`: `{first}` is not a vertex number")))?;
+                    let ok = if k > 0 { k <= vertices } else { k < 0 && -k <= vertices };
+                    if !ok {
+                        return Err(at(format!(
+                            "face vertex `{r}` names vertex {k}, but {vertices} are defined before this line"
+                        )));
+                    }
+                }
+            }
+            _ => {}
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    Ok((out, dropped))
+}
+
 /// Loads an OBJ file (all its models, triangulated). Missing normals are generated from the
-/// faces (area-weighted). Errors name the path.
+/// faces (area-weighted). The file must be a regular file of at most [`MAX_OBJ_BYTES`]; bytes
+/// that are not UTF-8 (in comments, say) are replaced; faces are checked line by line
+/// ([`check_obj`]). Errors name the path, and the line where there is one.
 pub fn load_obj(path: &Path) -> Result<Mesh, String> {
+    let bytes = super::file::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let (text, _dropped) = check_obj(&text, path)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| format!("{}: cannot load OBJ: {e}", path.display()))?;
+    // Materials (`mtllib`) are not read: a scene file gives materials.
+    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |_| {
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| format!("{}: cannot parse OBJ: {e}", path.display()))?;
     let mut out = Mesh::default();
     for model in models {
         let mm = &model.mesh;
@@ -253,7 +311,7 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
         });
     }
     if out.indices.is_empty() {
-        return Err(format!("{}: no triangles in the file", path.display()));
+        return Err(format!("{}: no triangles in the file (no `f` lines)", path.display()));
     }
     Ok(out)
 }

@@ -375,6 +375,24 @@ impl ShadowMap {
         self.fitted = fit.fitted;
         let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
         self.ids.clear();
+        // Every map this pass allocates (views × layers), checked against the memory budget
+        // before the first is: the maps of the last run are reused, so they do not count.
+        let layers: u64 = match o.layer {
+            Layer::First | Layer::Second => 1,
+            Layer::Midpoint => 3,
+            Layer::Id => 2,
+        };
+        let reused = old.iter().filter(|m| m.width() == o.size).count() as u64;
+        let new_maps = (fit.views.len() as u64 * layers).saturating_sub(reused);
+        if new_maps > 0 {
+            crate::pipeline::check_room(o.size, o.size, 4, new_maps).map_err(|e| {
+                format!(
+                    "technique 'shadow-map' ({} views, option size={}): {e}",
+                    fit.views.len(),
+                    o.size
+                )
+            })?;
+        }
         let casters = merged_casters(frame, &fit.casters)?;
         let pass = DepthPass {
             size: o.size,
