@@ -10,9 +10,15 @@ use penumbra::pipeline::*;
 use serde_json::json;
 use std::time::Instant;
 
+/// Largest `--triangles` of the benchmarks: a workload a 2-core machine builds and draws in
+/// seconds and a few GB.
+const MAX_BENCH_TRIANGLES: usize = 10_000_000;
+
 fn check_triangles(t: usize) -> Result<(), String> {
-    if !(2..=50_000_000).contains(&t) {
-        return Err(format!("--triangles {t} is out of range (2..=50000000)"));
+    if !(2..=MAX_BENCH_TRIANGLES).contains(&t) {
+        return Err(format!(
+            "--triangles {t} is out of range (2..={MAX_BENCH_TRIANGLES}: larger meshes take more than a few GB)"
+        ));
     }
     Ok(())
 }
@@ -113,8 +119,21 @@ pub fn frame(a: FrameArgs) -> Result<(), String> {
 
 pub fn raster(a: RasterArgs) -> Result<(), String> {
     check_triangles(a.triangles)?;
-    if !(a.area.is_finite() && a.area > 0.0 && a.area <= 1e7) {
-        return Err(format!("--area {} is out of range (0, 1e7]", a.area));
+    // A triangle covers at most the 1920x1080 target; the total fill is bounded too, so that
+    // one repetition takes seconds, not hours.
+    if !(a.area.is_finite() && a.area > 0.0 && a.area <= 2.1e6) {
+        return Err(format!(
+            "--area {} is out of range (0, 2.1e6]: the target has 2,073,600 pixels",
+            a.area
+        ));
+    }
+    if a.area as f64 * a.triangles as f64 > 2e10 {
+        return Err(format!(
+            "--triangles {} of --area {} fill {:.1e} pixels per repetition, beyond 2e10 (minutes on two cores): lower one",
+            a.triangles,
+            a.area,
+            a.area as f64 * a.triangles as f64
+        ));
     }
     let color_mode = match a.mode.as_str() {
         "color" => true,
@@ -241,8 +260,11 @@ fn export_rays(
 pub fn rays(a: RaysArgs) -> Result<(), String> {
     use penumbra::reference::{offset_origin, Reference};
     check_triangles(a.triangles)?;
-    if !(1000..=1_000_000_000).contains(&a.rays) {
-        return Err(format!("--rays {} is out of range (1000..=1e9)", a.rays));
+    if !(1000..=100_000_000).contains(&a.rays) {
+        return Err(format!(
+            "--rays {} is out of range (1000..=100000000: about 10 s per repetition on two cores at the top)",
+            a.rays
+        ));
     }
     let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
     let scene = spheres_as_scene(a.triangles);

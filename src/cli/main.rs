@@ -27,6 +27,18 @@ struct Cli {
     max_memory: Option<u64>,
 }
 
+/// Largest `--reps`: repetitions of a measurement that a 2-core machine finishes.
+const MAX_REPS: usize = 100;
+
+/// Parses `--reps` (0..=100).
+fn parse_reps(s: &str) -> Result<usize, String> {
+    s.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|&r| r <= MAX_REPS)
+        .ok_or_else(|| format!("'{s}' is not a repetition count from 0 to {MAX_REPS}"))
+}
+
 /// Parses `4G`, `512M`, `64K` or a byte count.
 fn parse_bytes(s: &str) -> Result<u64, String> {
     let t = s.trim();
@@ -95,7 +107,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out")]
@@ -134,7 +146,7 @@ struct SweepArgs {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
@@ -199,7 +211,7 @@ struct Common {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after the warm-up (the median is reported).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = parse_reps)]
     reps: usize,
     /// Print one JSON object on the last line.
     #[arg(long)]

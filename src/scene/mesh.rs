@@ -258,7 +258,7 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), String> {
 /// Loads an OBJ file (all its models, triangulated). Missing normals are generated from the
 /// faces (area-weighted). The file must be a regular file of at most [`MAX_OBJ_BYTES`]; bytes
 /// that are not UTF-8 (in comments, say) are replaced; faces are checked line by line
-/// ([`check_obj`]). Errors name the path, and the line where there is one.
+/// (with line numbers). Errors name the path, and the line where there is one.
 pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     let bytes = super::file::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
     let text = String::from_utf8_lossy(&bytes);
