@@ -195,9 +195,25 @@ pub fn banding(v: &Visibility, reference: &Visibility, mask: &[bool], ids: &[u32
 /// `max(0, |v_t - v_{t-1}| - |r_t - r_{t-1}|)`: change of the technique beyond the change of
 /// the truth at the same pixel.
 pub fn flicker(frames: &[(Visibility, &Visibility, &[bool])]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0u64);
+    let mut acc = Flicker::default();
     for w in frames.windows(2) {
-        let ((v0, r0, m0), (v1, r1, m1)) = (&w[0], &w[1]);
+        acc.add((&w[0].0, w[0].1, w[0].2), (&w[1].0, w[1].1, w[1].2));
+    }
+    acc.value()
+}
+
+/// [`flicker`] one pair of consecutive frames at a time, so that a camera path's frames need
+/// not all be kept.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct Flicker {
+    sum: f64,
+    n: u64,
+}
+
+impl Flicker {
+    /// Adds the change from `prev` to `cur` (each: technique, reference, metric mask).
+    pub fn add(&mut self, prev: (&Visibility, &Visibility, &[bool]), cur: (&Visibility, &Visibility, &[bool])) {
+        let ((v0, r0, m0), (v1, r1, m1)) = (prev, cur);
         for i in 0..v1.len().min(v0.len()) {
             let (a0, a1, b0, b1) = (v0.value(i), v1.value(i), r0.value(i), r1.value(i));
             if !(m0[i] && m1[i] && b0.is_finite() && b1.is_finite()) {
@@ -209,14 +225,18 @@ pub fn flicker(frames: &[(Visibility, &Visibility, &[bool])]) -> f64 {
                 1.0
             };
             let dr = (b1 - b0).abs() as f64;
-            sum += (dv - dr).max(0.0);
-            n += 1;
+            self.sum += (dv - dr).max(0.0);
+            self.n += 1;
         }
     }
-    if n == 0 {
-        0.0
-    } else {
-        sum / n as f64
+
+    /// The mean so far (0 before any pair).
+    pub fn value(&self) -> f64 {
+        if self.n == 0 {
+            0.0
+        } else {
+            self.sum / self.n as f64
+        }
     }
 }
 

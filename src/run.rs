@@ -225,17 +225,25 @@ pub struct RenderOutput {
 pub struct Prepared<'a> {
     /// The scene.
     pub scene: &'a Scene,
-    /// Per frame: the frame (`None`: rebuilt on use, see [`Prepared::new`]), its reference
-    /// and its metric mask.
-    frames: Vec<(Option<Frame<'a>>, Visibility, Vec<bool>)>,
+    /// Per frame: kept (the frame, its reference and its metric mask), or streamed (rebuilt on
+    /// use, its reference from the cache or traced again; see [`Prepared::new`]).
+    frames: Vec<PreparedFrame<'a>>,
+    /// Where streamed frames' references are read back from.
+    cache: Option<&'a dyn ReferenceCache>,
     /// Seconds the references took (0 when cached).
     pub reference_secs: f64,
     /// Shadow rays the references traced (0 when cached).
     pub reference_rays: u64,
 }
 
-/// Frames kept by [`Prepared`] at most, in pixels summed over the path (beyond it frames are
-/// rebuilt for each run, so that a long path of large frames does not hold them all).
+enum PreparedFrame<'a> {
+    Kept(Box<(Frame<'a>, Visibility, Vec<bool>)>),
+    Streamed { key: u64 },
+}
+
+/// Frames kept by [`Prepared`] at most, in pixels summed over the path: beyond it no frame is
+/// kept (each is rebuilt for each run, its reference read from the cache), so that a long path
+/// of large frames holds one frame at a time.
 const KEPT_FRAME_PIXELS: u64 = 16 << 20;
 
 impl<'a> Prepared<'a> {
@@ -244,7 +252,7 @@ impl<'a> Prepared<'a> {
         p: &Pipeline,
         scene: &'a Scene,
         scene_text: &str,
-        cache: Option<&dyn ReferenceCache>,
+        cache: Option<&'a dyn ReferenceCache>,
     ) -> Result<Prepared<'a>, String> {
         let count = scene.camera_path.len().max(1);
         let pixels = scene.camera.width as u64 * scene.camera.height as u64 * count as u64;
@@ -257,12 +265,17 @@ impl<'a> Prepared<'a> {
             let (r, s, n) = reference(p, &f, key, cache)?;
             secs += s;
             rays += n;
-            let mask = f.metric_mask();
-            frames.push((keep.then_some(f), r, mask));
+            if keep {
+                let mask = f.metric_mask();
+                frames.push(PreparedFrame::Kept(Box::new((f, r, mask))));
+            } else {
+                frames.push(PreparedFrame::Streamed { key });
+            }
         }
         Ok(Prepared {
             scene,
             frames,
+            cache,
             reference_secs: secs,
             reference_rays: rays,
         })
@@ -295,19 +308,24 @@ pub fn render_prepared(
     reps: usize,
 ) -> Result<RenderOutput, String> {
     let scene = prepared.scene;
-    let mut seq = Vec::new();
     let mut first = None;
     let mut pass_times = Vec::new();
     let mut notes = Vec::new();
     let mut path = Vec::new();
     let mut t = shadow::create(name, sets)?;
-    for (i, (kept, r, mask)) in prepared.frames.iter().enumerate() {
-        let built;
-        let f = match kept {
-            Some(f) => f,
-            None => {
-                built = frame::frame(p, scene, 0, i)?;
-                &built
+    let mut flicker = metrics::Flicker::default();
+    // The previous frame's technique, reference and mask (for flicker): one frame is kept.
+    let mut prev: Option<(Visibility, Visibility, Vec<bool>)> = None;
+    for (i, pf) in prepared.frames.iter().enumerate() {
+        let streamed;
+        let (f, r, mask) = match pf {
+            PreparedFrame::Kept(k) => (&k.0, &k.1, &k.2),
+            PreparedFrame::Streamed { key } => {
+                let f = frame::frame(p, scene, 0, i)?;
+                let (r, _, _) = reference(p, &f, *key, prepared.cache)?;
+                let mask = f.metric_mask();
+                streamed = (f, r, mask);
+                (&streamed.0, &streamed.1, &streamed.2)
             }
         };
         // Frame 0: a warm-up and `reps` timed calls (`reps` 0: one call, as the reference
@@ -340,7 +358,12 @@ pub fn render_prepared(
                 },
             ));
         }
-        seq.push((v, r, &mask[..]));
+        if let Some((pv, pr, pm)) = &prev {
+            flicker.add((pv, pr, pm), (&v, r, mask));
+        }
+        if prepared.frames.len() > 1 {
+            prev = Some((v, r.clone(), mask.clone()));
+        }
     }
     let (errors, transparent, (ms, discontinuity, banding), first) = first.expect("at least one frame");
     let settings = sets
@@ -359,7 +382,7 @@ pub fn render_prepared(
         transparent,
         ms,
         threads: p.threads(),
-        flicker: metrics::flicker(&seq),
+        flicker: flicker.value(),
         discontinuity,
         banding,
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),

@@ -134,3 +134,44 @@ fn scene_errors_blame_the_field_the_user_wrote() {
         }
     }
 }
+
+#[test]
+fn large_frames_and_benchmarks_past_their_limits_are_refused_at_once() {
+    // An 8192² frame along a 5-keyframe path: each frame is about 9 GB of buffers.
+    let mut big = POINT.replace("resolution = [48, 32]", "resolution = [8192, 8192]");
+    for i in 0..5 {
+        big.push_str(&format!(
+            "[[camera_path]]\nposition = [{i}, 3, 5]\ntarget = [0, 0, 0]\n"
+        ));
+    }
+    let s = scene("big.toml", &big);
+    let (ok, text) = cli(&["render", &s, "--technique", "planar"]);
+    assert!(
+        !ok && text.contains("a 8192x8192 frame needs about") && text.contains("--max-memory"),
+        "{text}"
+    );
+    // Benchmarks at their documented limits finish on two cores; past them, an error.
+    for (args, want) in [
+        (
+            &["bench", "technique", "--triangles", "50000000"][..],
+            "--triangles 50000000 is out of range",
+        ),
+        (
+            &["bench", "rays", "--rays", "1000000000"][..],
+            "--rays 1000000000 is out of range",
+        ),
+        (
+            &["bench", "raster", "--triangles", "1000", "--area", "1e7"][..],
+            "--area 10000000 is out of range",
+        ),
+        (
+            &["bench", "raster", "--triangles", "10000000", "--area", "2e6"][..],
+            "beyond 2e10",
+        ),
+        (&["bench", "frame", "--reps", "1000"][..], "from 0 to 100"),
+        (&["render", "x.toml", "--reps", "101"][..], "from 0 to 100"),
+    ] {
+        let (ok, text) = cli(args);
+        assert!(!ok && text.contains(want), "{args:?}: {text}");
+    }
+}

@@ -1137,6 +1137,10 @@ translate = [0, 0.5, 0]
             e.contains("far.obj:4: face vertex `9` names vertex 9, but 3 are defined"),
             "{e}"
         );
+        let e = obj("badv.obj", b"v 0 0 0\nv 1 x 0\n");
+        assert!(e.contains("badv.obj:2: `v`: `x` is not a number"), "{e}");
+        let e = obj("shortv.obj", b"v 0 0\n");
+        assert!(e.contains("shortv.obj:1: `v` needs 3 numbers, this line has 2"), "{e}");
         let e = obj("lines.obj", format!("{v}l 1 2\nl 2 3\n").as_bytes());
         assert!(e.contains("no triangles in the file"), "{e}");
         let mut bytes = b"# caf\xe9\n".to_vec();

@@ -220,7 +220,18 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), String> {
         let at = |msg: String| format!("{}:{}: {msg}", path.display(), i + 1);
         let mut words = line.split_whitespace();
         match words.next() {
-            Some("v") => vertices += 1,
+            Some(kw @ ("v" | "vn")) => {
+                let nums: Vec<&str> = words.collect();
+                if nums.len() < 3 {
+                    return Err(at(format!("`{kw}` needs 3 numbers, this line has {}", nums.len())));
+                }
+                if let Some(bad) = nums.iter().take(3).find(|w| w.parse::<f32>().is_err()) {
+                    return Err(at(format!("`{kw}`: `{bad}` is not a number")));
+                }
+                if kw == "v" {
+                    vertices += 1;
+                }
+            }
             Some("l" | "p") => {
                 dropped += 1;
                 continue;
