@@ -204,7 +204,7 @@ fn cli_reports_bad_input_with_what_and_where() {
                 "render".into(),
                 temp_scene("nan.toml", &GOOD.replace("[0, 3, 5]", "[0, nan, 5]")),
             ],
-            "field `position`: not finite",
+            "field `position`: [0, NaN, 5] is not finite",
         ),
         (
             vec![
