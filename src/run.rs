@@ -246,6 +246,9 @@ enum PreparedFrame<'a> {
 /// of large frames holds one frame at a time.
 const KEPT_FRAME_PIXELS: u64 = 16 << 20;
 
+/// Told of long work as it goes: `(what, done, total)`.
+pub type Progress<'p> = &'p dyn Fn(&str, usize, usize);
+
 impl<'a> Prepared<'a> {
     /// Builds `scene`'s frames and their references (through `cache`).
     pub fn new(
@@ -254,12 +257,24 @@ impl<'a> Prepared<'a> {
         scene_text: &str,
         cache: Option<&'a dyn ReferenceCache>,
     ) -> Result<Prepared<'a>, String> {
+        Self::new_with_progress(p, scene, scene_text, cache, &|_, _, _| {})
+    }
+
+    /// [`Prepared::new`], telling `progress` of each frame's reference.
+    pub fn new_with_progress(
+        p: &Pipeline,
+        scene: &'a Scene,
+        scene_text: &str,
+        cache: Option<&'a dyn ReferenceCache>,
+        progress: Progress,
+    ) -> Result<Prepared<'a>, String> {
         let count = scene.camera_path.len().max(1);
         let pixels = scene.camera.width as u64 * scene.camera.height as u64 * count as u64;
         let keep = pixels <= KEPT_FRAME_PIXELS;
         let mut frames = Vec::with_capacity(count);
         let (mut secs, mut rays) = (0.0, 0);
         for i in 0..count {
+            progress("reference", i, count);
             let f = frame::frame(p, scene, 0, i)?;
             let key = reference_key(scene_text, &f, 0, &ReferenceOptions::default());
             let (r, s, n) = reference(p, &f, key, cache)?;
@@ -307,6 +322,18 @@ pub fn render_prepared(
     sets: &[(String, String)],
     reps: usize,
 ) -> Result<RenderOutput, String> {
+    render_prepared_with_progress(p, prepared, name, sets, reps, &|_, _, _| {})
+}
+
+/// [`render_prepared`], telling `progress` of each frame of the camera path.
+pub fn render_prepared_with_progress(
+    p: &Pipeline,
+    prepared: &Prepared,
+    name: &str,
+    sets: &[(String, String)],
+    reps: usize,
+    progress: Progress,
+) -> Result<RenderOutput, String> {
     let scene = prepared.scene;
     let mut first = None;
     let mut pass_times = Vec::new();
@@ -317,6 +344,7 @@ pub fn render_prepared(
     // The previous frame's technique, reference and mask (for flicker): one frame is kept.
     let mut prev: Option<(Visibility, Visibility, Vec<bool>)> = None;
     for (i, pf) in prepared.frames.iter().enumerate() {
+        progress(name, i, prepared.frames.len());
         let streamed;
         let (f, r, mask) = match pf {
             PreparedFrame::Kept(k) => (&k.0, &k.1, &k.2),

@@ -382,4 +382,25 @@ fn export_writes_materials_and_structured_json() {
     assert!((j["lights"][0]["radius"].as_f64().unwrap() - 0.35).abs() < 1e-6);
     assert_eq!(j["materials"][1]["two_sided"], true);
     assert!(j["reference_sampling"].as_str().unwrap().contains("stratified"));
+    // A scene file whose name and object names carry quotes, commas and newlines: the JSON
+    // still parses and keeps them.
+    let hostile = dir.join("q\"uote, a\\b.toml");
+    std::fs::write(
+        &hostile,
+        std::fs::read_to_string(&scene)
+            .unwrap()
+            .replace("name = \"floor\\nv 1 2 3\"", "name = \"a \\\"b\\\" <c>\""),
+    )
+    .unwrap();
+    let out2 = dir.join("out2");
+    let (ok, text) = cli(&["export", hostile.to_str().unwrap(), "--out", out2.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let json_file = std::fs::read_dir(&out2)
+        .unwrap()
+        .flatten()
+        .find(|e| e.path().extension().is_some_and(|x| x == "json"))
+        .unwrap();
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(json_file.path()).unwrap()).unwrap();
+    assert_eq!(j["scene"], "q\"uote, a\\b");
+    assert_eq!(j["objects"][0]["name"], "a_\"b\"_<c>");
 }

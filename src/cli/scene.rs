@@ -39,7 +39,28 @@ pub fn render(
     shadow::create(technique, &sets)?;
     let (s, text) = load(scene)?;
     let p = pipeline(threads)?;
-    let r = run::render(&p, &s, &text, technique, &sets, reps, Some(&cache(out)))?;
+    let dir_cache = cache(out);
+    // Along a camera path, a progress bar (hidden when stderr is not a terminal).
+    let bar = (s.camera_path.len() > 1).then(|| {
+        let b = indicatif::ProgressBar::new(s.camera_path.len() as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("[{bar:30}] {pos}/{len} frames {elapsed} {msg}")
+                .expect("a valid template")
+                .progress_chars("#>."),
+        );
+        b
+    });
+    let tell = |what: &str, i: usize, _n: usize| {
+        if let Some(b) = &bar {
+            b.set_message(what.to_string());
+            b.set_position(i as u64);
+        }
+    };
+    let prepared = run::Prepared::new_with_progress(&p, &s, &text, Some(&dir_cache), &tell)?;
+    let r = run::render_prepared_with_progress(&p, &prepared, technique, &sets, reps, &tell)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
     let mut files = report::files::write_run(out, &r)?;
     // The float data beside the pictures, for image tools (NaN where no geometry).
     let stem = report::files::stem(&r.result.scene, &r.result.label());
