@@ -247,7 +247,8 @@ pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> 
 /// Background pixels get a dark sky colour.
 pub fn shade(frame: &Frame, visibility: &Visibility) -> Surface<Rgba8> {
     let (w, h) = (frame.width(), frame.height());
-    let mut out = Surface::new(w, h, [18, 20, 28, 255]).expect("frame size is valid");
+    let mut out =
+        Surface::from_vec_derived(w, h, vec![[18, 20, 28, 255]; w as usize * h as usize]).expect("frame size is valid");
     for y in 0..h {
         for x in 0..w {
             let Some(s) = frame.point(x, y) else { continue };

@@ -1,28 +1,11 @@
 //! Hostile but realistic input through the CLI: each case gets a clear error naming what was
 //! wrong (or a documented, correct behaviour), never a panic, never garbage.
 
-use std::process::Command;
-
-fn cli(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_penumbra"))
-        .args(args)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(!text.contains("panicked"), "the CLI panicked on {args:?}:\n{text}");
-    (out.status.success(), text)
-}
+mod common;
+use common::cli;
 
 fn scene(name: &str, body: &str) -> String {
-    let dir = std::env::temp_dir().join(format!("penumbra-hostile-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p.to_string_lossy().into_owned()
+    common::temp_file("hostile", name, body)
 }
 
 const POINT: &str = "# a point light over a box\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [48, 32]\n[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\n[[object]]\nmesh = \"plane\"\nsize = 4\n[[object]]\nmesh = \"box\"\ntranslate = [0, 0.5, 0]\n";

@@ -1,23 +1,9 @@
 //! What penumbra writes for users and other tools: the sweep's files (sharded and merged
 //! equal to one run), the report page, exports, float images and glTF scenes.
 
+mod common;
+use common::cli;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-/// Runs the CLI; returns (success, stdout + stderr).
-fn cli(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_penumbra"))
-        .args(args)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(!text.contains("panicked"), "the CLI panicked on {args:?}:\n{text}");
-    (out.status.success(), text)
-}
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("penumbra-report-{}-{name}", std::process::id()));

@@ -1,6 +1,8 @@
 //! Techniques against the reference on the fixture scenes, their known failures, and the
 //! registry's and the CLI's handling of bad input.
 
+mod common;
+use common::cli;
 use penumbra::frame;
 use penumbra::metrics::{compare, compare_scalar};
 use penumbra::pipeline::Pipeline;
@@ -8,7 +10,6 @@ use penumbra::run;
 use penumbra::scene::file::load;
 use penumbra::shadow;
 use std::path::Path;
-use std::process::Command;
 
 /// `technique` on `scene` and the scene's reference, handed to `then` with the frame.
 fn with_reference<T>(
@@ -130,27 +131,8 @@ fn registry_rejects_unknown_names_and_bad_values() {
     }
 }
 
-/// Runs the CLI; returns (success, stdout + stderr).
-fn cli(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_penumbra"))
-        .args(args)
-        .output()
-        .unwrap();
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(!text.contains("panicked"), "the CLI panicked on {args:?}:\n{text}");
-    (out.status.success(), text)
-}
-
 fn temp_scene(name: &str, body: &str) -> String {
-    let dir = std::env::temp_dir().join(format!("penumbra-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p.to_string_lossy().into_owned()
+    common::temp_file("test", name, body)
 }
 
 const GOOD: &str = "# ok\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [32, 24]\n\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n\n[[object]]\nmesh = \"plane\"\nsize = 4\n";

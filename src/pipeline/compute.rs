@@ -93,8 +93,8 @@ pub fn min_max_chains(p: &Pipeline, base: &Surface<f32>) -> (MipChain<f32>, MipC
             a.extend(ra);
             b.extend(rb);
         }
-        mins.push(Surface::from_vec(nw, nh, a).expect("a level of a valid surface"));
-        maxs.push(Surface::from_vec(nw, nh, b).expect("a level of a valid surface"));
+        mins.push(Surface::from_vec_derived(nw, nh, a).expect("a level of a valid surface"));
+        maxs.push(Surface::from_vec_derived(nw, nh, b).expect("a level of a valid surface"));
     }
     (MipChain::from_levels(mins), MipChain::from_levels(maxs))
 }
@@ -163,7 +163,7 @@ pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
                 })
         });
     }
-    Surface::from_vec(s.width(), s.height(), out).expect("same size as input")
+    Surface::from_vec_derived(s.width(), s.height(), out).expect("same size as input")
 }
 
 /// Sum over the inclusive texel rectangle `[x0, x1] x [y0, y1]` (clamped to the surface) from a

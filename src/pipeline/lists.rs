@@ -103,7 +103,12 @@ impl FragmentLists {
 
     /// Length of each pixel's list (for dumps and tests).
     pub fn lengths(&self) -> Surface<u32> {
-        let mut s = Surface::new(self.width(), self.height(), 0u32).expect("same size as lists");
+        let mut s = Surface::from_vec_derived(
+            self.width(),
+            self.height(),
+            vec![0u32; self.width() as usize * self.height() as usize],
+        )
+        .expect("same size as lists");
         for y in 0..self.height() {
             for x in 0..self.width() {
                 s.set(x, y, self.iter(x, y).count() as u32);

@@ -55,35 +55,32 @@ pub fn live_surface_bytes() -> u64 {
 /// first surfaces were filled.
 pub fn check_room(width: u32, height: u32, texel: usize, count: u64) -> Result<(), PipelineError> {
     let bytes = width as u64 * height as u64 * texel as u64 * count;
-    let (live, limit) = (live_surface_bytes(), memory_limit());
-    if live.saturating_add(bytes) > limit {
-        return Err(PipelineError::OverBudget {
+    fits(width, height, bytes, live_surface_bytes()).map(|_| ())
+}
+
+/// `bytes` more beside `live` within the budget: the new total, or the error that says why
+/// not.
+fn fits(width: u32, height: u32, bytes: u64, live: u64) -> Result<u64, PipelineError> {
+    let limit = memory_limit();
+    match live.checked_add(bytes) {
+        Some(total) if total <= limit => Ok(total),
+        _ => Err(PipelineError::OverBudget {
             width,
             height,
             bytes,
             live,
             limit,
-        });
+        }),
     }
-    Ok(())
 }
 
-/// Reserves `bytes` in the budget, or says why not.
+/// Reserves a surface's bytes in the budget, or says why not.
 fn reserve(width: u32, height: u32, texel: usize) -> Result<(), PipelineError> {
     let bytes = width as u64 * height as u64 * texel as u64;
-    let limit = memory_limit();
     let mut live = LIVE_BYTES.load(Ordering::Relaxed);
     loop {
-        if live.saturating_add(bytes) > limit {
-            return Err(PipelineError::OverBudget {
-                width,
-                height,
-                bytes,
-                live,
-                limit,
-            });
-        }
-        match LIVE_BYTES.compare_exchange_weak(live, live + bytes, Ordering::Relaxed, Ordering::Relaxed) {
+        let total = fits(width, height, bytes, live)?;
+        match LIVE_BYTES.compare_exchange_weak(live, total, Ordering::Relaxed, Ordering::Relaxed) {
             Ok(_) => return Ok(()),
             Err(now) => live = now,
         }
@@ -140,6 +137,18 @@ impl<T: Texel> Surface<T> {
         }
         reserve(width, height, std::mem::size_of::<T>())?;
         Ok(Surface { width, height, data })
+    }
+
+    /// [`Surface::from_vec`] for a surface derived from ones that already passed the memory
+    /// budget (a reduction level, a filtered copy, an image of a frame): counted in the
+    /// budget but never refused, so that code deriving it need not fail. Errors only when the
+    /// size is invalid or does not match the data.
+    pub fn from_vec_derived(width: u32, height: u32, data: Vec<T>) -> Result<Self, PipelineError> {
+        check_size(width, height)?;
+        if data.len() != width as usize * height as usize {
+            return Err(PipelineError::BadSize { width, height });
+        }
+        Ok(counted(width, height, data))
     }
 
     /// Width in texels.

@@ -18,7 +18,7 @@ pub fn visibility_image(v: &Visibility, w: u32, h: u32) -> Surface<Rgba8> {
             }
         })
         .collect();
-    Surface::from_vec(w, h, data).expect("frame size")
+    Surface::from_vec_derived(w, h, data).expect("frame size")
 }
 
 /// Error image (of the luminance for colour images): red where the technique is darker than
@@ -41,5 +41,5 @@ pub fn error_image(v: &Visibility, r: &Visibility, mask: &[bool], w: u32, h: u32
             }
         })
         .collect();
-    Surface::from_vec(w, h, data).expect("frame size")
+    Surface::from_vec_derived(w, h, data).expect("frame size")
 }

@@ -954,7 +954,7 @@ impl Izb {
         let data = (0..(s.width() * s.height()) as usize)
             .map(|i| s.range(i).len() as f32)
             .collect();
-        Surface::from_vec(s.width(), s.height(), data).expect("grid size")
+        Surface::from_vec_derived(s.width(), s.height(), data).expect("grid size")
     }
 
     fn list_stats(&self) -> (usize, usize, u64) {
