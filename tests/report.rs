@@ -145,6 +145,32 @@ fn sharded_and_merged_sweep_equals_one_run() {
         &parts[2],
     ]);
     assert!(!ok && text.contains("in two shards"), "{text}");
+    // A shard of another sweep (other settings, the same run count) is refused.
+    let other_sweep = dir.join("other");
+    let (ok, text) = cli(&[
+        "sweep",
+        a,
+        b,
+        "--techniques",
+        "reference,shadow-volume,shadow-map,cookie",
+        "--reps",
+        "1",
+        "--shard",
+        "2/3",
+        "--out",
+        other_sweep.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let (ok, text) = cli(&[
+        "sweep",
+        "--out",
+        merged.to_str().unwrap(),
+        "--merge",
+        &parts[0],
+        &parts[1],
+        other_sweep.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("shards of different sweeps"), "{text}");
     let (ok, text) = cli(&["sweep", a, "--shard", "3/3"]);
     assert!(!ok && text.contains("0 <= I < N"), "{text}");
     // Two scenes of one name in one sweep would overwrite each other's files.

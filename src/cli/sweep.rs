@@ -141,6 +141,17 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
     bar.finish_and_clear();
     let manifest = Manifest {
         runs: total,
+        settings: jobs
+            .iter()
+            .map(|(name, sets)| {
+                let kv: Vec<String> = sets.iter().map(|(k, v)| format!("{k}={v}")).collect();
+                if kv.is_empty() {
+                    name.to_string()
+                } else {
+                    format!("{name} [{}]", kv.join(";"))
+                }
+            })
+            .collect(),
         shard: format!("{}/{}", o.shard.0, o.shard.1),
         scenes: loaded
             .iter()
@@ -194,9 +205,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
     for d in dirs {
         let (rs, m) = read_sweep_data(d)?;
         if let Some((first, fd)) = &manifest {
-            if first.runs != m.runs || first.scenes != m.scenes {
+            if first.runs != m.runs || first.scenes != m.scenes || first.settings != m.settings {
                 return Err(format!(
-                    "{} and {} are shards of different sweeps (their scenes or run lists differ)",
+                    "{} and {} are shards of different sweeps (their scenes or technique settings differ)",
                     fd.display(),
                     d.display()
                 ));

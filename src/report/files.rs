@@ -15,6 +15,9 @@ use std::path::{Path, PathBuf};
 pub struct Manifest {
     /// The run list's length (all shards together).
     pub runs: usize,
+    /// The technique settings run on each scene, in order (`technique [settings]`): shards of
+    /// one sweep share it.
+    pub settings: Vec<String>,
     /// This folder's shard, `I/N` (`0/1`: the whole run).
     pub shard: String,
     /// The scenes.
