@@ -242,17 +242,59 @@ proptest! {
         let back = report::read_csv(&text, "x.csv").unwrap();
         prop_assert_eq!(&back[0].scene, &scene);
         prop_assert_eq!(&back[0].settings, &settings);
-        // HTML: the names appear only escaped.
-        let info = report::SceneInfo { name: scene.clone(), description: scene.clone(), class: r.class };
-        let html = report::report_html(&[r], &[info], &|_| None, &|_| None);
-        let raw_lt = html.matches('<').count();
-        let escaped = report::report_html(&[], &[], &|_| None, &|_| None);
-        prop_assert!(raw_lt > escaped.matches('<').count());
-        prop_assert!(!scene.contains('<') || !html.contains(&scene));
+        // HTML: the names appear only escaped: the page has the markup of the same page
+        // with a plain name, no more.
+        prop_assert!(html_markup_is_the_plain_pages(&r, &scene));
         // Markdown: no image or link syntax survives.
         let md = report::markdown::md(&scene);
         prop_assert!(!md.contains("!["));
     }
+}
+
+/// Whether the report page for `r` with the scene (and its description) called `name` has
+/// exactly the markup characters of the page for a plain name: names add only escaped text.
+fn html_markup_is_the_plain_pages(r: &penumbra::run::RunResult, name: &str) -> bool {
+    let page = |n: &str| {
+        let r = penumbra::run::RunResult {
+            scene: n.to_string(),
+            ..r.clone()
+        };
+        let info = report::SceneInfo {
+            name: n.to_string(),
+            description: n.to_string(),
+            class: r.class,
+        };
+        report::report_html(&[r], &[info], &|_| None, &|_| None)
+    };
+    let (hostile, plain) = (page(name), page("plain"));
+    ['<', '>', '"']
+        .iter()
+        .all(|&c| hostile.matches(c).count() == plain.matches(c).count())
+}
+
+/// Regression: a scene called `<` (proptest's minimal case for a check that was too naive).
+#[test]
+fn a_scene_called_lt_is_escaped() {
+    let r = penumbra::run::RunResult {
+        index: 0,
+        scene: "<".into(),
+        class: penumbra::scene::SceneClass::Hard,
+        technique: "shadow-map".into(),
+        family: shadow::Family::Map,
+        settings: String::new(),
+        errors: Default::default(),
+        transparent: Default::default(),
+        ms: 1.0,
+        threads: 1,
+        flicker: 0.0,
+        discontinuity: 0.0,
+        banding: 0.0,
+        counted_path: false,
+        passes: vec![],
+        counters: vec![],
+    };
+    assert!(html_markup_is_the_plain_pages(&r, "<"));
+    assert!(html_markup_is_the_plain_pages(&r, "<script>alert(1)</script>\"'&"));
 }
 
 /// The same properties over many more cases (minutes): `cargo test --release --test fuzz -- --ignored`.
