@@ -56,8 +56,8 @@ pub use lists::{FragmentLists, ListNode};
 pub use ordered::{OrderedProgram, PixelStore};
 pub use state::*;
 pub use surface::{
-    check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Surface, SurfaceArray,
-    DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
+    check_bytes, check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Surface,
+    SurfaceArray, DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
 };
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
 pub use wide::{Color4, Fragment4, Vec3x4};
@@ -184,7 +184,7 @@ impl fmt::Display for PipelineError {
                 let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
                 write!(
                     f,
-                    "{width}x{height} surfaces of {:.0} MiB would bring the surfaces alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the limit with --max-memory)",
+                    "{width}x{height} buffers of {:.0} MiB would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the limit with --max-memory)",
                     mib(*bytes),
                     mib(live + bytes),
                     mib(*limit)

@@ -39,6 +39,12 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                     u32::MAX
                 ))
             })?;
+        // Checked against the memory budget before it is allocated.
+        super::surface::check_bytes(
+            width,
+            height,
+            (total * std::mem::size_of::<T>() + 4 * (pixels + 1)) as u64,
+        )?;
         Ok(PixelStore {
             width,
             height,
@@ -82,6 +88,12 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 )));
             }
             self.offsets.push(total as u32);
+        }
+        // Checked against the memory budget before it grows (what it holds now is reused).
+        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
+        let need = total * std::mem::size_of::<T>() as u64;
+        if need > have {
+            super::surface::check_bytes(width, height, need - have)?;
         }
         self.width = width;
         self.height = height;

@@ -54,7 +54,17 @@ pub fn live_surface_bytes() -> u64 {
 /// the pass, so that a request past the budget is refused at once rather than after the
 /// first surfaces were filled.
 pub fn check_room(width: u32, height: u32, texel: usize, count: u64) -> Result<(), PipelineError> {
-    let bytes = width as u64 * height as u64 * texel as u64 * count;
+    check_bytes(
+        width,
+        height,
+        (width as u64 * height as u64 * texel as u64).saturating_mul(count),
+    )
+}
+
+/// Whether `bytes` of a `width` x `height` structure that is not a surface (per-pixel
+/// stores, lists) fit beside the live surfaces in the budget now. Checked before such a
+/// structure is allocated.
+pub fn check_bytes(width: u32, height: u32, bytes: u64) -> Result<(), PipelineError> {
     fits(width, height, bytes, live_surface_bytes()).map(|_| ())
 }
 

@@ -1000,6 +1000,17 @@ impl ShadowTechnique for Izb {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        // The samples and their lists (about 64 bytes a sample: the sample, its place in the
+        // sorted lists and the store's node), checked against the memory budget before any is
+        // made.
+        let (w, h) = (frame.width(), frame.height());
+        let samples = w as u64 * h as u64 * self.opts.samples.count() as u64;
+        crate::pipeline::check_bytes(w, h, samples * 64).map_err(|e| {
+            format!(
+                "technique 'izb' ({samples} camera samples, option samples={}): {e}",
+                self.opts.samples.count()
+            )
+        })?;
         let t0 = Instant::now();
         p.install(|| self.insert(frame))?;
         let t1 = Instant::now();

@@ -394,7 +394,19 @@ impl ShadowTechnique for DeepShadowMap {
         self.maps.clear();
         self.peak = 0;
         let mut done = 0usize;
-        for view in light_views(frame, o.size) {
+        let views = light_views(frame, o.size);
+        // Per texel of a view while it is built: the lists' heads and tails and a function's
+        // header (40 bytes); per texel of every view kept: its offset (4). Checked against the
+        // memory budget before the first view.
+        let texels = o.size as u64 * o.size as u64;
+        crate::pipeline::check_bytes(o.size, o.size, texels * (40 + 4 * views.len() as u64)).map_err(|e| {
+            format!(
+                "technique 'deep-shadow-map' ({} views, option size={}): {e}",
+                views.len(),
+                o.size
+            )
+        })?;
+        for view in views {
             let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize).map_err(|e| e.to_string())?;
             let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
             p.draw(
