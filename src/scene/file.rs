@@ -304,7 +304,15 @@ fn point3(v: [f32; 3]) -> Result<Vec3, String> {
 /// good a length as 1), unit; `None` if zero or not finite.
 fn unit3(v: Vec3) -> Option<Vec3> {
     let m = v.abs().max_element();
-    (v.is_finite() && m > 0.0).then(|| (v / m).normalize())
+    if !(v.is_finite() && m > 0.0) {
+        return None;
+    }
+    // The plain normalization where it is defined (the bits every scene has always had);
+    // scaled first where the length overflows or underflows.
+    match v.normalize_or_zero() {
+        n if n != Vec3::ZERO => Some(n),
+        _ => Some((v / m).normalize()),
+    }
 }
 
 /// Checks a camera's view: position and target points, distinct, `up` not along the view.
@@ -1031,6 +1039,14 @@ translate = [0, 0.5, 0]
             .replace("mesh = \"box\"", "mesh = \"box\"\nname = \"a\"");
         let e = err(&dup);
         assert!(e.contains("field `name`: 'a' is also object #1's name"), "{e}");
+    }
+
+    /// Regression: directions scaled before normalizing changed their last bits, and so the
+    /// multi-sample area light's samples (golden hashes caught it).
+    #[test]
+    fn light_directions_keep_the_plain_normalization_bits() {
+        let s = parse(OK, Path::new("s.toml")).unwrap();
+        assert_eq!(s.lights[0].direction, Vec3::new(-0.4, -1.0, -0.3).normalize());
     }
 
     #[test]
