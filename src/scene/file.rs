@@ -1125,6 +1125,20 @@ translate = [0, 0.5, 0]
         }
         let e = load(&dir).unwrap_err();
         assert!(e.contains("it is a folder"), "{e}");
+        // A named pipe would block a reader for ever: refused by its kind, without opening it.
+        #[cfg(unix)]
+        {
+            let fifo = dir.join("pipe.toml");
+            let _ = std::fs::remove_file(&fifo);
+            if std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .is_ok_and(|s| s.success())
+            {
+                let e = load(&fifo).unwrap_err();
+                assert!(e.contains("pipe.toml") && e.contains("not a regular file"), "{e}");
+            }
+        }
         let e = load(&dir.join("missing.toml")).unwrap_err();
         assert!(e.contains("missing.toml") && e.contains("No such file"), "{e}");
         std::fs::write(dir.join("bin.toml"), b"# ok\n\xff\xfe\n").unwrap();
