@@ -84,7 +84,7 @@ pub fn reference(
 }
 
 /// One technique run on one scene.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct RunResult {
     /// Position in the sweep's run list (0 outside a sweep): the order of the CSV's rows,
     /// which merging shards restores.

@@ -231,11 +231,8 @@ proptest! {
     #[test]
     fn hostile_names_survive_every_writer(scene in "\\PC{1,20}", settings in "\\PC{0,20}") {
         let r = penumbra::run::RunResult {
-            index: 0, scene: scene.clone(), class: penumbra::scene::SceneClass::Hard,
-            technique: "shadow-map".into(), family: shadow::Family::Map, settings: settings.clone(),
-            errors: Default::default(), transparent: Default::default(), ms: 1.0, threads: 1,
-            flicker: 0.0, discontinuity: 0.0, banding: 0.0, counted_path: true,
-            passes: vec![], counters: vec![],
+            scene: scene.clone(), technique: "shadow-map".into(), family: shadow::Family::Map,
+            settings: settings.clone(), ms: 1.0, threads: 1, counted_path: true, ..Default::default()
         };
         // CSV: read back equal, one record per run.
         let text = report::csv(std::slice::from_ref(&r));
@@ -276,22 +273,11 @@ fn html_markup_is_the_plain_pages(r: &penumbra::run::RunResult, name: &str) -> b
 #[test]
 fn a_scene_called_lt_is_escaped() {
     let r = penumbra::run::RunResult {
-        index: 0,
         scene: "<".into(),
-        class: penumbra::scene::SceneClass::Hard,
         technique: "shadow-map".into(),
         family: shadow::Family::Map,
-        settings: String::new(),
-        errors: Default::default(),
-        transparent: Default::default(),
         ms: 1.0,
-        threads: 1,
-        flicker: 0.0,
-        discontinuity: 0.0,
-        banding: 0.0,
-        counted_path: false,
-        passes: vec![],
-        counters: vec![],
+        ..Default::default()
     };
     assert!(html_markup_is_the_plain_pages(&r, "<"));
     assert!(html_markup_is_the_plain_pages(&r, "<script>alert(1)</script>\"'&"));

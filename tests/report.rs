@@ -75,25 +75,9 @@ fn sharded_and_merged_sweep_equals_one_run() {
     std::fs::write(&b, HARD.replace("0.3, -1", "-0.4, -1")).unwrap();
     let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
     let techniques = "reference,shadow-map,shadow-volume,planar";
-    let whole = dir.join("whole");
-    let (ok, text) = cli(&[
-        "sweep",
-        a,
-        b,
-        "--techniques",
-        techniques,
-        "--reps",
-        "1",
-        "--threads",
-        "2",
-        "--out",
-        whole.to_str().unwrap(),
-    ]);
-    assert!(ok, "{text}");
-    let mut parts = Vec::new();
-    for i in 0..3 {
-        let out = dir.join(format!("part{i}"));
-        let (ok, text) = cli(&[
+    // `sweep a b --techniques T --reps 1 --threads N [--shard I/3] --out DIR`.
+    let sweep = |threads: &str, shard: Option<String>, out: &Path| {
+        let mut args = vec![
             "sweep",
             a,
             b,
@@ -102,13 +86,21 @@ fn sharded_and_merged_sweep_equals_one_run() {
             "--reps",
             "1",
             "--threads",
-            "1",
-            "--shard",
-            &format!("{i}/3"),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+            threads,
+        ];
+        if let Some(s) = &shard {
+            args.extend(["--shard", s.as_str()]);
+        }
+        args.extend(["--out", out.to_str().unwrap()]);
+        let (ok, text) = cli(&args);
         assert!(ok, "{text}");
+    };
+    let whole = dir.join("whole");
+    sweep("2", None, &whole);
+    let mut parts = Vec::new();
+    for i in 0..3 {
+        let out = dir.join(format!("part{i}"));
+        sweep("1", Some(format!("{i}/3")), &out);
         parts.push(out.to_str().unwrap().to_string());
     }
     let merged = dir.join("merged");
@@ -125,25 +117,14 @@ fn sharded_and_merged_sweep_equals_one_run() {
     }
     assert_eq!(files(&whole), files(&merged));
     // Missing and doubled shards are errors that say so.
-    let (ok, text) = cli(&[
-        "sweep",
-        "--out",
-        merged.to_str().unwrap(),
-        "--merge",
-        &parts[0],
-        &parts[2],
-    ]);
+    let merge = |dirs: &[&str]| {
+        let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
+        args.extend(dirs);
+        cli(&args)
+    };
+    let (ok, text) = merge(&[&parts[0], &parts[2]]);
     assert!(!ok && text.contains("in none of the folders"), "{text}");
-    let (ok, text) = cli(&[
-        "sweep",
-        "--out",
-        merged.to_str().unwrap(),
-        "--merge",
-        &parts[0],
-        &parts[0],
-        &parts[1],
-        &parts[2],
-    ]);
+    let (ok, text) = merge(&[&parts[0], &parts[0], &parts[1], &parts[2]]);
     assert!(!ok && text.contains("in two shards"), "{text}");
     // A shard of another sweep (other settings, the same run count) is refused.
     let other_sweep = dir.join("other");

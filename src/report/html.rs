@@ -164,28 +164,16 @@ pub fn report_html(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::Errors;
     use crate::shadow::Family;
 
     #[test]
     fn scene_text_is_escaped_and_the_page_has_no_network_resources() {
         let r = RunResult {
-            index: 0,
             scene: "s<x>".into(),
-            class: SceneClass::Hard,
             technique: "shadow-map".into(),
             family: Family::Map,
-            settings: String::new(),
-            errors: Errors::default(),
-            transparent: Errors::default(),
             ms: 1.0,
-            threads: 1,
-            flicker: 0.0,
-            discontinuity: 0.0,
-            banding: 0.0,
-            counted_path: false,
-            passes: vec![],
-            counters: vec![],
+            ..Default::default()
         };
         let scenes = [SceneInfo {
             name: "s<x>".into(),

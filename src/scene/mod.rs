@@ -249,9 +249,10 @@ pub struct Keyframe {
 /// What a scene's errors mean, for charts that average errors only where they are of one
 /// kind: hard-light scenes are judged by wrong pixels, area-light scenes by the penumbra's
 /// RMSE, scenes with transparent objects by the transmittance's RMSE.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum SceneClass {
     /// Opaque objects under a point, spot or directional light (or an area light's centre).
+    #[default]
     Hard,
     /// Opaque objects under an area light (penumbrae).
     Area,

@@ -107,9 +107,10 @@ pub trait ShadowTechnique: Send {
 
 /// The family a technique belongs to: its folder under `src/shadow/` (DESIGN.md section 3).
 /// Charts colour techniques by it.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Family {
     /// The ray tracer as a technique (the ground truth).
+    #[default]
     Reference,
     /// Shadow maps and their filters ([`map`]).
     Map,
