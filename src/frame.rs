@@ -213,17 +213,12 @@ pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> 
     // A frame and what a run keeps of it (G-buffer, sample points, the technique's visibility
     // and the reference, masks, the shaded image, the previous frame's for flicker) take
     // about FRAME_BYTES_PER_PIXEL: checked against the memory budget before any is built.
-    let (live, limit) = (crate::pipeline::live_surface_bytes(), crate::pipeline::memory_limit());
-    let need = camera.width as u64 * camera.height as u64 * FRAME_BYTES_PER_PIXEL;
-    if live.saturating_add(need) > limit {
-        return Err(format!(
-            "a {}x{} frame needs about {} MiB ({FRAME_BYTES_PER_PIXEL} bytes per pixel: G-buffer, sample points, visibility and reference), beyond the memory limit of {} MiB (lower the scene's resolution, or raise the limit with --max-memory)",
-            camera.width,
-            camera.height,
-            need >> 20,
-            limit >> 20
-        ));
-    }
+    crate::pipeline::check_room(camera.width, camera.height, FRAME_BYTES_PER_PIXEL as usize, 1).map_err(|e| {
+        format!(
+            "a {}x{} frame ({FRAME_BYTES_PER_PIXEL} bytes per pixel: G-buffer, sample points, visibility and reference): {e}",
+            camera.width, camera.height
+        )
+    })?;
     let gbuffer = gbuffer(p, scene, &camera).map_err(|e| e.to_string())?;
     let points = gbuffer
         .object

@@ -10,6 +10,7 @@ use crate::reference::{Reference, ReferenceOptions};
 use crate::scene::{Scene, SceneClass};
 use crate::shadow::{self, Family};
 use crate::visibility::Visibility;
+use std::borrow::Cow;
 use std::time::Instant;
 
 /// Bump when the reference's algorithm changes, so caches made before do not match.
@@ -127,11 +128,7 @@ pub struct RunResult {
 impl RunResult {
     /// Label for charts and tables.
     pub fn label(&self) -> String {
-        if self.settings.is_empty() {
-            self.technique.clone()
-        } else {
-            format!("{} [{}]", self.technique, self.settings)
-        }
+        label(&self.technique, &self.settings)
     }
 
     /// The error that judges this run on its scene class's chart ([`SceneClass::metric`]).
@@ -141,6 +138,24 @@ impl RunResult {
             SceneClass::Area => self.errors.penumbra_rmse,
             SceneClass::Transparent => self.errors.rmse,
         }
+    }
+}
+
+/// Settings as the CSV and labels write them: `k=v;k=v` (empty: the defaults).
+pub fn settings_text(sets: &[(String, String)]) -> String {
+    sets.iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// A technique setting's label for charts and tables: `technique [settings]`, or the name
+/// alone for the defaults.
+pub fn label(technique: &str, settings: &str) -> String {
+    if settings.is_empty() {
+        technique.to_string()
+    } else {
+        format!("{technique} [{settings}]")
     }
 }
 
@@ -342,20 +357,21 @@ pub fn render_prepared_with_progress(
     let mut t = shadow::create(name, sets)?;
     let mut flicker = metrics::Flicker::default();
     // The previous frame's technique, reference and mask (for flicker): one frame is kept.
-    let mut prev: Option<(Visibility, Visibility, Vec<bool>)> = None;
+    // (Kept frames' reference and mask are borrowed; a streamed frame's are moved in.)
+    let mut prev: Option<(Visibility, Cow<Visibility>, Cow<[bool]>)> = None;
     for (i, pf) in prepared.frames.iter().enumerate() {
         progress(name, i, prepared.frames.len());
-        let streamed;
-        let (f, r, mask) = match pf {
-            PreparedFrame::Kept(k) => (&k.0, &k.1, &k.2),
+        let built;
+        let (f, r, mask): (&Frame, Cow<Visibility>, Cow<[bool]>) = match pf {
+            PreparedFrame::Kept(k) => (&k.0, Cow::Borrowed(&k.1), Cow::Borrowed(&k.2[..])),
             PreparedFrame::Streamed { key } => {
-                let f = frame::frame(p, scene, 0, i)?;
-                let (r, _, _) = reference(p, &f, *key, prepared.cache)?;
-                let mask = f.metric_mask();
-                streamed = (f, r, mask);
-                (&streamed.0, &streamed.1, &streamed.2)
+                built = frame::frame(p, scene, 0, i)?;
+                let (r, _, _) = reference(p, &built, *key, prepared.cache)?;
+                let mask = built.metric_mask();
+                (&built, Cow::Owned(r), Cow::Owned(mask))
             }
         };
+        let (r_ref, mask_ref): (&Visibility, &[bool]) = (&r, &mask);
         // Frame 0: a warm-up and `reps` timed calls (`reps` 0: one call, as the reference
         // needs); later path frames: one call each, the technique already warm.
         let (v, ms) = time_technique(p, f, t.as_mut(), i == 0 && reps > 0, if i == 0 { reps } else { 1 })?;
@@ -369,36 +385,32 @@ pub fn render_prepared_with_progress(
         });
         if i == 0 {
             first = Some((
-                metrics::compare(&v, r, mask),
-                metrics::compare(&v, r, &f.transparent_mask()),
+                metrics::compare(&v, r_ref, mask_ref),
+                metrics::compare(&v, r_ref, &f.transparent_mask()),
                 (
                     ms,
-                    metrics::discontinuity(&v, r, mask, f.gbuffer.object.data(), f.width() as usize),
-                    metrics::banding(&v, r, mask, f.gbuffer.object.data(), f.width() as usize),
+                    metrics::discontinuity(&v, r_ref, mask_ref, f.gbuffer.object.data(), f.width() as usize),
+                    metrics::banding(&v, r_ref, mask_ref, f.gbuffer.object.data(), f.width() as usize),
                 ),
                 FirstFrame {
                     width: f.width(),
                     height: f.height(),
                     shaded: frame::shade(f, &v),
                     visibility: v.clone(),
-                    reference: r.clone(),
-                    mask: mask.clone(),
+                    reference: r_ref.clone(),
+                    mask: mask_ref.to_vec(),
                 },
             ));
         }
         if let Some((pv, pr, pm)) = &prev {
-            flicker.add((pv, pr, pm), (&v, r, mask));
+            flicker.add((pv, pr, pm), (&v, r_ref, mask_ref));
         }
         if prepared.frames.len() > 1 {
-            prev = Some((v, r.clone(), mask.clone()));
+            prev = Some((v, r, mask));
         }
     }
     let (errors, transparent, (ms, discontinuity, banding), first) = first.expect("at least one frame");
-    let settings = sets
-        .iter()
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect::<Vec<_>>()
-        .join(";");
+    let settings = settings_text(sets);
     let result = RunResult {
         index: 0,
         scene: scene.name.clone(),

@@ -130,7 +130,9 @@ fn large_frames_and_benchmarks_past_their_limits_are_refused_at_once() {
     let s = scene("big.toml", &big);
     let (ok, text) = cli(&["render", &s, "--technique", "planar"]);
     assert!(
-        !ok && text.contains("a 8192x8192 frame needs about") && text.contains("--max-memory"),
+        !ok && text.contains("a 8192x8192 frame (140 bytes per pixel")
+            && text.contains("buffers of 8960 MiB")
+            && text.contains("--max-memory"),
         "{text}"
     );
     // Benchmarks at their documented limits finish on two cores; past them, an error.

@@ -140,17 +140,9 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
     }
     bar.finish_and_clear();
     let manifest = Manifest {
-        runs: total,
         settings: jobs
             .iter()
-            .map(|(name, sets)| {
-                let kv: Vec<String> = sets.iter().map(|(k, v)| format!("{k}={v}")).collect();
-                if kv.is_empty() {
-                    name.to_string()
-                } else {
-                    format!("{name} [{}]", kv.join(";"))
-                }
-            })
+            .map(|(name, sets)| run::label(name, &run::settings_text(sets)))
             .collect(),
         shard: format!("{}/{}", o.shard.0, o.shard.1),
         scenes: loaded
@@ -205,7 +197,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
     for d in dirs {
         let (rs, m) = read_sweep_data(d)?;
         if let Some((first, fd)) = &manifest {
-            if first.runs != m.runs || first.scenes != m.scenes || first.settings != m.settings {
+            if first.scenes != m.scenes || first.settings != m.settings {
                 return Err(format!(
                     "{} and {} are shards of different sweeps (their scenes or technique settings differ)",
                     fd.display(),
@@ -240,14 +232,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
             ));
         }
     }
-    let missing: Vec<usize> = (0..m.runs)
+    let missing: Vec<usize> = (0..m.runs())
         .filter(|i| all.binary_search_by_key(i, |r| r.index).is_err())
         .collect();
     if !missing.is_empty() {
         return Err(format!(
             "{} of {} runs are in none of the folders (first missing: run {}): merge every shard",
             missing.len(),
-            m.runs,
+            m.runs(),
             missing[0]
         ));
     }

@@ -8,13 +8,11 @@ use crate::scene::SceneClass;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// What a sweep folder holds beside its CSV (`sweep.json`): every scene of the run (in run
-/// order, whichever shard this is) and the run list's length, so that merged shards can be
-/// checked complete.
+/// What a sweep folder holds beside its CSV (`sweep.json`): every scene and technique setting
+/// of the run (in run order, whichever shard this is), so that merged shards can be checked
+/// to come from one sweep and to be complete.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
-    /// The run list's length (all shards together).
-    pub runs: usize,
     /// The technique settings run on each scene, in order (`technique [settings]`): shards of
     /// one sweep share it.
     pub settings: Vec<String>,
@@ -29,6 +27,13 @@ fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result
     std::fs::write(&path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     files.push(path);
     Ok(())
+}
+
+impl Manifest {
+    /// The run list's length (all shards together): every setting on every scene.
+    pub fn runs(&self) -> usize {
+        self.scenes.len() * self.settings.len()
+    }
 }
 
 /// Writes a sweep's data (`results.csv`, `sweep.json`): what a shard writes and a merge reads.
