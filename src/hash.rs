@@ -43,3 +43,31 @@ impl SplitMix {
         (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
 }
+
+/// A fast fingerprint of a triangle mesh's positions (by bit pattern) and indices: three
+/// independent lanes of multiply and xor-shift per 32-bit word, folded with the lengths. For
+/// recognising a mesh seen before (a technique's cache of what it derived from it), not for
+/// golden files.
+pub fn mesh_fingerprint(positions: &[glam::Vec3], indices: &[u32]) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    #[inline(always)]
+    fn mix(h: u64, w: u32) -> u64 {
+        let h = (h ^ w as u64).wrapping_mul(K);
+        h ^ (h >> 32)
+    }
+    let mut l = [1u64, 2, 3];
+    for p in positions {
+        l = [mix(l[0], p.x.to_bits()), mix(l[1], p.y.to_bits()), mix(l[2], p.z.to_bits())];
+    }
+    for t in indices.chunks(3) {
+        for (h, &i) in l.iter_mut().zip(t) {
+            *h = mix(*h, i);
+        }
+    }
+    let mut h = fnv1a(FNV_OFFSET, &(positions.len() as u64).to_le_bytes());
+    h = fnv1a(h, &(indices.len() as u64).to_le_bytes());
+    for x in l {
+        h = fnv1a(h, &x.to_le_bytes());
+    }
+    h
+}

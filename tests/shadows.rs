@@ -896,8 +896,7 @@ fn izb_samples(scene: &str, k: &str) -> (f64, Vec<f32>, penumbra::frame::Frame<'
     let v = t.visibility(&p, &f).unwrap().to_scalar();
     let r = penumbra::reference::Reference::new(s);
     let sv = t.sample_visibility();
-    let wrong = t
-        .samples()
+    let wrong = shadow::exact::izb::camera_samples(&f, t.options().samples)
         .iter()
         .zip(&sv)
         .filter(|(c, &lit)| {

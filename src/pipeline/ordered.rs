@@ -102,6 +102,85 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
         Ok(())
     }
 
+    /// Rebuilds the store row by row in parallel, for a caller that knows each row's number of
+    /// values (`row_totals`) but not yet each pixel's: `fill(y, starts, values)` runs once per
+    /// row (on the current rayon pool) and sets `starts[x]`, where pixel x's values begin
+    /// relative to the row's first value (non-decreasing, at most the row's total; each
+    /// pixel's values end where the next one's begin), and every one of `values`. Values
+    /// `fill` leaves unset keep what an earlier build left there (this one writes nothing
+    /// first: a counting sort fills every value anyway). Starts that are not non-decreasing
+    /// or pass the row's total are an error.
+    pub fn rebuild_rows<F>(
+        &mut self,
+        width: u32,
+        height: u32,
+        row_totals: &[u32],
+        init: T,
+        fill: F,
+    ) -> Result<(), PipelineError>
+    where
+        F: Fn(usize, &mut [u32], &mut [T]) + Sync,
+    {
+        use rayon::prelude::*;
+        let pixels = check_size(width, height)?;
+        if row_totals.len() != height as usize {
+            return Err(PipelineError::BadArgument(format!(
+                "pixel store: {} row totals for {height} rows",
+                row_totals.len()
+            )));
+        }
+        let total: u64 = row_totals.iter().map(|&c| c as u64).sum();
+        if total > u32::MAX as u64 {
+            return Err(PipelineError::BadArgument(format!(
+                "pixel store: more than {} values in all",
+                u32::MAX
+            )));
+        }
+        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
+        let need = total * std::mem::size_of::<T>() as u64;
+        if need > have {
+            super::surface::check_bytes(width, height, need - have)?;
+        }
+        self.width = width;
+        self.height = height;
+        self.offsets.resize(pixels + 1, 0);
+        self.offsets[pixels] = total as u32;
+        self.data.resize(total as usize, init);
+        let w = width as usize;
+        let mut parts: Vec<(usize, u32, &mut [u32], &mut [T])> = Vec::with_capacity(height as usize);
+        let (mut offs, mut data) = (&mut self.offsets[..pixels], self.data.as_mut_slice());
+        let mut base = 0u32;
+        for (y, &n) in row_totals.iter().enumerate() {
+            let (o, orest) = offs.split_at_mut(w);
+            let (d, drest) = data.split_at_mut(n as usize);
+            parts.push((y, base, o, d));
+            (offs, data) = (orest, drest);
+            base += n;
+        }
+        let bad = parts
+            .into_par_iter()
+            .filter_map(|(y, base, starts, values)| {
+                fill(y, starts, values);
+                let mut last = 0;
+                for s in starts.iter_mut() {
+                    if *s < last || *s as usize > values.len() {
+                        return Some(y);
+                    }
+                    last = *s;
+                    *s += base;
+                }
+                None
+            })
+            .min();
+        match bad {
+            Some(y) => Err(PipelineError::BadArgument(format!(
+                "pixel store: row {y}'s starts decrease or pass its {} values",
+                row_totals[y]
+            ))),
+            None => Ok(()),
+        }
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> u32 {
         self.width

@@ -54,7 +54,7 @@
 //! so does the occluder pass; `counters` reports list lengths, `dump` their image.
 
 use crate::choice_enum;
-use crate::frame::Frame;
+use crate::frame::{Frame, NO_OBJECT};
 use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
@@ -193,12 +193,6 @@ pub fn info() -> TechniqueInfo {
 
 /// Marks a sample no triangle has shadowed (yet).
 const LIT: u32 = u32::MAX;
-/// Marks a sample that is in no list (faces away from the light).
-const NOT_INSERTED: u32 = u32::MAX;
-/// A sample's slot: its view in the top bits, its index into the view's store below (the
-/// lists hold at most 2^28 samples, the capacity's limit).
-const SLOT_VIEW_SHIFT: u32 = 28;
-const SLOT_INDEX_MASK: u32 = (1 << SLOT_VIEW_SHIFT) - 1;
 /// A sample's pass-1 byte: its base view, and [`META_SKIP_OWN`] when it skips its own
 /// triangle; [`META_NONE`]: it faces away from the light (or falls in no view).
 const META_NONE: u8 = 0x7f;
@@ -278,6 +272,12 @@ impl<'a> SampleFiller<'a> {
         }
     }
 
+    /// The scene-wide id of the triangle visible at pixel `i`, or `u32::MAX`.
+    #[inline]
+    fn triangle(&self, i: usize) -> u32 {
+        self.frame.triangle_at(i, &self.bases).unwrap_or(u32::MAX)
+    }
+
     /// The samples of row `y` into `out` (exactly as many as the row's covered pixels times k).
     fn row(&self, y: usize, out: &mut [CameraSample]) {
         let f = self.frame;
@@ -288,7 +288,7 @@ impl<'a> SampleFiller<'a> {
         for (x, p) in pts.iter().enumerate() {
             let Some(s) = *p else { continue };
             let i = y * w + x;
-            let triangle = f.triangle_at(i, &self.bases).unwrap_or(u32::MAX);
+            let triangle = self.triangle(i);
             if cols * rows == 1 {
                 out[o] = CameraSample {
                     pixel: i as u32,
@@ -465,9 +465,20 @@ impl Occluder {
     }
 }
 
-/// A sample on its way through the counting sort: its index and its texel's column.
+/// A sample's record from pass 1: where its ray starts and the triangle it never tests
+/// (`u32::MAX`: none).
+#[derive(Copy, Clone, Debug, Default)]
+struct Rec {
+    origin: Vec3,
+    triangle: u32,
+}
+
+/// A sample on its way through the counting sort: its record, its index and its texel's
+/// column (the whole record travels, so the last step reads it in order instead of
+/// gathering it from the samples).
 #[derive(Copy, Clone, Debug, Default)]
 struct Entry {
+    rec: Rec,
     sample: u32,
     column: u32,
 }
@@ -505,11 +516,13 @@ impl<'a, T: Copy> Scatter<'a, T> {
     }
 }
 
-/// One light view of the grid: its cropped matrix, the store of lists, and where each of its
-/// samples sits.
+/// One light view of the grid: its cropped matrix, the store of lists, and which sample
+/// each stored record is.
 struct View {
     view: LightView,
     store: PixelStore<ListSample>,
+    /// Per record of the store (same order): the sample's index.
+    order: Vec<u32>,
     /// The occluder pass's depth target, used as a mask: 1 where the texel has samples, -1
     /// where it has none, so the early depth test (`LessEqual`, no writes) drops fragments on
     /// empty texels before the program runs.
@@ -523,25 +536,26 @@ struct View {
 /// The irregular z-buffer (see the module docs).
 pub struct Izb {
     opts: Options,
-    samples: Vec<CameraSample>,
-    /// Per sample: view and index into that view's store packed (see [`SLOT_VIEW_SHIFT`]),
-    /// or NOT_INSERTED.
-    slot: Vec<u32>,
-    /// Samples in the lists.
+    /// Samples of the last run, and of them in the lists.
+    total: usize,
     inserted: usize,
     views: Vec<View>,
     occluders: usize,
-    /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency.
-    closed: Vec<bool>,
+    /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency,
+    /// with the fingerprint of the mesh it was found for (recomputed when it changes).
+    closed: Vec<(u64, bool)>,
     /// Samples whose own triangle faces away from the light (tested against it).
     own_tested: usize,
-    /// Kept buffers: where each row's samples start, each sample's view and texel, the
-    /// counts per texel per view.
+    /// Per sample (pixel-major): lit (1) or not (0), from the last run.
+    lit: Vec<u8>,
+    /// Kept buffers: where each row's samples start; per sample its position, record, view
+    /// byte and key (view and texel); the sort's entries.
     row_start: Vec<u32>,
+    pos: Vec<Vec3>,
+    rec: Vec<Rec>,
     meta: Vec<u8>,
     keys: Vec<u32>,
     by_row: Vec<Entry>,
-    counts: Vec<Vec<u32>>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -551,35 +565,32 @@ impl Izb {
         declaration().check(&opts)?;
         Ok(Izb {
             opts,
-            samples: Vec::new(),
-            slot: Vec::new(),
+            total: 0,
             inserted: 0,
             views: Vec::new(),
             occluders: 0,
             closed: Vec::new(),
             own_tested: 0,
+            lit: Vec::new(),
             row_start: Vec::new(),
+            pos: Vec::new(),
+            rec: Vec::new(),
             meta: Vec::new(),
             keys: Vec::new(),
             by_row: Vec::new(),
-            counts: Vec::new(),
             times: Vec::new(),
         })
     }
 
-    /// The camera samples of the last run.
-    pub fn samples(&self) -> &[CameraSample] {
-        &self.samples
+    /// The options.
+    pub fn options(&self) -> &Options {
+        &self.opts
     }
 
-    /// Visibility of every camera sample of the last run (0 for samples facing away).
+    /// Visibility of every camera sample of the last run (0 for samples facing away), in the
+    /// order of [`camera_samples`].
     pub fn sample_visibility(&self) -> Vec<f32> {
-        (0..self.samples.len())
-            .map(|i| match self.slot(i) {
-                Some((v, at)) if self.views[v].store.data()[at].shadowed_by == LIT => 1.0,
-                _ => 0.0,
-            })
-            .collect()
+        self.lit.iter().map(|&l| l as f32).collect()
     }
 
     /// Passes 1-3: samples, grids cropped to them, lists by counting sort. Every buffer is
@@ -594,11 +605,11 @@ impl Izb {
         let size = self.opts.size;
         let k = self.opts.samples.count();
         let (w, h) = (frame.width() as usize, frame.height() as usize);
-        let pts = frame.points();
+        let objects = frame.gbuffer.object.data();
         // Samples per row, and the capacity check before anything is allocated.
-        let row_counts: Vec<u32> = pts
+        let row_counts: Vec<u32> = objects
             .par_chunks(w)
-            .map(|r| (r.iter().filter(|p| p.is_some()).count() * k) as u32)
+            .map(|r| (r.iter().filter(|&&o| o != NO_OBJECT).count() * k) as u32)
             .collect();
         self.row_start.clear();
         self.row_start.push(0);
@@ -616,6 +627,7 @@ impl Izb {
                 1u32 << 28
             ));
         }
+        self.total = total;
         let light = frame.light;
         // A spot light's samples may lie outside its cone (the reference gives spot lights no
         // cone): like point lights, it gets six cube faces, each cropped to its samples.
@@ -624,48 +636,86 @@ impl Izb {
             _ => light_views(frame, size),
         };
         let nb = base.len();
-        // Pass 1, row by row in parallel: the samples; for each, the base view it falls in
-        // (none: it faces away from the light) and whether it skips its own triangle: only
-        // where that triangle faces the light (its geometric normal turned to the side of the
-        // shading normal, for two-sided sheets). Where it faces away (the terminator of a
-        // tessellated sphere, the far side of a heightfield's ridge), the sample's ray leaves
-        // through the back of its own surface and the triangle is tested like any other. Each
-        // row also takes its samples' uv bounds per view (min and max: exact in any order).
+        // Pass 1, row by row in parallel: the samples; for each, its position, its record
+        // (ray origin, and the triangle it skips), the base view it falls in (none: it faces
+        // away from the light). A sample skips its own triangle only where that triangle
+        // faces the light (its geometric normal turned to the side of the shading normal,
+        // for two-sided sheets). Where it faces away (the terminator of a tessellated sphere,
+        // the far side of a heightfield's ridge), the sample's ray leaves through the back of
+        // its own surface and the triangle is tested like any other. Each row also takes its
+        // samples' uv bounds per view (min and max: exact in any order).
         let facing = triangle_facing(frame);
         let filler = SampleFiller::new(frame, self.opts.samples);
-        // (Every sample and byte is written below: the kept buffers are only resized.)
-        self.samples.resize(total, CameraSample::default());
+        // (Every element is written below: the kept buffers are only resized.)
+        self.pos.resize(total, Vec3::ZERO);
+        self.rec.resize(total, Rec::default());
         self.meta.resize(total, META_NONE);
-        let mut rows: Vec<(&mut [CameraSample], &mut [u8])> = Vec::with_capacity(h);
-        let (mut rest, mut rest_meta) = (self.samples.as_mut_slice(), self.meta.as_mut_slice());
+        let mut rows: Vec<(&mut [Vec3], &mut [Rec], &mut [u8])> = Vec::with_capacity(h);
+        let (mut rp, mut rr, mut rm) = (
+            self.pos.as_mut_slice(),
+            self.rec.as_mut_slice(),
+            self.meta.as_mut_slice(),
+        );
         for c in &row_counts {
-            let (a, b) = rest.split_at_mut(*c as usize);
-            let (am, bm) = rest_meta.split_at_mut(*c as usize);
-            rows.push((a, am));
-            (rest, rest_meta) = (b, bm);
+            let c = *c as usize;
+            let (a, b) = std::mem::take(&mut rp).split_at_mut(c);
+            let (ar, br) = std::mem::take(&mut rr).split_at_mut(c);
+            let (am, bm) = std::mem::take(&mut rm).split_at_mut(c);
+            rows.push((a, ar, am));
+            (rp, rr, rm) = (b, br, bm);
         }
         let empty = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        let points = frame.points();
         let row_bounds: Vec<Vec<(Vec2, Vec2)>> = rows
             .into_par_iter()
             .enumerate()
-            .map(|(y, (out, meta))| {
-                filler.row(y, out);
+            .map_init(Vec::new, |buf: &mut Vec<CameraSample>, (y, (pos, rec, meta))| {
                 let mut b = vec![empty; nb];
-                for (s, m) in out.iter().zip(meta.iter_mut()) {
-                    *m = META_NONE;
-                    if !faces_light(&light, &s.point) {
-                        continue;
+                let count = pos.len();
+                let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
+                    pos[j] = s.position;
+                    meta[j] = META_NONE;
+                    rec[j] = Rec {
+                        origin: Vec3::ZERO,
+                        triangle: u32::MAX,
+                    };
+                    if !faces_light(&light, s) {
+                        return;
                     }
-                    let f = light::face_of(nb, &light, s.point.position);
-                    let Some((uv, _)) = base[f].lookup(s.point.position) else {
-                        continue;
+                    let f = light::face_of(nb, &light, s.position);
+                    let Some((uv, _)) = base[f].lookup(s.position) else {
+                        return;
                     };
                     b[f] = (b[f].0.min(uv), b[f].1.max(uv));
-                    let skip_own = facing.get(s.triangle as usize).is_some_and(|&(n, lit)| {
-                        let flip = n.dot(s.point.normal) < 0.0;
+                    let skip_own = facing.get(triangle as usize).is_some_and(|&(n, lit)| {
+                        let flip = n.dot(s.normal) < 0.0;
                         lit != flip
                     });
-                    *m = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
+                    meta[j] = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
+                    rec[j] = Rec {
+                        // The ray starts where the reference's does: the point moved a few
+                        // ULPs along its normal (Wächter and Binder 2019), a property of
+                        // float numbers, not a bias that depends on the scene or the light.
+                        origin: offset_origin(s.position, s.normal),
+                        triangle: if skip_own { triangle } else { u32::MAX },
+                    };
+                };
+                if k == 1 {
+                    let mut j = 0;
+                    for x in 0..w {
+                        let i = y * w + x;
+                        if let Some(s) = &points[i] {
+                            one(j, s, filler.triangle(i));
+                            j += 1;
+                        }
+                    }
+                } else {
+                    buf.clear();
+                    buf.resize(count, CameraSample::default());
+                    filler.row(y, buf);
+                    for (j, c) in buf.iter().enumerate() {
+                        one(j, &c.point, c.triangle);
+                    }
                 }
                 b
             })
@@ -696,18 +746,18 @@ impl Izb {
         let per_chunk: Vec<(Vec<u32>, usize)> = self
             .keys
             .par_chunks_mut(chunk)
-            .zip(self.samples.par_chunks(chunk))
+            .zip(self.pos.par_chunks(chunk))
             .zip(self.meta.par_chunks(chunk))
-            .map(|((keys, samples), meta)| {
+            .map(|((keys, pos), meta)| {
                 let mut hist = vec![0u32; buckets];
                 let mut own_tested = 0;
-                for ((key, smp), &m) in keys.iter_mut().zip(samples).zip(meta) {
+                for ((key, p), &m) in keys.iter_mut().zip(pos).zip(meta) {
                     *key = u32::MAX;
                     if m == META_NONE {
                         continue;
                     }
                     let v = view_of[(m & !META_SKIP_OWN) as usize] as usize;
-                    let Some((uv, _)) = views[v].lookup(smp.point.position) else {
+                    let Some((uv, _)) = views[v].lookup(*p) else {
                         continue;
                     };
                     let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as usize;
@@ -734,22 +784,24 @@ impl Izb {
         }
         row_at.push(at);
         let inserted = at as usize;
-        // Pass 3c, by chunks in parallel: each sample's index and column, behind the ones
-        // before it in its row's run (every position has one writer).
+        // Pass 3c, by chunks in parallel: each sample's entry (record, index and column)
+        // behind the ones before it in its row's run (every position has one writer).
         self.by_row.resize(inserted, Entry::default());
         {
             let out = Scatter::new(&mut self.by_row[..inserted]);
             self.keys
                 .par_chunks(chunk)
+                .zip(self.rec.par_chunks(chunk))
                 .zip(starts.par_iter_mut())
                 .enumerate()
-                .for_each(|(c, (keys, cursor))| {
-                    for (j, &key) in keys.iter().enumerate() {
+                .for_each(|(c, ((keys, rec), cursor))| {
+                    for (j, (&key, r)) in keys.iter().zip(rec).enumerate() {
                         if key == u32::MAX {
                             continue;
                         }
                         let b = key as usize / s;
                         let e = Entry {
+                            rec: *r,
                             sample: (c * chunk + j) as u32,
                             column: key % size,
                         };
@@ -760,110 +812,84 @@ impl Izb {
                     }
                 });
         }
-        // Pass 3d, by texel rows in parallel: counts per texel.
-        self.counts.resize_with(views.len(), Vec::new);
+        // Pass 3d, by texel rows in parallel: each row counts its records per texel, and
+        // puts them behind the ones before them in their texel's list (a stable sort by
+        // column) into the row's part of the store; the occluder pass's masks.
+        let mut old: Vec<View> = self.views.drain(..).collect();
         let by_row = &self.by_row;
-        for (v, c) in self.counts.iter_mut().enumerate().take(views.len()) {
-            c.clear();
-            c.resize(n, 0);
-            c.par_chunks_mut(s).enumerate().for_each(|(ty, row)| {
-                let b = v * s + ty;
-                for e in &by_row[row_at[b] as usize..row_at[b + 1] as usize] {
-                    row[e.column as usize] += 1;
-                }
-            });
-        }
-        // The stores (offsets by prefix sum) and the occluder pass's masks.
-        let mut old: Vec<(PixelStore<ListSample>, Option<Surface<f32>>)> =
-            self.views.drain(..).map(|v| (v.store, v.mask)).collect();
-        let mut masks = Vec::with_capacity(views.len());
-        let mut stores = Vec::with_capacity(views.len());
-        for c in &self.counts[..views.len()] {
-            let (store, mask) = match old.pop() {
-                Some((mut st, mask)) => {
-                    st.rebuild_indexed(size, size, c, ListSample::EMPTY)
-                        .map_err(|e| e.to_string())?;
-                    (st, mask)
-                }
+        let mut made = Vec::with_capacity(views.len());
+        for (v, view) in views.into_iter().enumerate() {
+            let (mut store, mut order, mask) = match old.pop() {
+                Some(o) => (o.store, o.order, o.mask),
                 None => (
-                    PixelStore::indexed(size, size, c, ListSample::EMPTY).map_err(|e| e.to_string())?,
+                    PixelStore::indexed(size, size, &vec![0; n], ListSample::EMPTY).map_err(|e| e.to_string())?,
+                    Vec::new(),
                     None,
                 ),
             };
+            let runs = &row_at[v * s..=(v + 1) * s];
+            let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
+            order.resize((runs[s] - runs[0]) as usize, 0);
+            let ord = Scatter::new(&mut order);
+            store
+                .rebuild_rows(size, size, &row_totals, ListSample::EMPTY, |ty, starts, part| {
+                    let run = &by_row[runs[ty] as usize..runs[ty + 1] as usize];
+                    let first = (runs[ty] - runs[0]) as usize;
+                    starts.fill(0);
+                    for e in run {
+                        starts[e.column as usize] += 1;
+                    }
+                    let mut acc = 0;
+                    for st in starts.iter_mut() {
+                        let c = *st;
+                        *st = acc;
+                        acc += c;
+                    }
+                    let mut cursor = starts.to_vec();
+                    for e in run {
+                        let at = &mut cursor[e.column as usize];
+                        part[*at as usize] = ListSample {
+                            position: e.rec.origin,
+                            triangle: e.rec.triangle,
+                            shadowed_by: LIT,
+                            tests: 0,
+                        };
+                        // SAFETY: every record of the view is in one row's run once.
+                        unsafe { ord.write(first + *at as usize, e.sample) };
+                        *at += 1;
+                    }
+                })
+                .map_err(|e| e.to_string())?;
             let mut mask = match mask {
                 Some(m) if m.width() == size => m,
                 _ => Surface::new(size, size, 0.0f32).map_err(|e| e.to_string())?,
             };
+            let offsets = store.offsets();
             mask.data_mut()
                 .par_iter_mut()
-                .zip(c.par_iter())
-                .for_each(|(m, &n)| *m = if n > 0 { 1.0 } else { -1.0 });
-            stores.push(store);
-            masks.push(Some(mask));
-        }
-        // Pass 3e, by texel rows in parallel: each row's records behind the ones before them
-        // in their texel's list (a stable sort by column), into the row's part of the store.
-        self.slot.clear();
-        self.slot.resize(total, NOT_INSERTED);
-        let slot = Scatter::new(&mut self.slot);
-        let (samples, meta) = (&self.samples, &self.meta);
-        for (v, st) in stores.iter_mut().enumerate() {
-            let offsets = st.offsets().to_vec();
-            let mut parts: Vec<&mut [ListSample]> = Vec::with_capacity(s);
-            let mut rest = st.data_mut();
-            for ty in 0..s {
-                let len = (offsets[(ty + 1) * s] - offsets[ty * s]) as usize;
-                let (a, b) = std::mem::take(&mut rest).split_at_mut(len);
-                parts.push(a);
-                rest = b;
-            }
-            parts.into_par_iter().enumerate().for_each(|(ty, part)| {
-                let b = v * s + ty;
-                let first = offsets[ty * s];
-                let mut cursor: Vec<u32> = offsets[ty * s..(ty + 1) * s].iter().map(|o| o - first).collect();
-                for e in &by_row[row_at[b] as usize..row_at[b + 1] as usize] {
-                    let i = e.sample as usize;
-                    let smp = &samples[i];
-                    let at = &mut cursor[e.column as usize];
-                    part[*at as usize] = ListSample {
-                        // The ray starts where the reference's does: the point moved a few
-                        // ULPs along its normal (Wächter and Binder 2019), a property of float
-                        // numbers, not a bias that depends on the scene or the light.
-                        position: offset_origin(smp.point.position, smp.point.normal),
-                        triangle: if meta[i] & META_SKIP_OWN != 0 {
-                            smp.triangle
-                        } else {
-                            u32::MAX
-                        },
-                        shadowed_by: LIT,
-                        tests: 0,
-                    };
-                    // SAFETY: every sample is in one row's run once.
-                    unsafe { slot.write(e.sample as usize, ((v as u32) << SLOT_VIEW_SHIFT) | (first + *at)) };
-                    *at += 1;
-                }
+                .zip(offsets.par_windows(2))
+                .for_each(|(m, o)| *m = if o[1] > o[0] { 1.0 } else { -1.0 });
+            made.push(View {
+                view,
+                store,
+                order,
+                mask: Some(mask),
+                fragments: 0,
+                rasterized: 0,
             });
         }
         self.inserted = inserted;
-        self.views = views
-            .into_iter()
-            .zip(stores)
-            .zip(masks)
-            .map(|((view, store), mask)| View {
-                view,
-                store,
-                mask,
-                fragments: 0,
-                rasterized: 0,
-            })
-            .collect();
+        self.views = made;
         Ok(())
     }
 
     /// Where sample `i` sits: its view and index into that view's store (None: in no list).
+    /// A search (for `inspect`, one pixel at a time).
     fn slot(&self, i: usize) -> Option<(usize, usize)> {
-        let x = self.slot[i];
-        (x != NOT_INSERTED).then_some(((x >> SLOT_VIEW_SHIFT) as usize, (x & SLOT_INDEX_MASK) as usize))
+        self.views
+            .iter()
+            .enumerate()
+            .find_map(|(v, view)| view.order.iter().position(|&o| o as usize == i).map(|at| (v, at)))
     }
 
     /// Pass 4: occluders through the pipeline, conservatively, testing each texel's samples.
@@ -873,18 +899,25 @@ impl Izb {
         let casters = merged_casters(frame, &vec![true; frame.scene.objects.len()])?;
         // Closed meshes (edge adjacency, as the shadow volumes check them) cast only through
         // their triangles that face away from the light.
+        // The finding is kept per object with the mesh's fingerprint, and made again only
+        // for a mesh that changed (a camera path's frames share their meshes).
+        let kept = std::mem::take(&mut self.closed);
         self.closed = p.install(|| {
             frame
                 .scene
                 .objects
                 .par_iter()
-                .map(|o| {
-                    let r = Adjacency::new(&o.mesh).report;
-                    r.is_closed_manifold()
+                .enumerate()
+                .map(|(i, o)| {
+                    let fp = crate::hash::mesh_fingerprint(&o.mesh.positions, &o.mesh.indices);
+                    match kept.get(i) {
+                        Some(&(f, c)) if f == fp => (fp, c),
+                        _ => (fp, Adjacency::new(&o.mesh).report.is_closed_manifold()),
+                    }
                 })
                 .collect()
         });
-        let closed = &self.closed;
+        let closed: Vec<bool> = self.closed.iter().map(|c| c.1).collect();
         let mut occluders = Vec::new();
         let mut indices = Vec::new();
         for (t, tri) in casters.indices.chunks_exact(3).enumerate() {
@@ -1000,12 +1033,12 @@ impl ShadowTechnique for Izb {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        // The samples and their lists (about 64 bytes a sample: the sample, its place in the
-        // sorted lists and the store's node), checked against the memory budget before any is
-        // made.
+        // The samples and their lists (about 88 bytes a sample: its position, record, key
+        // and sort entry, the store's node and its index, its result), checked against the
+        // memory budget before any is made.
         let (w, h) = (frame.width(), frame.height());
         let samples = w as u64 * h as u64 * self.opts.samples.count() as u64;
-        crate::pipeline::check_bytes(w, h, samples * 64).map_err(|e| {
+        crate::pipeline::check_bytes(w, h, samples * 88).map_err(|e| {
             format!(
                 "technique 'izb' ({samples} camera samples, option samples={}): {e}",
                 self.opts.samples.count()
@@ -1016,29 +1049,46 @@ impl ShadowTechnique for Izb {
         let t1 = Instant::now();
         self.occlude(p, frame)?;
         let t2 = Instant::now();
-        // Resolve: first each list's samples lit or not, in store order (one byte each, so
-        // the lookups below stay in cache); then each pixel's mean over its samples, row by
-        // row (a row's samples are contiguous, pixel after pixel).
-        let k = self.opts.samples.count() as f32;
-        let w = frame.width() as usize;
-        let mut out = vec![f32::NAN; w * frame.height() as usize];
-        let this = &*self;
+        // Resolve: each list's lit samples marked in sample order (one byte each, every
+        // sample in one list once); then each pixel's mean over its samples, row by row (a
+        // row's samples are contiguous, pixel after pixel, k each). The mean is the count of
+        // lit samples over k: with k a power of two, exactly the sum of k terms of 1/k.
+        let k = self.opts.samples.count();
+        let w = w as usize;
+        let mut out = vec![f32::NAN; w * h as usize];
+        self.lit.clear();
+        self.lit.resize(self.total, 0);
+        let (views, row_start) = (&self.views, &self.row_start);
+        let objects = frame.gbuffer.object.data();
+        let lit = &mut self.lit;
         p.install(|| {
-            let lit: Vec<Vec<bool>> = this
-                .views
-                .iter()
-                .map(|v| v.store.data().par_iter().map(|x| x.shadowed_by == LIT).collect())
-                .collect();
+            {
+                let marks = Scatter::new(lit);
+                for v in views {
+                    v.store
+                        .data()
+                        .par_chunks(MIN_CHUNK)
+                        .zip(v.order.par_chunks(MIN_CHUNK))
+                        .for_each(|(recs, order)| {
+                            for (r, &i) in recs.iter().zip(order) {
+                                if r.shadowed_by == LIT {
+                                    // SAFETY: every sample is in one list once.
+                                    unsafe { marks.write(i as usize, 1) };
+                                }
+                            }
+                        });
+                }
+            }
+            let lit = &*lit;
             out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                let (a, b) = (this.row_start[y] as usize, this.row_start[y + 1] as usize);
-                for (i, s) in (a..b).zip(&this.samples[a..b]) {
-                    let px = &mut row[s.pixel as usize - y * w];
-                    if px.is_nan() {
-                        *px = 0.0;
+                let mut i = row_start[y] as usize;
+                for (px, &o) in row.iter_mut().zip(&objects[y * w..(y + 1) * w]) {
+                    if o == NO_OBJECT {
+                        continue;
                     }
-                    if this.slot(i).is_some_and(|(v, at)| lit[v][at]) {
-                        *px += 1.0 / k;
-                    }
+                    let c: u32 = lit[i..i + k].iter().map(|&l| l as u32).sum();
+                    *px = c as f32 / k as f32;
+                    i += k;
                 }
             })
         });
@@ -1058,9 +1108,10 @@ impl ShadowTechnique for Izb {
         )
         .int("views", self.views.len())
         .int("size", self.opts.size)
-        .int("samples in the frame", self.samples.len())
+        .int("samples in the frame", self.total)
         .int("occluder triangles", self.occluders)];
-        let start = self.samples.partition_point(|s| (s.pixel as usize) < i);
+        let samples = camera_samples(frame, self.opts.samples);
+        let start = samples.partition_point(|s| (s.pixel as usize) < i);
         let mut lit_sum = 0.0;
         let k = self.opts.samples.count();
         let names = |id: u32| -> String {
@@ -1072,7 +1123,7 @@ impl ShadowTechnique for Izb {
                 .get(o)
                 .map_or("?".into(), |ob| format!("{} (triangle {})", ob.name, id - bases[o]))
         };
-        for (j, s) in self.samples[start..]
+        for (j, s) in samples[start..]
             .iter()
             .take_while(|s| s.pixel as usize == i)
             .enumerate()
@@ -1134,7 +1185,7 @@ impl ShadowTechnique for Izb {
         let inserted = self.inserted;
         let bytes: usize = self.views.iter().map(|v| v.store.bytes()).sum();
         vec![
-            ("samples", self.samples.len() as f64),
+            ("samples", self.total as f64),
             ("samples inserted", inserted as f64),
             ("samples tested against their own triangle", self.own_tested as f64),
             ("non-empty texels", nonempty as f64),
@@ -1187,7 +1238,10 @@ impl ShadowTechnique for Izb {
             .iter()
             .map(|s| if s.is_some() { 0.0 } else { f32::NAN })
             .collect::<Vec<f32>>();
-        for (s, lit) in self.samples.iter().zip(self.sample_visibility()) {
+        for (s, lit) in camera_samples(frame, self.opts.samples)
+            .iter()
+            .zip(self.sample_visibility())
+        {
             shadowed[s.pixel as usize] += 1.0 - lit;
         }
         v.push(Stage::Scalar {
