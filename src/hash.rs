@@ -57,7 +57,11 @@ pub fn mesh_fingerprint(positions: &[glam::Vec3], indices: &[u32]) -> u64 {
     }
     let mut l = [1u64, 2, 3];
     for p in positions {
-        l = [mix(l[0], p.x.to_bits()), mix(l[1], p.y.to_bits()), mix(l[2], p.z.to_bits())];
+        l = [
+            mix(l[0], p.x.to_bits()),
+            mix(l[1], p.y.to_bits()),
+            mix(l[2], p.z.to_bits()),
+        ];
     }
     for t in indices.chunks(3) {
         for (h, &i) in l.iter_mut().zip(t) {

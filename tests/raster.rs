@@ -1563,3 +1563,50 @@ fn raster_ordered_draws_without_other_targets_and_reject_bad_ones() {
     assert!(PixelStore::indexed(2, 2, &[1, 2, 3], 0u8).is_err());
     assert!(PixelStore::indexed(1, 2, &[u32::MAX, 2], 0u8).is_err());
 }
+
+#[test]
+fn a_store_rebuilt_row_by_row_equals_the_indexed_one() {
+    // Counts per pixel of a 37 x 11 store; rows filled in parallel from their totals.
+    let (w, h) = (37u32, 11u32);
+    let counts: Vec<u32> = (0..w * h).map(|i| (i * 7 + 3) % 5).collect();
+    let mut want = PixelStore::indexed(w, h, &counts, 0u32).unwrap();
+    for y in 0..h {
+        for x in 0..w {
+            for (k, v) in want.pixel_mut(x, y).iter_mut().enumerate() {
+                *v = (y * w + x) * 10 + k as u32;
+            }
+        }
+    }
+    let rows: Vec<u32> = counts.chunks(w as usize).map(|r| r.iter().sum()).collect();
+    // A store kept from a larger build is reused.
+    let mut store = PixelStore::indexed(w, h, &vec![9; (w * h) as usize], 7u32).unwrap();
+    for threads in [1, 2, 4] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            store
+                .rebuild_rows(w, h, &rows, 0, |y, starts, values| {
+                    let row = &counts[y * w as usize..(y + 1) * w as usize];
+                    let mut at = 0;
+                    for (x, (&c, s)) in row.iter().zip(starts.iter_mut()).enumerate() {
+                        *s = at;
+                        for k in 0..c {
+                            values[(at + k) as usize] = (y as u32 * w + x as u32) * 10 + k;
+                        }
+                        at += c;
+                    }
+                })
+                .unwrap()
+        });
+        assert!(store == want, "{threads} threads");
+    }
+    // Starts that decrease, or pass the row's values, and wrong row totals are errors.
+    let e = store
+        .rebuild_rows(w, h, &rows, 0, |_, starts, _| starts[0] = 1)
+        .unwrap_err();
+    assert!(e.to_string().contains("starts decrease"), "{e}");
+    let e = store
+        .rebuild_rows(w, h, &rows, 0, |_, starts, v| starts.fill(v.len() as u32 + 1))
+        .unwrap_err();
+    assert!(e.to_string().contains("row 0"), "{e}");
+    assert!(store.rebuild_rows(w, h, &rows[1..], 0, |_, _, _| {}).is_err());
+}

@@ -109,7 +109,8 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
     /// pixel's values end where the next one's begin), and every one of `values`. Values
     /// `fill` leaves unset keep what an earlier build left there (this one writes nothing
     /// first: a counting sort fills every value anyway). Starts that are not non-decreasing
-    /// or pass the row's total are an error.
+    /// or pass the row's total are an error, after which the store must be rebuilt before
+    /// it is used.
     pub fn rebuild_rows<F>(
         &mut self,
         width: u32,

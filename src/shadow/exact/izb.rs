@@ -1273,15 +1273,21 @@ mod tests {
             })
             .unwrap();
             t.visibility(&p, &f).unwrap();
-            assert!(
-                t.samples.len() > 2 * MIN_CHUNK,
-                "{scene}: too few samples to test chunks"
-            );
+            assert!(t.total > 2 * MIN_CHUNK, "{scene}: too few samples to test chunks");
             let size = t.opts.size;
+            let samples = camera_samples(&f, t.opts.samples);
+            assert_eq!(samples.len(), t.total);
+            let mut slot = vec![None; samples.len()];
+            for (v, view) in t.views.iter().enumerate() {
+                for (at, &i) in view.order.iter().enumerate() {
+                    assert!(slot[i as usize].is_none(), "{scene}: sample {i} stored twice");
+                    slot[i as usize] = Some((v, at));
+                }
+            }
             let mut cursors: Vec<Vec<u32>> = t.views.iter().map(|v| v.store.offsets().to_vec()).collect();
             let mut inserted = 0;
-            for (i, smp) in t.samples.iter().enumerate() {
-                let Some((v, at)) = t.slot(i) else { continue };
+            for (i, smp) in samples.iter().enumerate() {
+                let Some((v, at)) = slot[i] else { continue };
                 inserted += 1;
                 let (uv, _) = t.views[v].view.lookup(smp.point.position).unwrap();
                 let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
@@ -1291,6 +1297,7 @@ mod tests {
                 *c += 1;
                 let rec = t.views[v].store.data()[at];
                 assert_eq!(rec.position, offset_origin(smp.point.position, smp.point.normal));
+                assert_eq!(t.slot(i), Some((v, at)));
             }
             assert_eq!(inserted, t.inserted);
             assert!(t.views.len() > 1 || scene == "contact", "{scene}: expected cube faces");
