@@ -16,13 +16,17 @@
 //!    directional light, six cube faces for point, area and spot lights, since samples may lie
 //!    outside a spot's cone) cropped to the light-space bounds of its samples ("tight bounds
 //!    are formed from this set", RTR 7.9), `size` x `size` texels; a cube face without samples
-//!    is skipped.
+//!    is skipped. A sample's texel comes from its uv in the uncropped view (found once, with
+//!    the bounds) through the crop's scale and offset ([`Grid`]).
 //! 3. **Lists**: each sample goes into the list of the texel it projects to. The lists are a
 //!    deterministic counting sort by texel (count, prefix sum, fill in sample order) into one
 //!    pool (the pipeline's indexed [`PixelStore`]), so list order is the samples' order and
 //!    never depends on the thread count. The sort runs in parallel in two stable steps (by
 //!    texel row over chunks of samples cut by a rule of their count alone, then by column
-//!    within each row), which give the serial sort's lists exactly. (Drawing the points into the pipeline's fragment
+//!    within each row, which also lays out the row's part of the store,
+//!    [`PixelStore::rebuild_rows`]), which give the serial sort's lists exactly. Each
+//!    sample's record (ray origin and own triangle) travels with it through both steps, so
+//!    neither gathers from the samples. (Drawing the points into the pipeline's fragment
 //!    lists would give the same order, at the cost of a node per sample and a pass to copy
 //!    the nodes into the store the occluder pass needs.)
 //! 4. **Occluder pass**: every caster triangle is drawn through the pipeline into the grid
@@ -520,6 +524,10 @@ impl<'a, T: Copy> Scatter<'a, T> {
 /// each stored record is.
 struct View {
     view: LightView,
+    /// The uncropped view, and the crop in its uv: a sample's texel is
+    /// `grid.texel(base.lookup(p).uv)` (see [`Grid`]).
+    base: LightView,
+    grid: Grid,
     store: PixelStore<ListSample>,
     /// Per record of the store (same order): the sample's index.
     order: Vec<u32>,
@@ -551,7 +559,7 @@ pub struct Izb {
     /// Kept buffers: where each row's samples start; per sample its position, record, view
     /// byte and key (view and texel); the sort's entries.
     row_start: Vec<u32>,
-    pos: Vec<Vec3>,
+    uv: Vec<Vec2>,
     rec: Vec<Rec>,
     meta: Vec<u8>,
     keys: Vec<u32>,
@@ -573,7 +581,7 @@ impl Izb {
             own_tested: 0,
             lit: Vec::new(),
             row_start: Vec::new(),
-            pos: Vec::new(),
+            uv: Vec::new(),
             rec: Vec::new(),
             meta: Vec::new(),
             keys: Vec::new(),
@@ -647,12 +655,12 @@ impl Izb {
         let facing = triangle_facing(frame);
         let filler = SampleFiller::new(frame, self.opts.samples);
         // (Every element is written below: the kept buffers are only resized.)
-        self.pos.resize(total, Vec3::ZERO);
+        self.uv.resize(total, Vec2::ZERO);
         self.rec.resize(total, Rec::default());
         self.meta.resize(total, META_NONE);
-        let mut rows: Vec<(&mut [Vec3], &mut [Rec], &mut [u8])> = Vec::with_capacity(h);
+        let mut rows: Vec<(&mut [Vec2], &mut [Rec], &mut [u8])> = Vec::with_capacity(h);
         let (mut rp, mut rr, mut rm) = (
-            self.pos.as_mut_slice(),
+            self.uv.as_mut_slice(),
             self.rec.as_mut_slice(),
             self.meta.as_mut_slice(),
         );
@@ -673,7 +681,6 @@ impl Izb {
                 let mut b = vec![empty; nb];
                 let count = pos.len();
                 let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
-                    pos[j] = s.position;
                     meta[j] = META_NONE;
                     rec[j] = Rec {
                         origin: Vec3::ZERO,
@@ -687,6 +694,7 @@ impl Izb {
                         return;
                     };
                     b[f] = (b[f].0.min(uv), b[f].1.max(uv));
+                    pos[j] = uv;
                     let skip_own = facing.get(triangle as usize).is_some_and(|&(n, lit)| {
                         let flip = n.dot(s.normal) < 0.0;
                         lit != flip
@@ -728,13 +736,16 @@ impl Izb {
             }
         }
         let mut view_of = vec![u8::MAX; nb];
-        let mut views: Vec<LightView> = Vec::new();
+        let mut views: Vec<(LightView, LightView)> = Vec::new();
+        let mut grids: Vec<Grid> = Vec::new();
         for (f, (lo, hi)) in bounds.iter().enumerate() {
             if lo.x > hi.x {
                 continue; // no samples in this view
             }
             view_of[f] = views.len() as u8;
-            views.push(crop(&base[f], *lo, *hi, size));
+            let (view, grid) = crop(&base[f], *lo, *hi, size);
+            views.push((view, base[f]));
+            grids.push(grid);
         }
         // Pass 3a, by chunks in parallel: each sample's key (view and texel in its cropped
         // view, or none), and each chunk's count per texel row of every view.
@@ -746,7 +757,7 @@ impl Izb {
         let per_chunk: Vec<(Vec<u32>, usize)> = self
             .keys
             .par_chunks_mut(chunk)
-            .zip(self.pos.par_chunks(chunk))
+            .zip(self.uv.par_chunks(chunk))
             .zip(self.meta.par_chunks(chunk))
             .map(|((keys, pos), meta)| {
                 let mut hist = vec![0u32; buckets];
@@ -757,11 +768,7 @@ impl Izb {
                         continue;
                     }
                     let v = view_of[(m & !META_SKIP_OWN) as usize] as usize;
-                    let Some((uv, _)) = views[v].lookup(*p) else {
-                        continue;
-                    };
-                    let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as usize;
-                    let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as usize;
+                    let (tx, ty) = grids[v].texel(*p);
                     *key = (v * n + ty * s + tx) as u32;
                     hist[v * s + ty] += 1;
                     own_tested += (m & META_SKIP_OWN == 0) as usize;
@@ -818,7 +825,7 @@ impl Izb {
         let mut old: Vec<View> = self.views.drain(..).collect();
         let by_row = &self.by_row;
         let mut made = Vec::with_capacity(views.len());
-        for (v, view) in views.into_iter().enumerate() {
+        for (v, ((view, base), grid)) in views.into_iter().zip(grids.iter().copied()).enumerate() {
             let (mut store, mut order, mask) = match old.pop() {
                 Some(o) => (o.store, o.order, o.mask),
                 None => (
@@ -871,6 +878,8 @@ impl Izb {
                 .for_each(|(m, o)| *m = if o[1] > o[0] { 1.0 } else { -1.0 });
             made.push(View {
                 view,
+                base,
+                grid,
                 store,
                 order,
                 mask: Some(mask),
@@ -1007,7 +1016,7 @@ impl Izb {
 
 /// `base` cropped to its samples' uv bounds `lo`..`hi` (plus half a texel), so the grid's
 /// texels cover only where samples are: a scale and offset of clip x and y.
-fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> LightView {
+fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> (LightView, Grid) {
     let pad = 0.5 / size as f32;
     let (lo, hi) = (lo - pad, hi + pad);
     // uv -> ndc: x = 2u - 1, y = 1 - 2v.
@@ -1020,10 +1029,34 @@ fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> LightView {
         Vec4::new(0.0, 0.0, 1.0, 0.0),
         Vec4::new(-(x0 + x1) * 0.5 * sx, -(y0 + y1) * 0.5 * sy, 0.0, 1.0),
     );
-    LightView {
+    let view = LightView {
         matrix: c * base.matrix,
         texel: base.texel * (hi - lo).max_element(),
         perspective: base.perspective,
+    };
+    let grid = Grid {
+        lo,
+        scale: Vec2::splat(size as f32) / (hi - lo).max(Vec2::splat(1e-9)),
+        size,
+    };
+    (view, grid)
+}
+
+/// A cropped view's texels in its base view's uv: the crop's scale and offset.
+#[derive(Copy, Clone, Debug)]
+struct Grid {
+    lo: Vec2,
+    scale: Vec2,
+    size: u32,
+}
+
+impl Grid {
+    /// The texel (column, row) of base-view uv `uv`.
+    #[inline(always)]
+    fn texel(&self, uv: Vec2) -> (usize, usize) {
+        let t = ((uv - self.lo) * self.scale).floor();
+        let last = self.size as f32 - 1.0;
+        (t.x.clamp(0.0, last) as usize, t.y.clamp(0.0, last) as usize)
     }
 }
 
@@ -1138,7 +1171,9 @@ impl ShadowTechnique for Izb {
             if let Some((v, at)) = slot {
                 let view = &self.views[v];
                 let ls = view.store.data()[at];
-                let (uv, _) = view.view.lookup(s.point.position).unwrap_or_default();
+                // The sample's uv in the cropped grid (as its texel was found).
+                let (uv, _) = view.base.lookup(s.point.position).unwrap_or_default();
+                let uv = (uv - view.grid.lo) * view.grid.scale / view.grid.size as f32;
                 let t = (0..(view.store.width() * view.store.height()) as usize)
                     .find(|&t| view.store.range(t).contains(&at))
                     .unwrap_or(0);
@@ -1289,10 +1324,9 @@ mod tests {
             for (i, smp) in samples.iter().enumerate() {
                 let Some((v, at)) = slot[i] else { continue };
                 inserted += 1;
-                let (uv, _) = t.views[v].view.lookup(smp.point.position).unwrap();
-                let tx = ((uv.x * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-                let ty = ((uv.y * size as f32).floor() as i64).clamp(0, size as i64 - 1) as u32;
-                let c = &mut cursors[v][(ty * size + tx) as usize];
+                let (uv, _) = t.views[v].base.lookup(smp.point.position).unwrap();
+                let (tx, ty) = t.views[v].grid.texel(uv);
+                let c = &mut cursors[v][ty * size as usize + tx];
                 assert_eq!(at as u32, *c, "{scene}: sample {i} out of the serial order");
                 *c += 1;
                 let rec = t.views[v].store.data()[at];
