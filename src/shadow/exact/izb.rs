@@ -17,7 +17,7 @@
 //!    outside a spot's cone) cropped to the light-space bounds of its samples ("tight bounds
 //!    are formed from this set", RTR 7.9), `size` x `size` texels; a cube face without samples
 //!    is skipped. A sample's texel comes from its uv in the uncropped view (found once, with
-//!    the bounds) through the crop's scale and offset ([`Grid`]).
+//!    the bounds) through the crop's scale and offset.
 //! 3. **Lists**: each sample goes into the list of the texel it projects to. The lists are a
 //!    deterministic counting sort by texel (count, prefix sum, fill in sample order) into one
 //!    pool (the pipeline's indexed [`PixelStore`]), so list order is the samples' order and
