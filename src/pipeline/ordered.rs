@@ -89,12 +89,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
             }
             self.offsets.push(total as u32);
         }
-        // Checked against the memory budget before it grows (what it holds now is reused).
-        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
-        let need = total * std::mem::size_of::<T>() as u64;
-        if need > have {
-            super::surface::check_bytes(width, height, need - have)?;
-        }
+        self.check_growth(width, height, total)?;
         self.width = width;
         self.height = height;
         self.data.clear();
@@ -137,11 +132,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 u32::MAX
             )));
         }
-        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
-        let need = total * std::mem::size_of::<T>() as u64;
-        if need > have {
-            super::surface::check_bytes(width, height, need - have)?;
-        }
+        self.check_growth(width, height, total)?;
         self.width = width;
         self.height = height;
         self.offsets.resize(pixels + 1, 0);
@@ -180,6 +171,17 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
             ))),
             None => Ok(()),
         }
+    }
+
+    /// Checks `total` values against the memory budget before the pool grows to them (what
+    /// it holds now is reused).
+    fn check_growth(&self, width: u32, height: u32, total: u64) -> Result<(), PipelineError> {
+        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
+        let need = total * std::mem::size_of::<T>() as u64;
+        if need > have {
+            super::surface::check_bytes(width, height, need - have)?;
+        }
+        Ok(())
     }
 
     /// Width in pixels.
