@@ -556,8 +556,8 @@ pub struct Izb {
     own_tested: usize,
     /// Per sample (pixel-major): lit (1) or not (0), from the last run.
     lit: Vec<u8>,
-    /// Kept buffers: where each row's samples start; per sample its position, record, view
-    /// byte and key (view and texel); the sort's entries.
+    /// Kept buffers: where each row's samples start; per sample its uv in its base view,
+    /// record, view byte and key (view and texel); the sort's entries.
     row_start: Vec<u32>,
     uv: Vec<Vec2>,
     rec: Vec<Rec>,
@@ -644,9 +644,9 @@ impl Izb {
             _ => light_views(frame, size),
         };
         let nb = base.len();
-        // Pass 1, row by row in parallel: the samples; for each, its position, its record
-        // (ray origin, and the triangle it skips), the base view it falls in (none: it faces
-        // away from the light). A sample skips its own triangle only where that triangle
+        // Pass 1, row by row in parallel: the samples; for each, the base view it falls in
+        // (none: it faces away from the light), its uv there, and its record (ray origin, and
+        // the triangle it skips). A sample skips its own triangle only where that triangle
         // faces the light (its geometric normal turned to the side of the shading normal,
         // for two-sided sheets). Where it faces away (the terminator of a tessellated sphere,
         // the far side of a heightfield's ridge), the sample's ray leaves through the back of
@@ -659,27 +659,27 @@ impl Izb {
         self.rec.resize(total, Rec::default());
         self.meta.resize(total, META_NONE);
         let mut rows: Vec<(&mut [Vec2], &mut [Rec], &mut [u8])> = Vec::with_capacity(h);
-        let (mut rp, mut rr, mut rm) = (
+        let (mut ru, mut rr, mut rm) = (
             self.uv.as_mut_slice(),
             self.rec.as_mut_slice(),
             self.meta.as_mut_slice(),
         );
         for c in &row_counts {
             let c = *c as usize;
-            let (a, b) = std::mem::take(&mut rp).split_at_mut(c);
+            let (au, bu) = std::mem::take(&mut ru).split_at_mut(c);
             let (ar, br) = std::mem::take(&mut rr).split_at_mut(c);
             let (am, bm) = std::mem::take(&mut rm).split_at_mut(c);
-            rows.push((a, ar, am));
-            (rp, rr, rm) = (b, br, bm);
+            rows.push((au, ar, am));
+            (ru, rr, rm) = (bu, br, bm);
         }
         let empty = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
         let points = frame.points();
         let row_bounds: Vec<Vec<(Vec2, Vec2)>> = rows
             .into_par_iter()
             .enumerate()
-            .map_init(Vec::new, |buf: &mut Vec<CameraSample>, (y, (pos, rec, meta))| {
+            .map_init(Vec::new, |buf: &mut Vec<CameraSample>, (y, (uvs, rec, meta))| {
                 let mut b = vec![empty; nb];
-                let count = pos.len();
+                let count = uvs.len();
                 let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
                     meta[j] = META_NONE;
                     rec[j] = Rec {
@@ -694,7 +694,7 @@ impl Izb {
                         return;
                     };
                     b[f] = (b[f].0.min(uv), b[f].1.max(uv));
-                    pos[j] = uv;
+                    uvs[j] = uv;
                     let skip_own = facing.get(triangle as usize).is_some_and(|&(n, lit)| {
                         let flip = n.dot(s.normal) < 0.0;
                         lit != flip
@@ -759,16 +759,16 @@ impl Izb {
             .par_chunks_mut(chunk)
             .zip(self.uv.par_chunks(chunk))
             .zip(self.meta.par_chunks(chunk))
-            .map(|((keys, pos), meta)| {
+            .map(|((keys, uvs), meta)| {
                 let mut hist = vec![0u32; buckets];
                 let mut own_tested = 0;
-                for ((key, p), &m) in keys.iter_mut().zip(pos).zip(meta) {
+                for ((key, uv), &m) in keys.iter_mut().zip(uvs).zip(meta) {
                     *key = u32::MAX;
                     if m == META_NONE {
                         continue;
                     }
                     let v = view_of[(m & !META_SKIP_OWN) as usize] as usize;
-                    let (tx, ty) = grids[v].texel(*p);
+                    let (tx, ty) = grids[v].texel(*uv);
                     *key = (v * n + ty * s + tx) as u32;
                     hist[v * s + ty] += 1;
                     own_tested += (m & META_SKIP_OWN == 0) as usize;
