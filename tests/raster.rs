@@ -1578,27 +1578,29 @@ fn a_store_rebuilt_row_by_row_equals_the_indexed_one() {
         }
     }
     let rows: Vec<u32> = counts.chunks(w as usize).map(|r| r.iter().sum()).collect();
+    let fill = |y: usize, starts: &mut [u32], values: &mut [u32]| {
+        let mut at = 0;
+        for (x, s) in starts.iter_mut().enumerate() {
+            *s = at;
+            let c = counts[y * w as usize + x];
+            for k in 0..c {
+                values[(at + k) as usize] = (y as u32 * w + x as u32) * 10 + k;
+            }
+            at += c;
+        }
+    };
     // A store kept from a larger build is reused.
     let mut store = PixelStore::indexed(w, h, &vec![9; (w * h) as usize], 7u32).unwrap();
     for threads in [1, 2, 4] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| {
-            store
-                .rebuild_rows(w, h, &rows, 0, |y, starts, values| {
-                    let row = &counts[y * w as usize..(y + 1) * w as usize];
-                    let mut at = 0;
-                    for (x, (&c, s)) in row.iter().zip(starts.iter_mut()).enumerate() {
-                        *s = at;
-                        for k in 0..c {
-                            values[(at + k) as usize] = (y as u32 * w + x as u32) * 10 + k;
-                        }
-                        at += c;
-                    }
-                })
-                .unwrap()
-        });
+        pool.install(|| store.rebuild_rows(w, h, &rows, 0, fill).unwrap());
         assert!(store == want, "{threads} threads");
     }
+    // So is an empty store.
+    let mut fresh = PixelStore::<u32>::default();
+    assert_eq!((fresh.width(), fresh.height(), fresh.data().len()), (0, 0, 0));
+    fresh.rebuild_rows(w, h, &rows, 0, fill).unwrap();
+    assert!(fresh == want, "from an empty store");
     // Starts that decrease, or pass the row's values, and wrong row totals are errors.
     let e = store
         .rebuild_rows(w, h, &rows, 0, |_, starts, _| starts[0] = 1)

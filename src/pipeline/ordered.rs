@@ -26,6 +26,19 @@ pub struct PixelStore<T> {
     data: Vec<T>,
 }
 
+/// An empty store of no pixels, to be built by [`PixelStore::rebuild_indexed`] or
+/// [`PixelStore::rebuild_rows`].
+impl<T> Default for PixelStore<T> {
+    fn default() -> Self {
+        PixelStore {
+            width: 0,
+            height: 0,
+            offsets: vec![0],
+            data: Vec::new(),
+        }
+    }
+}
+
 impl<T: Copy + Send + Sync> PixelStore<T> {
     /// `slots` values of `init` per pixel.
     pub fn fixed(width: u32, height: u32, slots: usize, init: T) -> Result<Self, PipelineError> {

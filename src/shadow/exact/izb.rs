@@ -736,16 +736,15 @@ impl Izb {
             }
         }
         let mut view_of = vec![u8::MAX; nb];
-        let mut views: Vec<(LightView, LightView)> = Vec::new();
-        let mut grids: Vec<Grid> = Vec::new();
+        // Per view: the cropped view, its base view, and the crop in the base view's uv.
+        let mut views: Vec<(LightView, LightView, Grid)> = Vec::new();
         for (f, (lo, hi)) in bounds.iter().enumerate() {
             if lo.x > hi.x {
                 continue; // no samples in this view
             }
             view_of[f] = views.len() as u8;
             let (view, grid) = crop(&base[f], *lo, *hi, size);
-            views.push((view, base[f]));
-            grids.push(grid);
+            views.push((view, base[f], grid));
         }
         // Pass 3a, by chunks in parallel: each sample's key (view and texel in its cropped
         // view, or none), and each chunk's count per texel row of every view.
@@ -768,7 +767,7 @@ impl Izb {
                         continue;
                     }
                     let v = view_of[(m & !META_SKIP_OWN) as usize] as usize;
-                    let (tx, ty) = grids[v].texel(*uv);
+                    let (tx, ty) = views[v].2.texel(*uv);
                     *key = (v * n + ty * s + tx) as u32;
                     hist[v * s + ty] += 1;
                     own_tested += (m & META_SKIP_OWN == 0) as usize;
@@ -825,14 +824,10 @@ impl Izb {
         let mut old: Vec<View> = self.views.drain(..).collect();
         let by_row = &self.by_row;
         let mut made = Vec::with_capacity(views.len());
-        for (v, ((view, base), grid)) in views.into_iter().zip(grids.iter().copied()).enumerate() {
+        for (v, (view, base, grid)) in views.into_iter().enumerate() {
             let (mut store, mut order, mask) = match old.pop() {
                 Some(o) => (o.store, o.order, o.mask),
-                None => (
-                    PixelStore::indexed(size, size, &vec![0; n], ListSample::EMPTY).map_err(|e| e.to_string())?,
-                    Vec::new(),
-                    None,
-                ),
+                None => (PixelStore::default(), Vec::new(), None),
             };
             let runs = &row_at[v * s..=(v + 1) * s];
             let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
