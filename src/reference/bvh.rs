@@ -760,8 +760,11 @@ mod avx {
 /// A ray prepared for four boxes or four triangles at a time.
 struct Ray4 {
     /// The origin, the direction's reciprocal and `tmax`, as scalars (for eight lanes).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     os: [f32; 3],
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     invs: [f32; 3],
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     tmaxs: f32,
     o: [F4; 3],
     inv: [F4; 3],
