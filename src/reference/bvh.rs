@@ -1000,6 +1000,45 @@ mod tests {
         assert!(hits > 1000, "{hits} hits: the rays must hit something");
     }
 
+    /// Trees of 1 to 40 triangles (a root that is one leaf, nodes of every lane count) find
+    /// exactly the brute-force hits.
+    #[test]
+    fn small_trees_match_brute_force() {
+        let mut r = SplitMix(17);
+        let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 4.0 - 2.0;
+        for n in 1..=40u32 {
+            let tris: Vec<Tri> = (0..n)
+                .map(|i| {
+                    let c = p();
+                    Tri {
+                        v: [c, c + p() * 0.5, c + p() * 0.5],
+                        tag: i,
+                    }
+                })
+                .collect();
+            let bvh = Bvh::build(tris.clone());
+            assert_eq!(bvh.len(), n as usize);
+            for _ in 0..200 {
+                let (o, d) = (p() * 2.0, (p() - p()).normalize());
+                let ray = WatertightRay::new(o, d);
+                let mut brute: Vec<u32> = tris
+                    .iter()
+                    .filter(|t| ray.intersect(&t.v, 10.0).is_some())
+                    .map(|t| t.tag)
+                    .collect();
+                let mut got = Vec::new();
+                bvh.traverse(o, d, 10.0, |tag, _| {
+                    got.push(tag);
+                    false
+                });
+                brute.sort_unstable();
+                got.sort_unstable();
+                assert_eq!(got, brute, "{n} triangles, ray {o} {d}");
+                assert_eq!(bvh.occluded(o, d, 10.0), !brute.is_empty());
+            }
+        }
+    }
+
     #[test]
     fn the_tree_is_the_same_for_1_2_and_4_threads() {
         let mut r = SplitMix(9);
