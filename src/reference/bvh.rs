@@ -933,6 +933,55 @@ mod tests {
     use super::*;
     use crate::hash::SplitMix;
 
+    /// Triangles around `n` centres from `p`, their other corners within `spread` of it.
+    fn clustered(p: &mut impl FnMut() -> Vec3, n: u32, spread: f32, first_tag: u32) -> Vec<Tri> {
+        (0..n)
+            .map(|i| {
+                let c = p();
+                Tri {
+                    v: [c, c + p() * spread, c + p() * spread],
+                    tag: first_tag + i,
+                }
+            })
+            .collect()
+    }
+
+    /// The box tests this machine can run: `false` the four-lane one, `true` AVX.
+    fn box_paths(_bvh: &Bvh) -> Vec<bool> {
+        #[cfg(target_arch = "x86_64")]
+        if _bvh.avx {
+            return vec![false, true];
+        }
+        vec![false]
+    }
+
+    fn use_path(_bvh: &mut Bvh, _avx: bool) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            _bvh.avx = _avx;
+        }
+    }
+
+    /// Asserts that the tree reports exactly the scalar test's hits of the ray, distances bit
+    /// for bit, and that `occluded` agrees; returns how many there were.
+    fn assert_brute_force(bvh: &Bvh, tris: &[Tri], o: Vec3, d: Vec3, tmax: f32) -> usize {
+        let ray = WatertightRay::new(o, d);
+        let mut brute: Vec<(u32, u32)> = tris
+            .iter()
+            .filter_map(|t| ray.intersect(&t.v, tmax).map(|h| (t.tag, h.to_bits())))
+            .collect();
+        let mut got = Vec::new();
+        bvh.traverse(o, d, tmax, |tag, t| {
+            got.push((tag, t.to_bits()));
+            false
+        });
+        brute.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, brute, "ray {o} {d}");
+        assert_eq!(bvh.occluded(o, d, tmax), !brute.is_empty(), "ray {o} {d}");
+        got.len()
+    }
+
     /// Every hit of the tree is the scalar test's hit, with the same distance to the bit, and
     /// none is missed (the packets' lanes and the boxes' robust slabs change nothing), with
     /// the four-lane box test and, where the machine has it, the eight-lane AVX one. Rays
@@ -969,72 +1018,33 @@ mod tests {
                 (o, d)
             })
             .collect();
-        #[cfg(target_arch = "x86_64")]
-        let paths = if bvh.avx { vec![false, true] } else { vec![false] };
-        #[cfg(not(target_arch = "x86_64"))]
-        let paths = vec![false];
         let mut hits = 0;
-        for avx in paths {
-            #[cfg(target_arch = "x86_64")]
-            {
-                bvh.avx = avx;
-            }
-            let _ = avx;
-            for &(o, d) in &rays {
-                let ray = WatertightRay::new(o, d);
-                let mut brute: Vec<(u32, u32)> = tris
-                    .iter()
-                    .filter_map(|t| ray.intersect(&t.v, f32::MAX).map(|h| (t.tag, h.to_bits())))
-                    .collect();
-                let mut got = Vec::new();
-                bvh.traverse(o, d, f32::MAX, |tag, t| {
-                    got.push((tag, t.to_bits()));
-                    false
-                });
-                brute.sort_unstable();
-                got.sort_unstable();
-                assert_eq!(got, brute, "ray {o} {d}, avx {avx}");
-                hits += got.len();
-            }
+        for avx in box_paths(&bvh) {
+            use_path(&mut bvh, avx);
+            hits += rays
+                .iter()
+                .map(|&(o, d)| assert_brute_force(&bvh, &tris, o, d, f32::MAX))
+                .sum::<usize>();
         }
         assert!(hits > 1000, "{hits} hits: the rays must hit something");
     }
 
     /// Trees of 1 to 40 triangles (a root that is one leaf, nodes of every lane count) find
-    /// exactly the brute-force hits.
+    /// exactly the brute-force hits, on every box test.
     #[test]
     fn small_trees_match_brute_force() {
         let mut r = SplitMix(17);
         let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 4.0 - 2.0;
         for n in 1..=40u32 {
-            let tris: Vec<Tri> = (0..n)
-                .map(|i| {
-                    let c = p();
-                    Tri {
-                        v: [c, c + p() * 0.5, c + p() * 0.5],
-                        tag: i,
-                    }
-                })
-                .collect();
-            let bvh = Bvh::build(tris.clone());
+            let tris = clustered(&mut p, n, 0.5, 0);
+            let mut bvh = Bvh::build(tris.clone());
             assert_eq!(bvh.len(), n as usize);
-            for _ in 0..200 {
-                let (o, d) = (p() * 2.0, (p() - p()).normalize());
-                let ray = WatertightRay::new(o, d);
-                let mut brute: Vec<u32> = tris
-                    .iter()
-                    .filter(|t| ray.intersect(&t.v, 10.0).is_some())
-                    .map(|t| t.tag)
-                    .collect();
-                let mut got = Vec::new();
-                bvh.traverse(o, d, 10.0, |tag, _| {
-                    got.push(tag);
-                    false
-                });
-                brute.sort_unstable();
-                got.sort_unstable();
-                assert_eq!(got, brute, "{n} triangles, ray {o} {d}");
-                assert_eq!(bvh.occluded(o, d, 10.0), !brute.is_empty());
+            let rays: Vec<(Vec3, Vec3)> = (0..200).map(|_| (p() * 2.0, (p() - p()).normalize())).collect();
+            for avx in box_paths(&bvh) {
+                use_path(&mut bvh, avx);
+                for &(o, d) in &rays {
+                    assert_brute_force(&bvh, &tris, o, d, 10.0);
+                }
             }
         }
     }
@@ -1044,15 +1054,7 @@ mod tests {
         let mut r = SplitMix(9);
         let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 10.0 - 5.0;
         // Enough triangles for the parallel levels, with shared centroids for the fall-back.
-        let mut tris: Vec<Tri> = (0..30_000)
-            .map(|i| {
-                let c = p();
-                Tri {
-                    v: [c, c + p() * 0.05, c + p() * 0.05],
-                    tag: i,
-                }
-            })
-            .collect();
+        let mut tris = clustered(&mut p, 30_000, 0.05, 0);
         tris.extend((0..64).map(|i| Tri {
             v: [Vec3::ZERO, Vec3::X, Vec3::Y],
             tag: 40_000 + i,
