@@ -757,7 +757,8 @@ mod avx {
     }
 }
 
-/// A ray prepared for four boxes or four triangles at a time.
+/// A ray prepared for a node's boxes (four or eight lanes at a time) and for four triangles
+/// at a time.
 struct Ray4 {
     /// The origin, the direction's reciprocal and `tmax`, as scalars (for eight lanes).
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
