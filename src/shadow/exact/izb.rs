@@ -413,6 +413,12 @@ struct Occluder {
     /// `n . (light - v0)` (directional: `n . direction to the light`): the light's side.
     light_side: f32,
     id: u32,
+    /// Directional lights: the Möller–Trumbore terms that depend on the direction alone
+    /// (`pv = direction x e2` and `1 / (e1 . pv)`), computed once per triangle with the
+    /// operations [`Occluder::blocks`] would use per sample; `inv` is NaN where the ray is
+    /// parallel to the triangle (no sample is blocked).
+    pv: Vec3,
+    inv: f32,
 }
 
 impl Occluder {
@@ -423,6 +429,20 @@ impl Occluder {
             LightKind::Directional => n.dot(-light.direction),
             _ => n.dot(light.position - a),
         };
+        let (pv, inv) = if light.kind == LightKind::Directional {
+            let pv = (-light.direction).cross(e2);
+            let det = e1.dot(pv);
+            (
+                pv,
+                if det == 0.0 || !det.is_finite() {
+                    f32::NAN
+                } else {
+                    1.0 / det
+                },
+            )
+        } else {
+            (Vec3::ZERO, f32::NAN)
+        };
         Occluder {
             v0: a,
             e1,
@@ -431,6 +451,8 @@ impl Occluder {
             n2: n.length_squared(),
             light_side,
             id,
+            pv,
+            inv,
         }
     }
 
@@ -453,7 +475,24 @@ impl Occluder {
         if det == 0.0 || !det.is_finite() {
             return false;
         }
-        let inv = 1.0 / det;
+        self.crosses(p, to_light, pv, 1.0 / det, directional)
+    }
+
+    /// [`Occluder::blocks`] for a directional light (`to_light` is its direction to the
+    /// light), with the per-triangle terms computed once: the same operations, so the same
+    /// answer.
+    #[inline(always)]
+    fn blocks_directional(&self, p: Vec3, to_light: Vec3) -> bool {
+        if self.inv.is_nan() {
+            return false;
+        }
+        self.crosses(p, to_light, self.pv, self.inv, true)
+    }
+
+    /// The rest of the Möller–Trumbore test (Möller and Trumbore 1997) from `pv` and the
+    /// determinant's reciprocal.
+    #[inline(always)]
+    fn crosses(&self, p: Vec3, to_light: Vec3, pv: Vec3, inv: f32, directional: bool) -> bool {
         let tv = p - self.v0;
         let u = tv.dot(pv) * inv;
         if !(0.0..=1.0).contains(&u) {
@@ -960,8 +999,12 @@ impl Izb {
                 if o.same_side_as_light(s.position) {
                     continue;
                 }
-                let to = if directional { dir } else { lp - s.position };
-                if o.blocks(s.position, to, directional) {
+                let blocked = if directional {
+                    o.blocks_directional(s.position, dir)
+                } else {
+                    o.blocks(s.position, lp - s.position, false)
+                };
+                if blocked {
                     s.shadowed_by = o.id;
                 }
             }
