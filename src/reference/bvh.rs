@@ -59,8 +59,8 @@ struct Prim {
 }
 
 /// A [`W`]-wide node: the children's boxes as structure of arrays (`planes[side][lane]`), and
-/// per lane an inner node's index or a leaf ([`LEAF`] | packet count - 1 << [`PACKETS_SHIFT`]
-/// | first packet).
+/// per lane an inner node's index or, on the lanes of the `leaves` mask, a leaf (packet
+/// count - 1 << [`PACKETS_SHIFT`] | first packet).
 #[derive(Copy, Clone, Debug)]
 #[repr(C, align(64))]
 struct Node {
@@ -83,7 +83,6 @@ struct Tri4 {
     n: u32,
 }
 
-const LEAF: u32 = 1 << 31;
 const PACKETS_SHIFT: u32 = 27;
 const FIRST_MASK: u32 = (1 << PACKETS_SHIFT) - 1;
 const BINS: usize = 16;
@@ -398,7 +397,7 @@ impl Bvh {
             self.packets.push(p);
         }
         let count = prims.len().div_ceil(LEAF_MAX) as u32;
-        LEAF | ((count - 1) << PACKETS_SHIFT) | first
+        ((count - 1) << PACKETS_SHIFT) | first
     }
 
     /// Triangles held.
@@ -490,7 +489,7 @@ impl Bvh {
                 leaves &= leaves - 1;
                 let c = node.child[lane];
                 let first = (c & FIRST_MASK) as usize;
-                let count = ((c & !LEAF) >> PACKETS_SHIFT) as usize + 1;
+                let count = (c >> PACKETS_SHIFT) as usize + 1;
                 for p in &self.packets[first..first + count] {
                     let (hits, th) = r.triangles(p, &ray, tmax);
                     let mut h = hits;
@@ -587,6 +586,11 @@ mod lanes {
 
     #[cfg(target_arch = "x86_64")]
     impl F4 {
+        /// The SSE register.
+        #[inline(always)]
+        pub fn raw(self) -> __m128 {
+            self.0
+        }
         #[inline(always)]
         pub fn load(a: &[f32; 4]) -> F4 {
             // SAFETY: reads four floats from a reference to four floats.
@@ -729,14 +733,13 @@ mod avx {
     #[inline(always)]
     pub unsafe fn boxes(r: &Ray4, n: &Node) -> (u32, [f32; W]) {
         unsafe {
+            // The ray's four-lane splats as eight lanes.
+            let wide = |x: super::F4| _mm256_set_m128(x.raw(), x.raw());
             let slab = |axis: usize, side: usize| {
                 // A row of eight floats, 32-byte aligned (the node is 64-byte aligned and its rows
                 // are 32 bytes).
                 let p = _mm256_load_ps(n.planes[side].as_ptr());
-                _mm256_mul_ps(
-                    _mm256_sub_ps(p, _mm256_set1_ps(r.os[axis])),
-                    _mm256_set1_ps(r.invs[axis]),
-                )
+                _mm256_mul_ps(_mm256_sub_ps(p, wide(r.o[axis])), wide(r.inv[axis]))
             };
             let (near, far) = (&r.near, &r.far);
             let tn = _mm256_max_ps(
@@ -745,7 +748,7 @@ mod avx {
             );
             let tf = _mm256_min_ps(
                 slab(0, far[0]),
-                _mm256_min_ps(slab(1, far[1]), _mm256_min_ps(slab(2, far[2]), _mm256_set1_ps(r.tmaxs))),
+                _mm256_min_ps(slab(1, far[1]), _mm256_min_ps(slab(2, far[2]), wide(r.tmax))),
             );
             let tf = _mm256_mul_ps(tf, _mm256_set1_ps(ROBUST));
             let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32;
@@ -760,13 +763,6 @@ mod avx {
 /// A ray prepared for a node's boxes (four or eight lanes at a time) and for four triangles
 /// at a time.
 struct Ray4 {
-    /// The origin, the direction's reciprocal and `tmax`, as scalars (for eight lanes).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    os: [f32; 3],
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    invs: [f32; 3],
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    tmaxs: f32,
     o: [F4; 3],
     inv: [F4; 3],
     /// Per axis, the node's near and far planes (the low side for a positive direction).
@@ -784,9 +780,6 @@ impl Ray4 {
         let inv = Vec3::from(Vec3A::from(d).recip());
         let [kx, ky, kz] = ray.k;
         Ray4 {
-            os: o.to_array(),
-            invs: inv.to_array(),
-            tmaxs: tmax,
             o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
             inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
             near: std::array::from_fn(|a| if inv[a].is_sign_negative() { 3 + a } else { a }),

@@ -414,9 +414,8 @@ struct Occluder {
     light_side: f32,
     id: u32,
     /// Directional lights: the Möller–Trumbore terms that depend on the direction alone
-    /// (`pv = direction x e2` and `1 / (e1 . pv)`), computed once per triangle with the
-    /// operations [`Occluder::blocks`] would use per sample; `inv` is NaN where the ray is
-    /// parallel to the triangle (no sample is blocked).
+    /// ([`segment_terms`] of the direction to the light), made once per triangle instead of
+    /// per sample.
     pv: Vec3,
     inv: f32,
 }
@@ -429,19 +428,9 @@ impl Occluder {
             LightKind::Directional => n.dot(-light.direction),
             _ => n.dot(light.position - a),
         };
-        let (pv, inv) = if light.kind == LightKind::Directional {
-            let pv = (-light.direction).cross(e2);
-            let det = e1.dot(pv);
-            (
-                pv,
-                if det == 0.0 || !det.is_finite() {
-                    f32::NAN
-                } else {
-                    1.0 / det
-                },
-            )
-        } else {
-            (Vec3::ZERO, f32::NAN)
+        let (pv, inv) = match light.kind {
+            LightKind::Directional => segment_terms(e1, e2, -light.direction),
+            _ => (Vec3::ZERO, f32::NAN),
         };
         Occluder {
             v0: a,
@@ -470,29 +459,15 @@ impl Occluder {
     /// (0, 1); directional: the direction to the light, `t` > 0) hits the triangle.
     #[inline(always)]
     fn blocks(&self, p: Vec3, to_light: Vec3, directional: bool) -> bool {
-        let pv = to_light.cross(self.e2);
-        let det = self.e1.dot(pv);
-        if det == 0.0 || !det.is_finite() {
+        // A directional light's terms depend on its direction alone: made once per triangle.
+        let (pv, inv) = if directional {
+            (self.pv, self.inv)
+        } else {
+            segment_terms(self.e1, self.e2, to_light)
+        };
+        if inv.is_nan() {
             return false;
         }
-        self.crosses(p, to_light, pv, 1.0 / det, directional)
-    }
-
-    /// [`Occluder::blocks`] for a directional light (`to_light` is its direction to the
-    /// light), with the per-triangle terms computed once: the same operations, so the same
-    /// answer.
-    #[inline(always)]
-    fn blocks_directional(&self, p: Vec3, to_light: Vec3) -> bool {
-        if self.inv.is_nan() {
-            return false;
-        }
-        self.crosses(p, to_light, self.pv, self.inv, true)
-    }
-
-    /// The rest of the Möller–Trumbore test (Möller and Trumbore 1997) from `pv` and the
-    /// determinant's reciprocal.
-    #[inline(always)]
-    fn crosses(&self, p: Vec3, to_light: Vec3, pv: Vec3, inv: f32, directional: bool) -> bool {
         let tv = p - self.v0;
         let u = tv.dot(pv) * inv;
         if !(0.0..=1.0).contains(&u) {
@@ -506,6 +481,24 @@ impl Occluder {
         let t = self.e2.dot(qv) * inv;
         t > 0.0 && (directional || t < 1.0)
     }
+}
+
+/// The Möller–Trumbore terms (Möller and Trumbore 1997) of a triangle with edges `e1`,
+/// `e2` and a segment along `to_light`: `pv = to_light x e2` and `1 / (e1 . pv)`, the latter
+/// NaN where the segment is parallel to the triangle or the determinant is not finite (no
+/// crossing).
+#[inline(always)]
+fn segment_terms(e1: Vec3, e2: Vec3, to_light: Vec3) -> (Vec3, f32) {
+    let pv = to_light.cross(e2);
+    let det = e1.dot(pv);
+    (
+        pv,
+        if det == 0.0 || !det.is_finite() {
+            f32::NAN
+        } else {
+            1.0 / det
+        },
+    )
 }
 
 /// A sample's record from pass 1: where its ray starts and the triangle it never tests
@@ -999,12 +992,8 @@ impl Izb {
                 if o.same_side_as_light(s.position) {
                     continue;
                 }
-                let blocked = if directional {
-                    o.blocks_directional(s.position, dir)
-                } else {
-                    o.blocks(s.position, lp - s.position, false)
-                };
-                if blocked {
+                let to = if directional { dir } else { lp - s.position };
+                if o.blocks(s.position, to, directional) {
                     s.shadowed_by = o.id;
                 }
             }
