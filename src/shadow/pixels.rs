@@ -64,3 +64,31 @@ pub fn per_pixel_map<T: Copy + Default + Send>(
     });
     out
 }
+
+/// [`per_pixel_counted`] four pixels at a time, for lookups that run on four lanes:
+/// `f(x, y, n)` gives the values of pixels `x .. x + n` of row `y` (`n` is 4, or fewer at a
+/// row's end; lanes past `n` are ignored) and their count. Each pixel's value must still
+/// depend on that pixel alone, so the image is the one-pixel pass's for any thread count.
+pub fn per_pixel4_counted(
+    p: &Pipeline,
+    frame: &Frame,
+    f: impl Fn(usize, usize, usize) -> ([f32; 4], u64) + Sync,
+) -> (Vec<f32>, u64) {
+    let w = frame.width() as usize;
+    let mut out = vec![f32::NAN; w * frame.height() as usize];
+    let total = p.install(|| {
+        out.par_chunks_mut(w)
+            .enumerate()
+            .map(|(y, row)| {
+                let mut n = 0u64;
+                for (q, o) in row.chunks_mut(4).enumerate() {
+                    let (v, c) = f(4 * q, y, o.len());
+                    o.copy_from_slice(&v[..o.len()]);
+                    n += c;
+                }
+                n
+            })
+            .sum::<u64>()
+    });
+    (out, total)
+}

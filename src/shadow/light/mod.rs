@@ -342,6 +342,17 @@ impl DepthToDistance {
             (z - self.a) / self.b
         }
     }
+
+    /// [`DepthToDistance::at`] of four depths (the same operations per lane).
+    #[inline(always)]
+    pub fn at4(&self, z: glam::Vec4) -> glam::Vec4 {
+        use glam::Vec4;
+        if self.perspective {
+            Vec4::splat(self.b) / (z + Vec4::splat(self.a))
+        } else {
+            (z - Vec4::splat(self.a)) / Vec4::splat(self.b)
+        }
+    }
 }
 
 #[cfg(test)]

@@ -342,6 +342,159 @@ impl Kernel {
     }
 }
 
+/// [`Reference`]s of four lanes (pixels), structure of arrays.
+#[derive(Copy, Clone, Debug)]
+pub struct Reference4 {
+    /// Reference depths at the kernels' centres.
+    pub z: Vec4,
+    /// Receiver-plane gradients, x and y.
+    pub gx: Vec4,
+    /// See `gx`.
+    pub gy: Vec4,
+    /// Bias cones.
+    pub cone: Vec4,
+    /// Every lane flat ([`Reference::is_flat`]): taps compare against `z`.
+    pub flat: bool,
+}
+
+impl Reference4 {
+    /// The four lanes' references (idle lanes: any, e.g. the default).
+    pub fn new(r: [Reference; 4]) -> Reference4 {
+        Reference4 {
+            z: Vec4::from_array(r.map(|r| r.z)),
+            gx: Vec4::from_array(r.map(|r| r.gradient.x)),
+            gy: Vec4::from_array(r.map(|r| r.gradient.y)),
+            cone: Vec4::from_array(r.map(|r| r.cone)),
+            flat: r.iter().all(Reference::is_flat),
+        }
+    }
+
+    /// [`Reference::at`] per lane, tap offsets `(dx, dy)`: the same operations, so the same
+    /// values (a flat lane's is exactly its `z`: it adds only zeros to it).
+    #[inline(always)]
+    pub fn at(&self, dx: Vec4, dy: Vec4) -> Vec4 {
+        if self.flat {
+            return self.z;
+        }
+        self.z + (self.gx * dx + self.gy * dy) + self.cone * crate::pipeline::wide::sqrt4(dx * dx + dy * dy)
+    }
+}
+
+/// The taps of four lanes' disk kernels (Poisson, rotated Poisson or spiral, one tap count),
+/// each lane turned by its own pixel and scaled by its own radius: tap `i` of lane `l` is
+/// [`Kernel::taps_at`]'s tap `i` of that lane's kernel, bit for bit.
+pub struct Disk4 {
+    base: &'static [Vec2],
+    /// Per lane: sine and cosine of the turn (rotated and spiral), and the radius.
+    s: Vec4,
+    c: Vec4,
+    r: Vec4,
+    turned: bool,
+}
+
+impl Disk4 {
+    /// The taps.
+    pub fn len(&self) -> usize {
+        self.base.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.base.is_empty()
+    }
+
+    /// Tap `i`'s offsets in texels, x and y per lane.
+    #[inline(always)]
+    pub fn tap(&self, i: usize) -> (Vec4, Vec4) {
+        let p = self.base[i];
+        let (px, py) = (Vec4::splat(p.x), Vec4::splat(p.y));
+        if self.turned {
+            (
+                (self.c * px - self.s * py) * self.r,
+                (self.s * px + self.c * py) * self.r,
+            )
+        } else {
+            (px * self.r, py * self.r)
+        }
+    }
+}
+
+impl Kernel {
+    /// The disk taps of four kernels of this pattern and tap count whose widths are `width`
+    /// per lane, at pixels `(xs[l], y)`; `None` for grids, tents and depth filtering.
+    pub fn disk4(&self, xs: [u32; 4], y: u32, width: Vec4) -> Option<Disk4> {
+        let r = Vec4::splat(0.5) * width;
+        let turn = |a: [f32; 4]| {
+            let sc = a.map(f32::sin_cos);
+            (Vec4::from_array(sc.map(|v| v.0)), Vec4::from_array(sc.map(|v| v.1)))
+        };
+        let (base, (s, c), turned) = match self.pattern {
+            Pattern::Poisson => (poisson_disk(self.taps), (Vec4::ZERO, Vec4::ONE), false),
+            Pattern::Rotated => (poisson_disk(self.taps), turn(xs.map(|x| pixel_angle(x, y))), true),
+            Pattern::Spiral => (
+                spiral(self.taps),
+                turn(xs.map(|x| interleaved_gradient_noise(x, y) * std::f32::consts::TAU)),
+                true,
+            ),
+            _ => return None,
+        };
+        Some(Disk4 { base, s, c, r, turned })
+    }
+}
+
+/// Four lanes' disk filters at once ([`Kernel::filter`] of each lane's kernel at `(u, v)`
+/// against its reference, lanes in `active`): the values (1 outside the map, as there) and
+/// the taps of each lane. Each lane's sums run in tap order with the one-lane path's
+/// operations, so each value equals that path's bit for bit.
+pub fn filter_disk4(
+    map: &Surface<f32>,
+    u: Vec4,
+    v: Vec4,
+    r: &Reference4,
+    disk: &Disk4,
+    active: [bool; 4],
+) -> ([f32; 4], [u32; 4]) {
+    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
+    let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
+    let mut out = [1.0f32; 4];
+    let mut taps = [0u32; 4];
+    if !go.iter().any(|&g| g) {
+        return (out, taps);
+    }
+    let (w, h) = (map.width(), map.height());
+    // A tap's offset over the map's size: for a power-of-two size, times its reciprocal,
+    // which is exactly the quotient (the reciprocal is exact, and both are the one rounding
+    // of the same real number).
+    let value = if w.is_power_of_two() && h.is_power_of_two() {
+        let (sx, sy) = (Vec4::splat(1.0 / w as f32), Vec4::splat(1.0 / h as f32));
+        disk_sum(map, disk, r, |dx, dy| (u + dx * sx, v + dy * sy))
+    } else {
+        let (sx, sy) = (Vec4::splat(w as f32), Vec4::splat(h as f32));
+        disk_sum(map, disk, r, |dx, dy| (u + dx / sx, v + dy / sy))
+    };
+    for l in 0..4 {
+        if go[l] {
+            out[l] = value[l];
+            taps[l] = disk.len() as u32;
+        }
+    }
+    (out, taps)
+}
+
+/// `lit / total` of four lanes' disk taps at the positions `at` gives for each tap's offsets.
+#[inline(always)]
+fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
+    let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
+    for i in 0..disk.len() {
+        let (dx, dy) = disk.tap(i);
+        let (u, v) = at(dx, dy);
+        // Disk taps weigh 1: `lit += 1 * c` is `lit += c`, and `total += 1`.
+        lit += bilinear_compare4(map, u, v, r.at(dx, dy));
+        total += Vec4::ONE;
+    }
+    lit / total
+}
+
 impl Kernel {
     /// `inspect`'s account of one filtered lookup: the kernel, and each tap (at most 32) with
     /// its offset, reference depth and result.

@@ -34,17 +34,19 @@
 //! the search disk but still crosses an edge; and the estimate is quantized by the map's
 //! resolution (contact-hardening shadows use a mip chain against that).
 
-use super::kernel::{Class, Kernel, Pattern, MAX_TAPS};
+use super::kernel::{filter_disk4, Class, Kernel, Pattern, Reference, Reference4, MAX_TAPS};
 use super::shadow_map::{self, At, Prepared, ShadowMap};
 use crate::choice_enum;
 use crate::frame::Frame;
+use crate::pipeline::sampler::texels4;
+use crate::pipeline::wide::floor4;
 use crate::pipeline::{Pipeline, Surface};
 use crate::scene::LightKind;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::LightView;
-use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 
 choice_enum! {
     /// The disk PCSS searches and filters with.
@@ -322,10 +324,16 @@ impl Pcss {
     /// step reported to `t`; the count's bit 32 marks an early out.
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
-        let at = match self.map.prepare(frame, x, y, t) {
-            Prepared::Done(v, n) => return (v, n),
-            Prepared::At(at) => at,
-        };
+        match self.map.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(at) => self.lookup_at(&at, x, y, t),
+        }
+    }
+
+    /// [`Pcss::lookup`] from its prepared position on.
+    #[inline(always)]
+    fn lookup_at(&self, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = *at;
         let map = &self.map.maps()[at.face].0;
         if self.width <= 0.0 {
             t.step(|| {
@@ -379,6 +387,200 @@ impl Pcss {
         };
         let (v, n) = self.map.filter(&at, &kernel, x, y, t);
         (v, n + e.taps as u64)
+    }
+}
+
+impl Pcss {
+    /// [`Pcss::lookup`] of pixels `x .. x + n` of row `y` (`n` at most 4): each pixel is
+    /// prepared alone, then the blocker searches and the filters of the pixels that look up
+    /// the same view run on four lanes (lanes are pixels; each lane's sums run in tap order
+    /// with the one-pixel operations, so every value and count is the one-pixel lookup's).
+    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
+        let mut out = [f32::NAN; 4];
+        let mut count = 0u64;
+        let mut ats: [Option<At>; 4] = [None; 4];
+        for (l, a) in ats.iter_mut().enumerate().take(n) {
+            match self.map.prepare(frame, x + l, y, &mut NoTrace) {
+                Prepared::Done(v, c) => (out[l], count) = (v, count + c),
+                Prepared::At(at) => *a = Some(at),
+            }
+        }
+        let Some(face) = ats.iter().flatten().next().map(|a| a.face) else {
+            return (out, count);
+        };
+        // Lanes on another view (a cube map's edge), and lights without width: one at a time.
+        for (l, a) in ats.iter_mut().enumerate() {
+            if let Some(at) = a {
+                if at.face != face || self.width <= 0.0 {
+                    let (v, c) = self.lookup_at(at, x + l, y, &mut NoTrace);
+                    (out[l], count) = (v, count + c);
+                    *a = None;
+                }
+            }
+        }
+        if ats.iter().all(Option::is_none) {
+            return (out, count);
+        }
+        let es = self.estimate4(&ats, x, y);
+        let (map, _) = &self.map.maps()[face];
+        // Early outs, and filters the hierarchy classifies, lane by lane; the rest on four lanes.
+        let mut go = [false; 4];
+        let mut widths = [1.0f32; 4];
+        let mut refs = [Reference::default(); 4];
+        let (mut u, mut v) = ([0.0f32; 4], [0.0f32; 4]);
+        for l in 0..4 {
+            let (Some(at), Some(e)) = (&ats[l], &es[l]) else {
+                continue;
+            };
+            match e.class {
+                Class::Lit => (out[l], count) = (1.0, count + (e.taps as u64 | 1 << 32)),
+                Class::Shadowed => (out[l], count) = (0.0, count + (e.taps as u64 | 1 << 32)),
+                Class::Mixed => {
+                    let kernel = self.filter_kernel(e.penumbra);
+                    count += e.taps as u64;
+                    match self.map.classify(at, kernel.extent(), &mut NoTrace) {
+                        Class::Lit => (out[l], count) = (1.0, count + 1),
+                        Class::Shadowed => (out[l], count) = (0.0, count + 1),
+                        Class::Mixed => {
+                            go[l] = true;
+                            widths[l] = e.penumbra;
+                            refs[l] = at.r;
+                            (u[l], v[l]) = (at.uv.x, at.uv.y);
+                        }
+                    }
+                }
+            }
+        }
+        if go.iter().any(|&g| g) {
+            let xs = std::array::from_fn(|l| (x + l) as u32);
+            let disk = self
+                .filter_kernel(1.0)
+                .disk4(xs, y as u32, Vec4::from_array(widths))
+                .expect("PCSS filters with a disk");
+            let (values, taps) = filter_disk4(
+                map,
+                Vec4::from_array(u),
+                Vec4::from_array(v),
+                &Reference4::new(refs),
+                &disk,
+                go,
+            );
+            for l in 0..4 {
+                if go[l] {
+                    (out[l], count) = (values[l], count + taps[l] as u64);
+                }
+            }
+        }
+        (out, count)
+    }
+
+    /// The filter's kernel for a penumbra `width` texels wide.
+    fn filter_kernel(&self, width: f32) -> Kernel {
+        Kernel {
+            pattern: self.opts.disk.pattern(),
+            taps: self.opts.taps,
+            width,
+        }
+    }
+
+    /// [`Pcss::estimate`] of up to four pixels `x + l` of row `y` on one view (lanes `None`
+    /// idle): the searches the hierarchy does not decide run on four lanes, each lane's
+    /// blocker count and distance sum in tap order with the one-pixel operations.
+    fn estimate4(&self, ats: &[Option<At>; 4], x: usize, y: usize) -> [Option<Estimate>; 4] {
+        let mut es: [Option<Estimate>; 4] = [None; 4];
+        let face = ats.iter().flatten().next().map_or(0, |a| a.face);
+        let (map, view) = &self.map.maps()[face];
+        let size = map.width() as f32;
+        let mut go = [false; 4];
+        let mut widths = [1.0f32; 4];
+        let mut refs = [Reference::default(); 4];
+        let (mut u, mut v) = ([0.0f32; 4], [0.0f32; 4]);
+        for l in 0..4 {
+            let Some(at) = &ats[l] else { continue };
+            let d_r = view.distance(at.r.z);
+            let d_min = self.nearest[at.face].min(d_r);
+            let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
+            let mut e = Estimate {
+                search,
+                found: 0,
+                taps: 1,
+                receiver: d_r,
+                blocker: f32::NAN,
+                penumbra: 0.0,
+                class: Class::Mixed,
+            };
+            if let Some(mm) = self.map.hierarchy(at.face) {
+                let kernel = Kernel {
+                    pattern: self.opts.disk.pattern(),
+                    taps: self.opts.blockers,
+                    width: search,
+                };
+                e.class = mm.classify(at.uv, kernel.extent() + 1.0, &at.r);
+                if e.class != Class::Mixed {
+                    e.found = if e.class == Class::Shadowed {
+                        self.opts.blockers
+                    } else {
+                        0
+                    };
+                    e.penumbra = if e.class == Class::Shadowed { search } else { 0.0 };
+                }
+            }
+            if e.class == Class::Mixed {
+                go[l] = true;
+                widths[l] = search;
+                refs[l] = at.r;
+                (u[l], v[l]) = (at.uv.x, at.uv.y);
+            }
+            es[l] = Some(e);
+        }
+        if !go.iter().any(|&g| g) {
+            return es;
+        }
+        let xs = std::array::from_fn(|l| (x + l) as u32);
+        let disk = Kernel {
+            pattern: self.opts.disk.pattern(),
+            taps: self.opts.blockers,
+            width: 1.0,
+        }
+        .disk4(xs, y as u32, Vec4::from_array(widths))
+        .expect("PCSS searches a disk");
+        let inv = Vec4::splat(1.0 / size);
+        let sz = Vec4::splat(size);
+        let (u, v) = (Vec4::from_array(u), Vec4::from_array(v));
+        let r = Reference4::new(refs);
+        let distance = view.depth_to_distance();
+        let (mut sum, mut found) = (Vec4::ZERO, Vec4::ZERO);
+        for i in 0..disk.len() {
+            let (dx, dy) = disk.tap(i);
+            let (tu, tv) = (u + dx * inv, v + dy * inv);
+            let inside = tu.cmpge(Vec4::ZERO) & tu.cmplt(Vec4::ONE) & tv.cmpge(Vec4::ZERO) & tv.cmplt(Vec4::ONE);
+            // Inside the map, `(uv * size) as u32` is the floor.
+            let depth = texels4(map, floor4(tu * sz), floor4(tv * sz));
+            let blocker = depth.cmplt(r.at(dx, dy)) & inside;
+            sum += Vec4::select(blocker, distance.at4(depth), Vec4::ZERO);
+            found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
+        }
+        let n = disk.len() as u32;
+        for l in 0..4 {
+            let Some(e) = es[l].as_mut().filter(|_| go[l]) else {
+                continue;
+            };
+            let f = found[l] as u32;
+            e.taps = n;
+            e.found = f;
+            if f == 0 {
+                e.class = Class::Lit;
+            } else if f == n {
+                e.class = Class::Shadowed;
+                e.penumbra = e.search;
+            } else {
+                // RTR eq. 7.6, as in `estimate`.
+                let d_o = sum[l] / f as f32;
+                e.blocker = d_o;
+                e.penumbra = penumbra_texels(view, self.width, e.receiver, d_o).min(size);
+            }
+        }
+        es
     }
 }
 
@@ -457,7 +659,7 @@ impl ShadowTechnique for Pcss {
         (self.width, self.nearest) = light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
         let t1 = std::time::Instant::now();
         let this = &*self;
-        let (out, count) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        let (out, count) = per_pixel4_counted(p, frame, |x, y, n| this.lookup4(frame, x, y, n));
         self.taps = count & 0xffff_ffff;
         self.early = count >> 32;
         self.times = vec![

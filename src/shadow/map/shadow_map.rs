@@ -631,6 +631,7 @@ pub(crate) enum Prepared {
 }
 
 /// The map position of one pixel's lookup.
+#[derive(Copy, Clone)]
 pub(crate) struct At {
     /// The light view (cube face) that sees the point.
     pub face: usize,
