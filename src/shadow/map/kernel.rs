@@ -481,6 +481,146 @@ pub fn filter_disk4(
     (out, taps)
 }
 
+/// Four lanes' flat grid or tent filters: [`Kernel::filter`]'s separable path at `(u, v)`
+/// against `z` per lane, with the per-axis tap weights `t` (every lane inside the map: the
+/// caller checks). Lanes whose footprints stay inside the map take the texels without
+/// clamping, on four lanes in the one-lane path's order, so the same values; if any lane's
+/// footprint reaches past an edge, each lane takes the one-lane path.
+pub fn separable4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4, t: &[f32]) -> Vec4 {
+    if t.len() < 16 {
+        separable4_n::<17>(map, u, v, z, t)
+    } else {
+        separable4_n::<{ 2 * MAX_TAPS as usize + 3 }>(map, u, v, z, t)
+    }
+}
+
+fn separable4_n<const C: usize>(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4, t: &[f32]) -> Vec4 {
+    use crate::pipeline::wide::floor4;
+    let (w, h) = (map.width() as usize, map.height() as usize);
+    let n = t.len();
+    let r = (n / 2) as f32;
+    // `footprint`'s corner and fractions, per lane.
+    let tx = u * w as f32 - Vec4::splat(0.5);
+    let ty = v * h as f32 - Vec4::splat(0.5);
+    let (x, y) = (floor4(tx), floor4(ty));
+    let (x0, y0) = (x - Vec4::splat(r), y - Vec4::splat(r));
+    let interior = x0.cmpge(Vec4::ZERO)
+        & (x0 + Vec4::splat(n as f32)).cmple(Vec4::splat((w - 1) as f32))
+        & y0.cmpge(Vec4::ZERO)
+        & (y0 + Vec4::splat(n as f32)).cmple(Vec4::splat((h - 1) as f32));
+    if !interior.all() {
+        return Vec4::from_array(std::array::from_fn(|l| {
+            separable::<C>(map, Vec2::new(u[l], v[l]), z[l], t)
+        }));
+    }
+    let (fx, fy) = (tx - x, ty - y);
+    // `texel_weights` per lane.
+    let weights = |f: Vec4, out: &mut [Vec4; C]| {
+        for (j, o) in out.iter_mut().enumerate().take(n + 1) {
+            let a = if j < n {
+                Vec4::splat(t[j]) * (Vec4::ONE - f)
+            } else {
+                Vec4::ZERO
+            };
+            let b = if j > 0 { Vec4::splat(t[j - 1]) * f } else { Vec4::ZERO };
+            *o = a + b;
+        }
+    };
+    let mut wx = [Vec4::ZERO; C];
+    let mut wy = [Vec4::ZERO; C];
+    weights(fx, &mut wx);
+    weights(fy, &mut wy);
+    // Whole, non-negative and inside the map: exact as integers.
+    let base: [usize; 4] = std::array::from_fn(|l| y0[l] as usize * w + x0[l] as usize);
+    let d = map.data();
+    debug_assert!(base.iter().all(|&b| b + n * w + n < d.len()));
+    // The weights' sum along a row, the same for every row (the one-lane path sums it per
+    // row, in this order).
+    let mut rt = Vec4::ZERO;
+    for &wxi in wx.iter().take(n + 1) {
+        rt += wxi;
+    }
+    let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
+    for (j, &wyj) in wy.iter().enumerate().take(n + 1) {
+        let row = base.map(|b| b + j * w);
+        let mut rl = Vec4::ZERO;
+        // `if z <= texel { rl += w }`: adding zero leaves a sum of non-negative weights.
+        let mut add = |i: usize, texel: Vec4| rl += Vec4::select(z.cmple(texel), wx[i], Vec4::ZERO);
+        if n + 1 >= 4 {
+            // Four columns at a time: each lane's four texels in one load, turned into four
+            // columns of four lanes (the last group overlaps the one before it).
+            let mut done = 0;
+            while done < n + 1 {
+                let at = done.min(n + 1 - 4);
+                // SAFETY: every lane's footprint lies inside the map (`interior`), so
+                // `row + at + 3 <= base + n w + n < w h`.
+                let cols = unsafe { columns4(d, row, at) };
+                for (k, &c) in cols.iter().enumerate() {
+                    if at + k >= done {
+                        add(at + k, c);
+                    }
+                }
+                done = at + 4;
+            }
+        } else {
+            for i in 0..=n {
+                // SAFETY: as above, `row + i <= base + n w + n < w h`.
+                let texel = unsafe {
+                    Vec4::new(
+                        *d.get_unchecked(row[0] + i),
+                        *d.get_unchecked(row[1] + i),
+                        *d.get_unchecked(row[2] + i),
+                        *d.get_unchecked(row[3] + i),
+                    )
+                };
+                add(i, texel);
+            }
+        }
+        lit += wyj * rl;
+        total += wyj * rt;
+    }
+    lit / total
+}
+
+/// Texels `at .. at + 4` of four lanes' rows starting at `row[l]`, as four columns of four
+/// lanes (a 4 x 4 transpose of four row loads).
+///
+/// # Safety
+/// `row[l] + at + 3` must be an index of `d` for every lane.
+#[inline(always)]
+unsafe fn columns4(d: &[f32], row: [usize; 4], at: usize) -> [Vec4; 4] {
+    debug_assert!(row.iter().all(|&r| r + at + 3 < d.len()));
+    let load = |l: usize| {
+        // SAFETY: the caller's contract.
+        unsafe { Vec4::from_slice(std::slice::from_raw_parts(d.as_ptr().add(row[l] + at), 4)) }
+    };
+    let (a, b, c, e) = (load(0), load(1), load(2), load(3));
+    // Lane l of column k is texel k of row l.
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE is part of x86_64.
+        unsafe {
+            let (a, b, c, e) = (__m128::from(a), __m128::from(b), __m128::from(c), __m128::from(e));
+            let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpacklo_ps(c, e));
+            let (t2, t3) = (_mm_unpackhi_ps(a, b), _mm_unpackhi_ps(c, e));
+            [
+                Vec4::from(_mm_movelh_ps(t0, t1)),
+                Vec4::from(_mm_movehl_ps(t1, t0)),
+                Vec4::from(_mm_movelh_ps(t2, t3)),
+                Vec4::from(_mm_movehl_ps(t3, t2)),
+            ]
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    [
+        Vec4::new(a.x, b.x, c.x, e.x),
+        Vec4::new(a.y, b.y, c.y, e.y),
+        Vec4::new(a.z, b.z, c.z, e.z),
+        Vec4::new(a.w, b.w, c.w, e.w),
+    ]
+}
+
 /// `lit / total` of four lanes' disk taps at the positions `at` gives for each tap's offsets.
 #[inline(always)]
 fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
@@ -558,7 +698,7 @@ pub fn bilinear_compare4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 
 
 /// Per-axis tap weights of a grid (all 1) or tent (`h + 1 - |k|`) of `n` taps, into the first
 /// `n` entries of `out` (on the stack: the per-pixel path allocates nothing).
-fn axis_weights(pattern: Pattern, n: u32, out: &mut [f32]) {
+pub(crate) fn axis_weights(pattern: Pattern, n: u32, out: &mut [f32]) {
     let h = (n / 2) as i32;
     for (o, k) in out.iter_mut().zip(-h..=h) {
         *o = match pattern {
@@ -770,6 +910,88 @@ mod tests {
             for i in 0..4 {
                 let one = bilinear_compare(&map, Vec2::new(u[i], v[i]), z[i]);
                 assert_eq!(four[i].to_bits(), one.to_bits(), "({}, {}) {}", u[i], v[i], z[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn four_pixel_filters_equal_one_pixel_ones_bit_for_bit() {
+        let mut rng = SplitMix(11);
+        // A power-of-two map (offsets times the reciprocal) and an odd-sized one (quotients).
+        for (w, h) in [(64u32, 64u32), (61, 37)] {
+            let data: Vec<f32> = (0..w * h).map(|_| rng.next_f32()).collect();
+            let map = Surface::from_vec(w, h, data).unwrap();
+            for _ in 0..400 {
+                // Lanes near the edges too (footprints past the edge, and outside the map).
+                let mut c = || rng.next_f32() * 1.1 - 0.05;
+                let (u, v) = (Vec4::new(c(), c(), c(), c()), Vec4::new(c(), c(), c(), c()));
+                let z = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let uv = |l: usize| Vec2::new(u[l], v[l]);
+                let inside = |l: usize| uv(l).cmpge(Vec2::ZERO).all() && uv(l).cmple(Vec2::ONE).all();
+                for pattern in [Pattern::Grid, Pattern::Tent] {
+                    let width = [1.0, 3.0, 5.0, 7.0, 9.0, 17.0][(rng.next_f32() * 6.0) as usize % 6];
+                    let k = Kernel {
+                        pattern,
+                        taps: 16,
+                        width,
+                    };
+                    let n = k.grid_n();
+                    let mut t = vec![0.0; n as usize];
+                    axis_weights(pattern, n, &mut t);
+                    let (lu, lv) = (
+                        Vec4::select(u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE), u, Vec4::splat(0.5)),
+                        v,
+                    );
+                    let lv = Vec4::select(lv.cmpge(Vec4::ZERO) & lv.cmple(Vec4::ONE), lv, Vec4::splat(0.5));
+                    let four = separable4(&map, lu, lv, z, &t);
+                    for l in 0..4 {
+                        let one = k
+                            .filter(&map, Vec2::new(lu[l], lv[l]), &Reference::flat(z[l]), 0, 0)
+                            .value;
+                        assert_eq!(four[l].to_bits(), one.to_bits(), "{pattern:?} {width} lane {l}");
+                    }
+                }
+                for (pattern, taps) in [
+                    (Pattern::Poisson, 16),
+                    (Pattern::Rotated, 16),
+                    (Pattern::Spiral, 32),
+                    (Pattern::Poisson, 7),
+                ] {
+                    let widths = Vec4::new(rng.next_f32() * 9.0 + 1.0, 1.0, rng.next_f32() * 30.0, 4.5);
+                    let refs: [Reference; 4] = std::array::from_fn(|l| Reference {
+                        z: z[l],
+                        gradient: if l % 2 == 0 {
+                            Vec2::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.01
+                        } else {
+                            Vec2::ZERO
+                        },
+                        cone: if l == 1 { -0.001 } else { 0.0 },
+                    });
+                    let k = Kernel {
+                        pattern,
+                        taps,
+                        width: 1.0,
+                    };
+                    let (x, y) = (rng.next_u64() as u32 % 5000, rng.next_u64() as u32 % 5000);
+                    let xs = [x, x + 1, x + 2, x + 3];
+                    let disk = k.disk4(xs, y, widths).unwrap();
+                    let active = [true, true, rng.next_f32() < 0.5, true];
+                    let (values, counts) = filter_disk4(&map, u, v, &Reference4::new(refs), &disk, active);
+                    for l in 0..4 {
+                        if !active[l] {
+                            continue;
+                        }
+                        let lane = Kernel { width: widths[l], ..k };
+                        let one = lane.filter(&map, uv(l), &refs[l], xs[l], y);
+                        assert_eq!(
+                            values[l].to_bits(),
+                            one.value.to_bits(),
+                            "{pattern:?} lane {l} inside {}",
+                            inside(l)
+                        );
+                        assert_eq!(counts[l], one.taps);
+                    }
+                }
             }
         }
     }

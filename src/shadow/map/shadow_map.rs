@@ -23,14 +23,16 @@
 //! across the kernel, uniform penumbrae of fixed-width PCF.
 
 use super::bias::{normal_offset, receiver_plane_bias, receiver_plane_gradient};
-use super::kernel::{Class, Kernel, MinMax, Pattern, Reference, MAX_TAPS};
+use super::kernel::{
+    axis_weights, filter_disk4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4, MAX_TAPS,
+};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
-use crate::shadow::pixels::per_pixel_counted;
+use crate::shadow::pixels::per_pixel4_counted;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
@@ -447,12 +449,135 @@ impl ShadowMap {
     /// Pass 2 at one pixel: the lookup and its bilinear taps, every step reported to `t`.
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
-        let at = match self.prepare(frame, x, y, t) {
-            Prepared::Done(v, n) => return (v, n),
-            Prepared::At(at) => at,
-        };
+        match self.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(at) => self.lookup_at(frame, &at, x, y, t),
+        }
+    }
+
+    /// The kernel of a wide filter at a prepared lookup (its width from world units at the
+    /// point if asked).
+    #[inline(always)]
+    fn kernel_at(&self, frame: &Frame, at: &At, pattern: Pattern) -> Kernel {
         let o = &self.opts;
         let (map, view) = &self.maps[at.face];
+        let width = if o.world > 0.0 {
+            (o.world / view.texel_at(&frame.light, at.pos)).clamp(1.0, map.width() as f32)
+        } else {
+            o.kernel
+        };
+        Kernel {
+            pattern,
+            taps: o.taps,
+            width,
+        }
+    }
+
+    /// [`ShadowMap::lookup`] of pixels `x .. x + n` of row `y` (`n` at most 4): each pixel is
+    /// prepared alone, then the wide filters (disks, and flat grids and tents of one size) of
+    /// the pixels that look up the same view run on four lanes, with the one-pixel operations
+    /// per lane, so every value and count is the one-pixel lookup's.
+    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
+        let mut out = [f32::NAN; 4];
+        let mut count = 0u64;
+        let pattern = match self.opts.filter.pattern() {
+            Some(p) if p != Pattern::DepthBilinear => p,
+            _ => {
+                for (l, o) in out.iter_mut().enumerate().take(n) {
+                    let (v, c) = self.lookup(frame, x + l, y, &mut NoTrace);
+                    (*o, count) = (v, count + c);
+                }
+                return (out, count);
+            }
+        };
+        let mut ats: [Option<At>; 4] = [None; 4];
+        for (l, a) in ats.iter_mut().enumerate().take(n) {
+            match self.prepare(frame, x + l, y, &mut NoTrace) {
+                Prepared::Done(v, c) => (out[l], count) = (v, count + c),
+                Prepared::At(at) => *a = Some(at),
+            }
+        }
+        let Some(face) = ats.iter().flatten().next().map(|a| a.face) else {
+            return (out, count);
+        };
+        let map = &self.maps[face].0;
+        let mut kernels: [Option<Kernel>; 4] = [None; 4];
+        for l in 0..4 {
+            let Some(at) = &ats[l] else { continue };
+            if at.face != face {
+                let (v, c) = self.lookup_at(frame, at, x + l, y, &mut NoTrace);
+                (out[l], count) = (v, count + c);
+                continue;
+            }
+            let kernel = self.kernel_at(frame, at, pattern);
+            match self.classify(at, kernel.extent(), &mut NoTrace) {
+                Class::Lit => (out[l], count) = (1.0, count + 1),
+                Class::Shadowed => (out[l], count) = (0.0, count + 1),
+                // Outside the map: lit, no taps (as `Kernel::filter`).
+                Class::Mixed if !(at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmple(Vec2::ONE).all()) => out[l] = 1.0,
+                Class::Mixed => kernels[l] = Some(kernel),
+            }
+        }
+        let go: [bool; 4] = kernels.map(|k| k.is_some());
+        if !go.iter().any(|&g| g) {
+            return (out, count);
+        }
+        let lane = |f: &dyn Fn(&At) -> f32| Vec4::from_array(std::array::from_fn(|l| ats[l].as_ref().map_or(0.0, f)));
+        let (u, v) = (lane(&|a| a.uv.x), lane(&|a| a.uv.y));
+        let first = kernels.iter().flatten().next().copied().expect("a lane filters");
+        let xs = std::array::from_fn(|l| (x + l) as u32);
+        match pattern {
+            Pattern::Grid | Pattern::Tent
+                if (0..4).all(|l| {
+                    kernels[l].is_none_or(|k| k.grid_n() == first.grid_n() && ats[l].is_some_and(|a| a.r.is_flat()))
+                }) =>
+            {
+                let k = first.grid_n();
+                // The per-axis weights on the stack for the common sizes.
+                let (mut small, mut large) = ([0.0f32; 16], Vec::new());
+                let t = if k < 16 {
+                    &mut small[..k as usize]
+                } else {
+                    large.resize(k as usize, 0.0);
+                    &mut large[..]
+                };
+                axis_weights(pattern, k, t);
+                let values = separable4(map, u, v, lane(&|a| a.r.z), t);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], count) = (values[l], count + (k * k) as u64);
+                    }
+                }
+            }
+            Pattern::Poisson | Pattern::Rotated | Pattern::Spiral => {
+                let widths = Vec4::from_array(kernels.map(|k| k.map_or(1.0, |k| k.width)));
+                let disk = first.disk4(xs, y as u32, widths).expect("a disk pattern");
+                let refs = Reference4::new(std::array::from_fn(|l| ats[l].map_or(Reference::default(), |a| a.r)));
+                let (values, taps) = filter_disk4(map, u, v, &refs, &disk, go);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], count) = (values[l], count + taps[l] as u64);
+                    }
+                }
+            }
+            _ => {
+                for l in 0..4 {
+                    if let (Some(k), Some(at)) = (kernels[l], &ats[l]) {
+                        let f = k.filter(map, at.uv, &at.r, xs[l], y as u32);
+                        (out[l], count) = (f.value, count + f.taps as u64);
+                    }
+                }
+            }
+        }
+        (out, count)
+    }
+
+    /// [`ShadowMap::lookup`] from its prepared position on.
+    #[inline(always)]
+    fn lookup_at(&self, frame: &Frame, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = *at;
+        let o = &self.opts;
+        let map = &self.maps[at.face].0;
         let Some(pattern) = o.filter.pattern() else {
             let sampler = CompareSampler::default();
             let v = match o.filter {
@@ -464,16 +589,7 @@ impl ShadowMap {
         };
         // Wide kernels (RTR 7.5): the width in texels (from world units at the point if asked),
         // then the hierarchy or the taps.
-        let width = if o.world > 0.0 {
-            (o.world / view.texel_at(&frame.light, at.pos)).clamp(1.0, map.width() as f32)
-        } else {
-            o.kernel
-        };
-        let kernel = Kernel {
-            pattern,
-            taps: o.taps,
-            width,
-        };
+        let kernel = self.kernel_at(frame, &at, pattern);
         self.filter(&at, &kernel, x, y, t)
     }
 
@@ -713,7 +829,7 @@ impl ShadowTechnique for ShadowMap {
         let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
         let this = &*self;
-        let (out, taps) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        let (out, taps) = per_pixel4_counted(p, frame, |x, y, n| this.lookup4(frame, x, y, n));
         self.taps = taps;
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
