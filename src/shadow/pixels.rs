@@ -69,13 +69,14 @@ pub fn per_pixel_map<T: Copy + Default + Send>(
 /// `f(x, y, n)` gives the values of pixels `x .. x + n` of row `y` (`n` is 4, or fewer at a
 /// row's end; lanes past `n` are ignored) and their count. Each pixel's value must still
 /// depend on that pixel alone, so the image is the one-pixel pass's for any thread count.
-pub fn per_pixel4_counted(
+pub fn per_pixel4_counted<T: Copy + Send>(
     p: &Pipeline,
     frame: &Frame,
-    f: impl Fn(usize, usize, usize) -> ([f32; 4], u64) + Sync,
-) -> (Vec<f32>, u64) {
+    init: T,
+    f: impl Fn(usize, usize, usize) -> ([T; 4], u64) + Sync,
+) -> (Vec<T>, u64) {
     let w = frame.width() as usize;
-    let mut out = vec![f32::NAN; w * frame.height() as usize];
+    let mut out = vec![init; w * frame.height() as usize];
     let total = p.install(|| {
         out.par_chunks_mut(w)
             .enumerate()

@@ -114,8 +114,10 @@ impl Hybrid {
                 opts.to, opts.from
             ));
         }
+        let mut pcss = Pcss::new(opts.pcss.clone()).map_err(|e| e.replace("'pcss'", "'hybrid'"))?;
+        pcss.keep_penumbra(true);
         Ok(Hybrid {
-            pcss: Pcss::new(opts.pcss.clone()).map_err(|e| e.replace("'pcss'", "'hybrid'"))?,
+            pcss,
             izb: Izb::new(izb::Options {
                 size: opts.grid,
                 ..Default::default()
@@ -130,7 +132,12 @@ impl Hybrid {
 
     /// PCSS's weight at pixel `(x, y)` (0: the IZB alone) and the penumbra in pixels.
     fn weight_at(&self, frame: &Frame, x: usize, y: usize) -> (f32, f32) {
-        let Some(world) = self.pcss.penumbra_world(frame, x, y) else {
+        self.weight_of(frame, x, y, self.pcss.penumbra_world(frame, x, y))
+    }
+
+    /// [`Hybrid::weight_at`] from the pixel's penumbra world width (`None`: no penumbra).
+    fn weight_of(&self, frame: &Frame, x: usize, y: usize, world: Option<f32>) -> (f32, f32) {
+        let Some(world) = world else {
             return (0.0, 0.0);
         };
         let Some(s) = frame.points()[y * frame.width() as usize + x] else {
@@ -169,7 +176,14 @@ impl ShadowTechnique for Hybrid {
         };
         let t2 = std::time::Instant::now();
         let this = &*self;
-        self.weight = per_pixel(p, frame, |x, y| this.weight_at(frame, x, y).0);
+        // The penumbra widths PCSS kept from its lookup pass: its blocker searches are not
+        // made twice.
+        let kept = this.pcss.kept_penumbra();
+        let w = frame.width() as usize;
+        self.weight = per_pixel(p, frame, |x, y| {
+            let world = kept[y * w + x];
+            this.weight_of(frame, x, y, (!world.is_nan()).then_some(world)).0
+        });
         let out: Vec<f32> = self
             .weight
             .iter()

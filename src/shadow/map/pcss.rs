@@ -202,6 +202,9 @@ pub struct Pcss {
     width: f32,
     taps: u64,
     early: u64,
+    /// [`Pcss::keep_penumbra`], and the last run's widths.
+    keep: bool,
+    kept: Vec<f32>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -223,6 +226,8 @@ impl Pcss {
             width: 0.0,
             taps: 0,
             early: 0,
+            keep: false,
+            kept: Vec::new(),
             times: Vec::new(),
         })
     }
@@ -307,17 +312,36 @@ impl Pcss {
         let Prepared::At(at) = self.map.prepare(frame, x, y, &mut NoTrace) else {
             return None;
         };
-        let e = self.estimate(&at, x, y);
+        self.world(at.face, &self.estimate(&at, x, y))
+    }
+
+    /// [`Pcss::penumbra_world`] of an estimate on view `face`.
+    fn world(&self, face: usize, e: &Estimate) -> Option<f32> {
         if e.class == Class::Lit {
             return None;
         }
-        let view = &self.map.maps()[at.face].1;
+        let view = &self.map.maps()[face].1;
         let texel = if view.perspective {
             view.texel * e.receiver
         } else {
             view.texel
         };
         Some(e.penumbra * texel)
+    }
+
+    /// Keep each pixel's [`Pcss::penumbra_world`] from the lookup pass of every run
+    /// ([`Pcss::kept_penumbra`]), for techniques built on PCSS's estimate.
+    pub fn keep_penumbra(&mut self, on: bool) {
+        self.keep = on;
+        if !on {
+            self.kept = Vec::new();
+        }
+    }
+
+    /// Per pixel of the last run (row-major), with [`Pcss::keep_penumbra`]: the penumbra's
+    /// world width, [`Pcss::penumbra_world`]'s value, NaN where it is `None`; empty otherwise.
+    pub fn kept_penumbra(&self) -> &[f32] {
+        &self.kept
     }
 
     /// The three steps at one pixel: visibility and taps (blocker search plus filter), every
@@ -395,8 +419,17 @@ impl Pcss {
     /// prepared alone, then the blocker searches and the filters of the pixels that look up
     /// the same view run on four lanes (lanes are pixels; each lane's sums run in tap order
     /// with the one-pixel operations, so every value and count is the one-pixel lookup's).
-    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
+    /// With `keep`, each pixel's [`Pcss::penumbra_world`] too (NaN for none).
+    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize, keep: bool) -> ([(f32, f32); 4], u64) {
+        let (out, pen, count) = self.lookup4_parts(frame, x, y, n, keep);
+        (std::array::from_fn(|l| (out[l], pen[l])), count)
+    }
+
+    /// [`Pcss::lookup4`]'s values, penumbrae and count.
+    #[inline(always)]
+    fn lookup4_parts(&self, frame: &Frame, x: usize, y: usize, n: usize, keep: bool) -> ([f32; 4], [f32; 4], u64) {
         let mut out = [f32::NAN; 4];
+        let mut pen = [f32::NAN; 4];
         let mut count = 0u64;
         let mut ats: [Option<At>; 4] = [None; 4];
         for (l, a) in ats.iter_mut().enumerate().take(n) {
@@ -406,7 +439,7 @@ impl Pcss {
             }
         }
         let Some(face) = ats.iter().flatten().next().map(|a| a.face) else {
-            return (out, count);
+            return (out, pen, count);
         };
         // Lanes on another view (a cube map's edge), and lights without width: one at a time.
         for (l, a) in ats.iter_mut().enumerate() {
@@ -414,14 +447,24 @@ impl Pcss {
                 if at.face != face || self.width <= 0.0 {
                     let (v, c) = self.lookup_at(at, x + l, y, &mut NoTrace);
                     (out[l], count) = (v, count + c);
+                    if keep && self.width > 0.0 {
+                        pen[l] = self.world(at.face, &self.estimate(at, x + l, y)).unwrap_or(f32::NAN);
+                    }
                     *a = None;
                 }
             }
         }
         if ats.iter().all(Option::is_none) {
-            return (out, count);
+            return (out, pen, count);
         }
         let es = self.estimate4(&ats, x, y);
+        if keep {
+            for l in 0..4 {
+                if let Some(e) = &es[l] {
+                    pen[l] = self.world(face, e).unwrap_or(f32::NAN);
+                }
+            }
+        }
         let (map, _) = &self.map.maps()[face];
         // Early outs, and filters the hierarchy classifies, lane by lane; the rest on four lanes.
         let mut go = [false; 4];
@@ -471,7 +514,7 @@ impl Pcss {
                 }
             }
         }
-        (out, count)
+        (out, pen, count)
     }
 
     /// The filter's kernel for a penumbra `width` texels wide.
@@ -659,7 +702,16 @@ impl ShadowTechnique for Pcss {
         (self.width, self.nearest) = light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
         let t1 = std::time::Instant::now();
         let this = &*self;
-        let (out, count) = per_pixel4_counted(p, frame, |x, y, n| this.lookup4(frame, x, y, n));
+        let keep = self.keep;
+        let (both, count) = per_pixel4_counted(p, frame, (f32::NAN, f32::NAN), |x, y, n| {
+            this.lookup4(frame, x, y, n, keep)
+        });
+        let out = both.iter().map(|b| b.0).collect();
+        self.kept = if keep {
+            both.iter().map(|b| b.1).collect()
+        } else {
+            Vec::new()
+        };
         self.taps = count & 0xffff_ffff;
         self.early = count >> 32;
         self.times = vec![
@@ -721,5 +773,67 @@ impl ShadowTechnique for Pcss {
         v.push(Stage::pixels(frame, "penumbra_texels", penumbra, 0.0, hi)?);
         v.push(Stage::pixels(frame, "blocker_fraction", blockers, 0.0, 1.0)?);
         Ok(v)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A box and a sphere on a ground, seen by a small camera, under `light` (TOML).
+    pub(crate) fn scene(light: &str) -> crate::scene::Scene {
+        let text = format!(
+            "[camera]\nposition = [3, 2.5, 4]\ntarget = [0, 0.4, 0]\nresolution = [97, 61]\n\n{light}\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\nrotate = [0, 25, 0]\n\n[[object]]\nmesh = \"sphere\"\nradius = 0.4\ntranslate = [1.2, 0.6, -0.6]\n"
+        );
+        crate::scene::file::parse(&text, std::path::Path::new("t.toml")).unwrap()
+    }
+
+    /// Lights of every kind: a disk, a sun with an angular size, and a point light (cube
+    /// faces: four pixels may look up different views).
+    pub(crate) const LIGHTS: [&str; 3] = [
+        "[[light]]\ntype = \"disk\"\nposition = [-2.5, 5, -1.5]\ntarget = [0, 0, 0]\nradius = 0.35",
+        "[[light]]\ntype = \"directional\"\ndirection = [0.4, -1, 0.3]",
+        "[[light]]\ntype = \"point\"\nposition = [0.3, 1.6, 0.9]",
+    ];
+
+    #[test]
+    fn four_pixel_lookups_equal_one_pixel_ones() {
+        let p = Pipeline::new(2).unwrap();
+        for light in LIGHTS {
+            let s = scene(light);
+            let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
+            let sets: [&[(&str, &str)]; 5] = [
+                &[("angle", "3")],
+                &[("angle", "3"), ("disk", "rotated"), ("receiver", "true")],
+                &[("angle", "3"), ("disk", "spiral"), ("taps", "32"), ("size", "256")],
+                &[("angle", "3"), ("hierarchy", "true"), ("blockers", "7")],
+                &[("light", "0")],
+            ];
+            for set in sets {
+                let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+                let mut t = Pcss::new(declaration().parse(&pairs).unwrap()).unwrap();
+                t.keep_penumbra(true);
+                let Visibility::Scalar(v) = t.visibility(&p, &f).unwrap() else {
+                    panic!("scalar")
+                };
+                let (w, h) = (f.width() as usize, f.height() as usize);
+                let mut taps = 0u64;
+                for y in 0..h {
+                    for x in 0..w {
+                        let (one, n) = t.lookup(&f, x, y, &mut NoTrace);
+                        taps += n;
+                        let i = y * w + x;
+                        assert_eq!(v[i].to_bits(), one.to_bits(), "{light} {set:?} ({x}, {y})");
+                        let world = t.penumbra_world(&f, x, y).unwrap_or(f32::NAN);
+                        assert_eq!(
+                            t.kept_penumbra()[i].to_bits(),
+                            world.to_bits(),
+                            "{light} {set:?} ({x}, {y})"
+                        );
+                    }
+                }
+                assert_eq!((t.taps, t.early), (taps & 0xffff_ffff, taps >> 32), "{light} {set:?}");
+            }
+        }
     }
 }
