@@ -170,6 +170,8 @@ impl Chs {
             (c.y - SEARCH as f32 / 2.0).round() as i64,
         );
         let slack = (at.r.gradient.x.abs() + at.r.gradient.y.abs()) * scale * 0.5;
+        // `view.distance`, its constants made once.
+        let distance = view.depth_to_distance();
         let (mut sum, mut found) = (0.0f32, 0u32);
         for j in 0..SEARCH as i64 {
             for i in 0..SEARCH as i64 {
@@ -181,7 +183,7 @@ impl Chs {
                 let d = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - c) * scale;
                 let depth = lvl.at(x as u32, y as u32);
                 if depth < at.r.at(d) - slack {
-                    sum += view.distance(depth);
+                    sum += distance.at(depth);
                     found += 1;
                 }
             }

@@ -538,9 +538,11 @@ impl Pcss {
         let mut widths = [1.0f32; 4];
         let mut refs = [Reference::default(); 4];
         let (mut u, mut v) = ([0.0f32; 4], [0.0f32; 4]);
+        let distance = view.depth_to_distance();
         for l in 0..4 {
             let Some(at) = &ats[l] else { continue };
-            let d_r = view.distance(at.r.z);
+            // `view.distance`, its constants made once.
+            let d_r = distance.at(at.r.z);
             let d_min = self.nearest[at.face].min(d_r);
             let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
             let mut e = Estimate {
@@ -591,7 +593,6 @@ impl Pcss {
         let sz = Vec4::splat(size);
         let (u, v) = (Vec4::from_array(u), Vec4::from_array(v));
         let r = Reference4::new(refs);
-        let distance = view.depth_to_distance();
         let (mut sum, mut found) = (Vec4::ZERO, Vec4::ZERO);
         for i in 0..disk.len() {
             let (dx, dy) = disk.tap(i);
