@@ -922,8 +922,11 @@ mod tests {
             let data: Vec<f32> = (0..w * h).map(|_| rng.next_f32()).collect();
             let map = Surface::from_vec(w, h, data).unwrap();
             for _ in 0..400 {
-                // Lanes near the edges too (footprints past the edge, and outside the map).
-                let mut c = || rng.next_f32() * 1.1 - 0.05;
+                // Lanes near the edges too (footprints past the edge, outside the map, NaN).
+                let mut c = || match rng.next_f32() {
+                    r if r < 0.03 => f32::NAN,
+                    _ => rng.next_f32() * 1.1 - 0.05,
+                };
                 let (u, v) = (Vec4::new(c(), c(), c(), c()), Vec4::new(c(), c(), c(), c()));
                 let z = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32());
                 let uv = |l: usize| Vec2::new(u[l], v[l]);
