@@ -43,7 +43,7 @@ use crate::pipeline::wide::floor4;
 use crate::pipeline::{Pipeline, Surface};
 use crate::scene::LightKind;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::light::LightView;
+use crate::shadow::light::{DepthToDistance, LightView};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
@@ -232,18 +232,15 @@ impl Pcss {
         })
     }
 
-    /// Steps 1 and 2 at a prepared lookup.
-    fn estimate(&self, at: &At, x: usize, y: usize) -> Estimate {
+    /// The start of step 1 at a prepared lookup: the receiver's distance (`distance` is the
+    /// view's [`LightView::depth_to_distance`], its constants made once), the search width,
+    /// and the hierarchy's decision where it makes one (the class is then not mixed).
+    fn begin(&self, at: &At, distance: &DepthToDistance) -> Estimate {
         let (map, view) = &self.map.maps()[at.face];
         let size = map.width() as f32;
-        let d_r = view.distance(at.r.z);
+        let d_r = distance.at(at.r.z);
         let d_min = self.nearest[at.face].min(d_r);
         let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
-        let kernel = Kernel {
-            pattern: self.opts.disk.pattern(),
-            taps: self.opts.blockers,
-            width: search,
-        };
         let mut e = Estimate {
             search,
             found: 0,
@@ -254,6 +251,7 @@ impl Pcss {
             class: Class::Mixed,
         };
         if let Some(mm) = self.map.hierarchy(at.face) {
+            let kernel = self.search_kernel(search);
             e.class = mm.classify(at.uv, kernel.extent() + 1.0, &at.r);
             if e.class != Class::Mixed {
                 e.found = if e.class == Class::Shadowed {
@@ -262,12 +260,51 @@ impl Pcss {
                     0
                 };
                 e.penumbra = if e.class == Class::Shadowed { search } else { 0.0 };
-                return e;
             }
         }
+        e
+    }
+
+    /// The blocker search's kernel for a disk `width` texels wide.
+    fn search_kernel(&self, width: f32) -> Kernel {
+        Kernel {
+            pattern: self.opts.disk.pattern(),
+            taps: self.opts.blockers,
+            width,
+        }
+    }
+
+    /// Step 2 on view `face` after a search of `n` taps that found `found` blockers whose
+    /// distances sum to `sum`: the early outs, or RTR eq. 7.6's penumbra,
+    /// `w_penumbra = w_light (d_r - d_o) / d_o`, in texels at the receiver.
+    fn conclude(&self, e: &mut Estimate, face: usize, n: u32, found: u32, sum: f32) {
+        let (map, view) = &self.map.maps()[face];
+        e.taps = n;
+        e.found = found;
+        if found == 0 {
+            e.class = Class::Lit;
+        } else if found == n {
+            e.class = Class::Shadowed;
+            e.penumbra = e.search;
+        } else {
+            let d_o = sum / found as f32;
+            e.blocker = d_o;
+            e.penumbra = penumbra_texels(view, self.width, e.receiver, d_o).min(map.width() as f32);
+        }
+    }
+
+    /// Steps 1 and 2 at a prepared lookup.
+    fn estimate(&self, at: &At, x: usize, y: usize) -> Estimate {
+        let (map, view) = &self.map.maps()[at.face];
+        let size = map.width() as f32;
+        let distance = view.depth_to_distance();
+        let mut e = self.begin(at, &distance);
+        if e.class != Class::Mixed {
+            return e;
+        }
+        let kernel = self.search_kernel(e.search);
         let inv = Vec2::ONE / size;
         let (mut sum, mut found, mut n) = (0.0f32, 0u32, 0u32);
-        let distance = view.depth_to_distance();
         let flat = at.r.is_flat();
         SEARCH.with(|t| {
             let mut taps = t.borrow_mut();
@@ -285,21 +322,7 @@ impl Pcss {
                 }
             }
         });
-        e.taps = n;
-        e.found = found;
-        if found == 0 {
-            e.class = Class::Lit;
-            return e;
-        }
-        if found == n {
-            e.class = Class::Shadowed;
-            e.penumbra = search;
-            return e;
-        }
-        // RTR eq. 7.6: w_penumbra = w_light (d_r - d_o) / d_o.
-        let d_o = sum / found as f32;
-        e.blocker = d_o;
-        e.penumbra = penumbra_texels(view, self.width, d_r, d_o).min(size);
+        self.conclude(&mut e, at.face, n, found, sum);
         e
     }
 
@@ -541,35 +564,8 @@ impl Pcss {
         let distance = view.depth_to_distance();
         for l in 0..4 {
             let Some(at) = &ats[l] else { continue };
-            // `view.distance`, its constants made once.
-            let d_r = distance.at(at.r.z);
-            let d_min = self.nearest[at.face].min(d_r);
-            let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
-            let mut e = Estimate {
-                search,
-                found: 0,
-                taps: 1,
-                receiver: d_r,
-                blocker: f32::NAN,
-                penumbra: 0.0,
-                class: Class::Mixed,
-            };
-            if let Some(mm) = self.map.hierarchy(at.face) {
-                let kernel = Kernel {
-                    pattern: self.opts.disk.pattern(),
-                    taps: self.opts.blockers,
-                    width: search,
-                };
-                e.class = mm.classify(at.uv, kernel.extent() + 1.0, &at.r);
-                if e.class != Class::Mixed {
-                    e.found = if e.class == Class::Shadowed {
-                        self.opts.blockers
-                    } else {
-                        0
-                    };
-                    e.penumbra = if e.class == Class::Shadowed { search } else { 0.0 };
-                }
-            }
+            let e = self.begin(at, &distance);
+            let search = e.search;
             if e.class == Class::Mixed {
                 go[l] = true;
                 widths[l] = search;
@@ -582,13 +578,10 @@ impl Pcss {
             return es;
         }
         let xs = std::array::from_fn(|l| (x + l) as u32);
-        let disk = Kernel {
-            pattern: self.opts.disk.pattern(),
-            taps: self.opts.blockers,
-            width: 1.0,
-        }
-        .disk4(xs, y as u32, Vec4::from_array(widths))
-        .expect("PCSS searches a disk");
+        let disk = self
+            .search_kernel(1.0)
+            .disk4(xs, y as u32, Vec4::from_array(widths))
+            .expect("PCSS searches a disk");
         let inv = Vec4::splat(1.0 / size);
         let sz = Vec4::splat(size);
         let (u, v) = (Vec4::from_array(u), Vec4::from_array(v));
@@ -606,22 +599,8 @@ impl Pcss {
         }
         let n = disk.len() as u32;
         for l in 0..4 {
-            let Some(e) = es[l].as_mut().filter(|_| go[l]) else {
-                continue;
-            };
-            let f = found[l] as u32;
-            e.taps = n;
-            e.found = f;
-            if f == 0 {
-                e.class = Class::Lit;
-            } else if f == n {
-                e.class = Class::Shadowed;
-                e.penumbra = e.search;
-            } else {
-                // RTR eq. 7.6, as in `estimate`.
-                let d_o = sum[l] / f as f32;
-                e.blocker = d_o;
-                e.penumbra = penumbra_texels(view, self.width, e.receiver, d_o).min(size);
+            if let Some(e) = es[l].as_mut().filter(|_| go[l]) {
+                self.conclude(e, face, n, found[l] as u32, sum[l]);
             }
         }
         es
@@ -797,44 +776,65 @@ pub(crate) mod tests {
         "[[light]]\ntype = \"point\"\nposition = [0.3, 1.6, 0.9]",
     ];
 
-    #[test]
-    fn four_pixel_lookups_equal_one_pixel_ones() {
+    /// For every light of [`LIGHTS`] and option set of `sets` on [`scene`]'s frame: the
+    /// technique `make` builds runs, and every pixel's value equals its one-pixel `lookup`
+    /// bit for bit (then `more` checks the pixel), and the run's count (`counted`) is the sum
+    /// of the one-pixel counts.
+    pub(crate) fn assert_lookups<T: ShadowTechnique>(
+        sets: &[&[(&str, &str)]],
+        make: impl Fn(&[(String, String)]) -> T,
+        lookup: impl Fn(&T, &Frame, usize, usize) -> (f32, u64),
+        more: impl Fn(&T, &Frame, usize, usize, usize),
+        counted: impl Fn(&T) -> u64,
+    ) {
         let p = Pipeline::new(2).unwrap();
         for light in LIGHTS {
             let s = scene(light);
             let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
-            let sets: [&[(&str, &str)]; 5] = [
-                &[("angle", "3")],
-                &[("angle", "3"), ("disk", "rotated"), ("receiver", "true")],
-                &[("angle", "3"), ("disk", "spiral"), ("taps", "32"), ("size", "256")],
-                &[("angle", "3"), ("hierarchy", "true"), ("blockers", "7")],
-                &[("light", "0")],
-            ];
             for set in sets {
                 let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-                let mut t = Pcss::new(declaration().parse(&pairs).unwrap()).unwrap();
-                t.keep_penumbra(true);
+                let mut t = make(&pairs);
                 let Visibility::Scalar(v) = t.visibility(&p, &f).unwrap() else {
                     panic!("scalar")
                 };
                 let (w, h) = (f.width() as usize, f.height() as usize);
-                let mut taps = 0u64;
+                let mut total = 0u64;
                 for y in 0..h {
                     for x in 0..w {
-                        let (one, n) = t.lookup(&f, x, y, &mut NoTrace);
-                        taps += n;
-                        let i = y * w + x;
-                        assert_eq!(v[i].to_bits(), one.to_bits(), "{light} {set:?} ({x}, {y})");
-                        let world = t.penumbra_world(&f, x, y).unwrap_or(f32::NAN);
-                        assert_eq!(
-                            t.kept_penumbra()[i].to_bits(),
-                            world.to_bits(),
-                            "{light} {set:?} ({x}, {y})"
-                        );
+                        let (one, n) = lookup(&t, &f, x, y);
+                        total += n;
+                        assert_eq!(v[y * w + x].to_bits(), one.to_bits(), "{light} {set:?} ({x}, {y})");
+                        more(&t, &f, x, y, y * w + x);
                     }
                 }
-                assert_eq!((t.taps, t.early), (taps & 0xffff_ffff, taps >> 32), "{light} {set:?}");
+                assert_eq!(counted(&t), total, "{light} {set:?}");
             }
         }
+    }
+
+    #[test]
+    fn four_pixel_lookups_equal_one_pixel_ones() {
+        let sets: [&[(&str, &str)]; 5] = [
+            &[("angle", "3")],
+            &[("angle", "3"), ("disk", "rotated"), ("receiver", "true")],
+            &[("angle", "3"), ("disk", "spiral"), ("taps", "32"), ("size", "256")],
+            &[("angle", "3"), ("hierarchy", "true"), ("blockers", "7")],
+            &[("light", "0")],
+        ];
+        assert_lookups(
+            &sets,
+            |pairs| {
+                let mut t = Pcss::new(declaration().parse(pairs).unwrap()).unwrap();
+                t.keep_penumbra(true);
+                t
+            },
+            |t, f, x, y| t.lookup(f, x, y, &mut NoTrace),
+            // The penumbra kept for the hybrid is the one-pixel estimate's.
+            |t, f, x, y, i| {
+                let world = t.penumbra_world(f, x, y).unwrap_or(f32::NAN);
+                assert_eq!(t.kept_penumbra()[i].to_bits(), world.to_bits(), "({x}, {y})");
+            },
+            |t| t.taps | t.early << 32,
+        );
     }
 }
