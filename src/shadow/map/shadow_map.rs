@@ -219,7 +219,7 @@ macro_rules! shadow_map_fields {
             ),
             Field::new(
                 "hierarchy",
-                "wide filters: skip the taps of kernels a min/max mip chain shows fully lit or shadowed",
+                "wide filters: skip the taps of kernels a min/max mip chain shows fully lit or shadowed (pays on receivers facing the light; on sloped ones it rarely decides and costs time)",
                 |$x: &mut $o| &mut $($path)+.hierarchy,
             ),
         ]
