@@ -19,6 +19,10 @@
 //!   bias cone (Burley 2006, RTR fig. 7.24) against `z` moved toward the light in proportion to
 //!   the tap's distance from the centre.
 //!
+//! - **Four pixels at once**: [`Disk4`] and [`filter_disk4`] (disks), [`separable4`] (flat
+//!   grids and tents) run four pixels' kernels on four lanes, each lane with the one-pixel
+//!   path's operations in its order, so each value is that path's bit for bit.
+//!
 //! A filter returns `lit / total`, the lit weights summed in the same order as all weights
 //! (and a 2x2 comparison of four passing texels is exactly 1), so a kernel whose taps all pass
 //! returns exactly 1 and one whose taps all fail exactly 0: the hierarchical min/max

@@ -21,6 +21,10 @@
 //! search disk (no blocker or all blockers: one lookup) and the filter disk (fully lit or in
 //! umbra) and skip their taps; the image is identical.
 //!
+//! The lookup pass runs four pixels at a time: each is prepared alone, then the searches and
+//! filters of pixels on the same light view run on four lanes (one pixel per lane) with the
+//! one-pixel operations in the same order, so the image is the one-pixel pass's bit for bit.
+//!
 //! The light's width is the scene's area light (a disk's or sphere's diameter, a
 //! rectangle's mean side) times `light`; point and spot lights have none, so PCSS gives their
 //! hard shadow; a directional light has the angular diameter `angle` (default 0: hard). A
