@@ -38,7 +38,7 @@
 //! the search disk but still crosses an edge; and the estimate is quantized by the map's
 //! resolution (contact-hardening shadows use a mip chain against that).
 
-use super::kernel::{filter_disk4, Class, Kernel, Pattern, Reference, Reference4, MAX_TAPS};
+use super::kernel::{Class, Kernel, Pattern, Reference, Reference4, MAX_TAPS};
 use super::shadow_map::{self, At, Prepared, ShadowMap};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -458,89 +458,47 @@ impl Pcss {
         let mut out = [f32::NAN; 4];
         let mut pen = [f32::NAN; 4];
         let mut count = 0u64;
-        let mut ats: [Option<At>; 4] = [None; 4];
-        for (l, a) in ats.iter_mut().enumerate().take(n) {
-            match self.map.prepare(frame, x + l, y, &mut NoTrace) {
-                Prepared::Done(v, c) => (out[l], count) = (v, count + c),
-                Prepared::At(at) => *a = Some(at),
+        if self.width <= 0.0 {
+            // No light width: the hard 2x2 comparison, one pixel at a time.
+            for (l, o) in out.iter_mut().enumerate().take(n) {
+                let (v, c) = self.lookup(frame, x + l, y, &mut NoTrace);
+                (*o, count) = (v, count + c);
             }
+            return (out, pen, count);
         }
-        let Some(face) = ats.iter().flatten().next().map(|a| a.face) else {
+        let mut ats = [None; 4];
+        let Some(face) = self.map.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
             return (out, pen, count);
         };
-        // Lanes on another view (a cube map's edge), and lights without width: one at a time.
+        // Pixels on another view (a cube map's edge): one at a time.
         for (l, a) in ats.iter_mut().enumerate() {
-            if let Some(at) = a {
-                if at.face != face || self.width <= 0.0 {
-                    let (v, c) = self.lookup_at(at, x + l, y, &mut NoTrace);
-                    (out[l], count) = (v, count + c);
-                    if keep && self.width > 0.0 {
-                        pen[l] = self.world(at.face, &self.estimate(at, x + l, y)).unwrap_or(f32::NAN);
-                    }
-                    *a = None;
+            if let Some(at) = a.filter(|at| at.face != face) {
+                let (v, c) = self.lookup_at(&at, x + l, y, &mut NoTrace);
+                (out[l], count) = (v, count + c);
+                if keep {
+                    pen[l] = self.world(at.face, &self.estimate(&at, x + l, y)).unwrap_or(f32::NAN);
                 }
+                *a = None;
             }
-        }
-        if ats.iter().all(Option::is_none) {
-            return (out, pen, count);
         }
         let es = self.estimate4(&ats, x, y);
-        if keep {
-            for l in 0..4 {
-                if let Some(e) = &es[l] {
-                    pen[l] = self.world(face, e).unwrap_or(f32::NAN);
-                }
-            }
-        }
-        let (map, _) = &self.map.maps()[face];
-        // Early outs, and filters the hierarchy classifies, lane by lane; the rest on four lanes.
-        let mut go = [false; 4];
-        let mut widths = [1.0f32; 4];
-        let mut refs = [Reference::default(); 4];
-        let (mut u, mut v) = ([0.0f32; 4], [0.0f32; 4]);
+        // The early outs lane by lane; the other lanes filter (RTR eq. 7.6's width).
+        let mut kernels = [None; 4];
         for l in 0..4 {
-            let (Some(at), Some(e)) = (&ats[l], &es[l]) else {
-                continue;
-            };
+            let Some(e) = &es[l] else { continue };
+            if keep {
+                pen[l] = self.world(face, e).unwrap_or(f32::NAN);
+            }
             match e.class {
                 Class::Lit => (out[l], count) = (1.0, count + (e.taps as u64 | 1 << 32)),
                 Class::Shadowed => (out[l], count) = (0.0, count + (e.taps as u64 | 1 << 32)),
                 Class::Mixed => {
-                    let kernel = self.filter_kernel(e.penumbra);
                     count += e.taps as u64;
-                    match self.map.classify(at, kernel.extent(), &mut NoTrace) {
-                        Class::Lit => (out[l], count) = (1.0, count + 1),
-                        Class::Shadowed => (out[l], count) = (0.0, count + 1),
-                        Class::Mixed => {
-                            go[l] = true;
-                            widths[l] = e.penumbra;
-                            refs[l] = at.r;
-                            (u[l], v[l]) = (at.uv.x, at.uv.y);
-                        }
-                    }
+                    kernels[l] = Some(self.filter_kernel(e.penumbra));
                 }
             }
         }
-        if go.iter().any(|&g| g) {
-            let xs = std::array::from_fn(|l| (x + l) as u32);
-            let disk = self
-                .filter_kernel(1.0)
-                .disk4(xs, y as u32, Vec4::from_array(widths))
-                .expect("PCSS filters with a disk");
-            let (values, taps) = filter_disk4(
-                map,
-                Vec4::from_array(u),
-                Vec4::from_array(v),
-                &Reference4::new(refs),
-                &disk,
-                go,
-            );
-            for l in 0..4 {
-                if go[l] {
-                    (out[l], count) = (values[l], count + taps[l] as u64);
-                }
-            }
-        }
+        self.map.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
         (out, pen, count)
     }
 

@@ -490,43 +490,88 @@ impl ShadowMap {
                 return (out, count);
             }
         };
-        let mut ats: [Option<At>; 4] = [None; 4];
+        let mut ats = [None; 4];
+        let Some(face) = self.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
+            return (out, count);
+        };
+        // Pixels on another view (a cube map's edge): one at a time.
+        for (l, a) in ats.iter_mut().enumerate() {
+            if let Some(at) = a.filter(|at| at.face != face) {
+                let (v, c) = self.lookup_at(frame, &at, x + l, y, &mut NoTrace);
+                (out[l], count) = (v, count + c);
+                *a = None;
+            }
+        }
+        let kernels = ats.map(|a| a.map(|at| self.kernel_at(frame, &at, pattern)));
+        self.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
+        (out, count)
+    }
+
+    /// Prepares pixels `x .. x + n` of row `y` for a four-lane lookup: the pixels decided
+    /// without filtering are written to `out` and counted, the others to `ats`; the light
+    /// view of the first of those, `None` if there is none. (Pixels on another view, at a
+    /// cube map's edge, are the caller's to take out.)
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn prepare4(
+        &self,
+        frame: &Frame,
+        (x, y): (usize, usize),
+        n: usize,
+        ats: &mut [Option<At>; 4],
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) -> Option<usize> {
         for (l, a) in ats.iter_mut().enumerate().take(n) {
             match self.prepare(frame, x + l, y, &mut NoTrace) {
-                Prepared::Done(v, c) => (out[l], count) = (v, count + c),
+                Prepared::Done(v, c) => (out[l], *count) = (v, *count + c),
                 Prepared::At(at) => *a = Some(at),
             }
         }
-        let Some(face) = ats.iter().flatten().next().map(|a| a.face) else {
-            return (out, count);
-        };
+        Some(ats.iter().flatten().next()?.face)
+    }
+
+    /// [`ShadowMap::filter`] of the lanes with a kernel, all prepared on view `face`: the
+    /// hierarchy's decisions and lanes outside the map one by one; disks, and flat grids and
+    /// tents of one size, on four lanes (each lane with the one-pixel operations); anything
+    /// else one by one. Values go to `out`, taps to `count`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn filter4(
+        &self,
+        face: usize,
+        ats: &[Option<At>; 4],
+        mut kernels: [Option<Kernel>; 4],
+        x: usize,
+        y: usize,
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) {
         let map = &self.maps[face].0;
-        let mut kernels: [Option<Kernel>; 4] = [None; 4];
         for l in 0..4 {
-            let Some(at) = &ats[l] else { continue };
-            if at.face != face {
-                let (v, c) = self.lookup_at(frame, at, x + l, y, &mut NoTrace);
-                (out[l], count) = (v, count + c);
+            let (Some(at), Some(kernel)) = (&ats[l], kernels[l]) else {
                 continue;
-            }
-            let kernel = self.kernel_at(frame, at, pattern);
-            match self.classify(at, kernel.extent(), &mut NoTrace) {
-                Class::Lit => (out[l], count) = (1.0, count + 1),
-                Class::Shadowed => (out[l], count) = (0.0, count + 1),
+            };
+            let decided = match self.classify(at, kernel.extent(), &mut NoTrace) {
+                Class::Lit => Some((1.0, 1)),
+                Class::Shadowed => Some((0.0, 1)),
                 // Outside the map: lit, no taps (as `Kernel::filter`).
-                Class::Mixed if !(at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmple(Vec2::ONE).all()) => out[l] = 1.0,
-                Class::Mixed => kernels[l] = Some(kernel),
+                Class::Mixed if !(at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmple(Vec2::ONE).all()) => Some((1.0, 0)),
+                Class::Mixed => None,
+            };
+            if let Some((v, c)) = decided {
+                (out[l], *count) = (v, *count + c);
+                kernels[l] = None;
             }
         }
         let go: [bool; 4] = kernels.map(|k| k.is_some());
-        if !go.iter().any(|&g| g) {
-            return (out, count);
-        }
+        let Some(first) = kernels.iter().flatten().next().copied() else {
+            return;
+        };
         let lane = |f: &dyn Fn(&At) -> f32| Vec4::from_array(std::array::from_fn(|l| ats[l].as_ref().map_or(0.0, f)));
         let (u, v) = (lane(&|a| a.uv.x), lane(&|a| a.uv.y));
-        let first = kernels.iter().flatten().next().copied().expect("a lane filters");
         let xs = std::array::from_fn(|l| (x + l) as u32);
-        match pattern {
+        match first.pattern {
             Pattern::Grid | Pattern::Tent
                 if (0..4).all(|l| {
                     kernels[l].is_none_or(|k| k.grid_n() == first.grid_n() && ats[l].is_some_and(|a| a.r.is_flat()))
@@ -541,11 +586,11 @@ impl ShadowMap {
                     large.resize(k as usize, 0.0);
                     &mut large[..]
                 };
-                axis_weights(pattern, k, t);
+                axis_weights(first.pattern, k, t);
                 let values = separable4(map, u, v, lane(&|a| a.r.z), t);
                 for l in 0..4 {
                     if go[l] {
-                        (out[l], count) = (values[l], count + (k * k) as u64);
+                        (out[l], *count) = (values[l], *count + (k * k) as u64);
                     }
                 }
             }
@@ -556,7 +601,7 @@ impl ShadowMap {
                 let (values, taps) = filter_disk4(map, u, v, &refs, &disk, go);
                 for l in 0..4 {
                     if go[l] {
-                        (out[l], count) = (values[l], count + taps[l] as u64);
+                        (out[l], *count) = (values[l], *count + taps[l] as u64);
                     }
                 }
             }
@@ -564,12 +609,11 @@ impl ShadowMap {
                 for l in 0..4 {
                     if let (Some(k), Some(at)) = (kernels[l], &ats[l]) {
                         let f = k.filter(map, at.uv, &at.r, xs[l], y as u32);
-                        (out[l], count) = (f.value, count + f.taps as u64);
+                        (out[l], *count) = (f.value, *count + f.taps as u64);
                     }
                 }
             }
         }
-        (out, count)
     }
 
     /// [`ShadowMap::lookup`] from its prepared position on.
