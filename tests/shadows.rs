@@ -987,6 +987,30 @@ fn izb_is_identical_for_1_2_4_threads() {
     assert_eq!(one, run(4));
 }
 
+#[test]
+fn four_pixel_lookups_are_identical_for_1_2_4_threads() {
+    // The shadow map's wide filters, PCSS, CHS and the hybrid run four pixels at a time.
+    for (technique, sets) in [
+        ("shadow-map", &[("filter", "grid"), ("kernel", "5")][..]),
+        ("shadow-map", &[("filter", "rotated"), ("kernel", "4")][..]),
+        ("pcss", &[][..]),
+        ("chs", &[][..]),
+        ("hybrid", &[][..]),
+    ] {
+        let one = visibility_of("contact", technique, sets, 1).hash();
+        assert_eq!(
+            one,
+            visibility_of("contact", technique, sets, 2).hash(),
+            "{technique} {sets:?}"
+        );
+        assert_eq!(
+            one,
+            visibility_of("contact", technique, sets, 4).hash(),
+            "{technique} {sets:?}"
+        );
+    }
+}
+
 fn visibility_of(
     scene: &str,
     technique: &str,
