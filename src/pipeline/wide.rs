@@ -125,6 +125,43 @@ impl Vec3x4 {
             z: self.z * s,
         }
     }
+
+    /// `Vec3::dot` lane by lane with another four: `(x * o.x + y * o.y) + z * o.z`.
+    #[inline(always)]
+    pub fn dot4(self, o: Vec3x4) -> Vec4 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    /// `a - self` per lane.
+    #[inline(always)]
+    pub fn from_minus(self, a: Vec3) -> Vec3x4 {
+        Vec3x4 {
+            x: Vec4::splat(a.x) - self.x,
+            y: Vec4::splat(a.y) - self.y,
+            z: Vec4::splat(a.z) - self.z,
+        }
+    }
+
+    /// `self - b` per lane.
+    #[inline(always)]
+    pub fn minus(self, b: Vec3) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x - b.x,
+            y: self.y - b.y,
+            z: self.z - b.z,
+        }
+    }
+
+    /// `Vec3::cross(self, r)` per lane:
+    /// `(y * r.z - r.y * z, z * r.x - r.z * x, x * r.y - r.x * y)`.
+    #[inline(always)]
+    pub fn cross(self, r: Vec3) -> Vec3x4 {
+        Vec3x4 {
+            x: self.y * r.z - self.z * r.y,
+            y: self.z * r.x - self.x * r.z,
+            z: self.x * r.y - self.y * r.x,
+        }
+    }
 }
 
 /// Four RGBA colours in structure-of-arrays form: what [`FragmentProgram::shade4`] returns.

@@ -37,6 +37,15 @@
 //!    ray against its direction) intersects the triangle strictly in front of the sample
 //!    (Möller–Trumbore, `t > 0`). Standard rasterization is an option, to show why it is not
 //!    enough: a triangle thinner than a texel misses the texel centres and its shadow breaks.
+//!    Two things keep the pass's work down without changing a result:
+//!    - a **depth cull** (the light-space depth test of Wyman et al.'s frustum-traced
+//!      shadows): each texel keeps the largest depth along the light's axis of its samples
+//!      still lit, and a fragment of a triangle whose nearest vertex lies beyond it (by a
+//!      margin far above rounding) cannot shadow any of them and returns at once; a texel
+//!      whose samples are all shadowed culls every later fragment;
+//!    - the texel's samples are tested **four at a time** without a branch per sample, each
+//!      lane with the one-sample operations, and a list sample is 16 bytes (its ray origin,
+//!      and one word that holds its own triangle while it is lit and its shadower after).
 //!
 //! No depth bias anywhere. A sample is never tested against the triangle it lies on (the
 //! G-buffer's primitive id) where that triangle faces the light. Closed meshes (checked with
@@ -59,6 +68,7 @@
 
 use crate::choice_enum;
 use crate::frame::{Frame, NO_OBJECT};
+use crate::pipeline::wide::Vec3x4;
 use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
@@ -66,7 +76,7 @@ use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::volume::silhouette::Adjacency;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{BVec4A, Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -195,8 +205,10 @@ pub fn info() -> TechniqueInfo {
     }
 }
 
-/// Marks a sample no triangle has shadowed (yet).
-const LIT: u32 = u32::MAX;
+/// A [`ListSample`]'s state from this value up: shadowed (by the triangle in the low bits).
+const SHADOWED: u32 = 1 << 31;
+/// A lit [`ListSample`]'s state when it has no triangle of its own to skip.
+const NO_TRIANGLE: u32 = SHADOWED - 1;
 /// A sample's pass-1 byte: its base view, and [`META_SKIP_OWN`] when it skips its own
 /// triangle; [`META_NONE`]: it faces away from the light (or falls in no view).
 const META_NONE: u8 = 0x7f;
@@ -206,17 +218,38 @@ const META_SKIP_OWN: u8 = 0x80;
 const MAX_CHUNKS: usize = 64;
 const MIN_CHUNK: usize = 16384;
 
-/// One sample in a texel's list.
+/// One sample in a texel's list: 16 bytes, so that the occluder pass, which walks the lists
+/// of a tile's texels again and again, keeps more of them in cache.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ListSample {
-    /// World position.
+    /// World position (where its ray to the light starts).
     pub position: Vec3,
-    /// Scene-wide id of the triangle it lies on (never tested against it).
-    pub triangle: u32,
-    /// Scene-wide id of the first triangle found to shadow it, or `u32::MAX` (lit).
-    pub shadowed_by: u32,
-    /// Triangles tested against it.
-    pub tests: u32,
+    /// Below [`SHADOWED`]: lit so far, and the scene-wide id of the triangle it lies on and
+    /// is never tested against ([`NO_TRIANGLE`]: none). From [`SHADOWED`] up: shadowed, by
+    /// the triangle whose id is in the low 31 bits.
+    state: u32,
+}
+
+impl ListSample {
+    const EMPTY: ListSample = ListSample {
+        position: Vec3::ZERO,
+        state: NO_TRIANGLE,
+    };
+
+    /// The scene-wide id of the first triangle found to shadow the sample (`None`: lit).
+    pub fn shadowed_by(&self) -> Option<u32> {
+        (self.state >= SHADOWED).then_some(self.state & !SHADOWED)
+    }
+}
+
+/// Per texel of a view, what its fragments of the occluder pass keep: the largest depth
+/// along the view's axis ([`axis_depth`]) of its samples still lit (`-inf`: none; an
+/// occluder whose nearest vertex lies clearly beyond it cannot shadow any of them), and the
+/// triangle-sample tests run on its list.
+#[derive(Copy, Clone, Debug)]
+struct Texel {
+    far: f32,
+    tests: u32,
 }
 
 /// A camera sample: the pixel it belongs to, its surface point and triangle.
@@ -353,15 +386,6 @@ impl Default for CameraSample {
     }
 }
 
-impl ListSample {
-    const EMPTY: ListSample = ListSample {
-        position: Vec3::ZERO,
-        triangle: u32::MAX,
-        shadowed_by: LIT,
-        tests: 0,
-    };
-}
-
 /// Per scene triangle (scene-wide ids): its geometric normal (unnormalised) and whether it
 /// faces the light (at its centroid).
 fn triangle_facing(frame: &Frame) -> Vec<(Vec3, bool)> {
@@ -448,7 +472,7 @@ impl Occluder {
     /// True when `p` lies clearly on the light's side of the triangle's plane (by more than
     /// 1e-4 of its distance to the triangle's first vertex, so rounding cannot decide): then
     /// the segment to the light cannot cross the triangle, and the exact test is skipped.
-    #[inline(always)]
+    #[cfg(test)]
     fn same_side_as_light(&self, p: Vec3) -> bool {
         let tv = p - self.v0;
         let a = self.n.dot(tv);
@@ -457,7 +481,7 @@ impl Occluder {
 
     /// Whether the segment from `p` to the light (`to_light` = light position - p, `t` in
     /// (0, 1); directional: the direction to the light, `t` > 0) hits the triangle.
-    #[inline(always)]
+    #[cfg(test)]
     fn blocks(&self, p: Vec3, to_light: Vec3, directional: bool) -> bool {
         // A directional light's terms depend on its direction alone: made once per triangle.
         let (pv, inv) = if directional {
@@ -501,8 +525,108 @@ fn segment_terms(e1: Vec3, e2: Vec3, to_light: Vec3) -> (Vec3, f32) {
     )
 }
 
+/// The occluder pass's test of one texel's samples against occluder `o` (the light at `lp`,
+/// or along `dir` for a directional one): a lit sample not on `o` is shadowed when its
+/// segment to the light crosses `o` (the plane test first, then Möller–Trumbore). Returns
+/// the largest [`axis_at`] (`axis`) of the samples still lit after it (`-inf` for none) and
+/// the tests it ran.
+///
+/// Four samples at a time, without a branch per sample (which samples are shadowed already,
+/// lie on `o` or pass the plane test is data the branch predictor cannot learn); each lane
+/// computes exactly the one-sample operations of `Occluder::same_side_as_light` and
+/// `Occluder::blocks`, in their order, so the results are theirs (a test checks it).
+#[inline(always)]
+fn test_list(o: &Occluder, list: &mut [ListSample], directional: bool, lp: Vec3, dir: Vec3, axis: Vec4) -> (f32, u32) {
+    let mut far = Vec4::NEG_INFINITY;
+    let mut tests = 0;
+    let shadow = SHADOWED | o.id;
+    let side = 1e-8 * o.n2;
+    for chunk in list.chunks_mut(4) {
+        // Lanes past the list's end count as shadowed: they take no part.
+        let mut st = [SHADOWED; 4];
+        let (mut x, mut y, mut z) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
+        for (l, s) in chunk.iter().enumerate() {
+            (x[l], y[l], z[l], st[l]) = (s.position.x, s.position.y, s.position.z, s.state);
+        }
+        let lit = BVec4A::new(st[0] < SHADOWED, st[1] < SHADOWED, st[2] < SHADOWED, st[3] < SHADOWED);
+        if !lit.any() {
+            continue;
+        }
+        let testing = lit & BVec4A::new(st[0] != o.id, st[1] != o.id, st[2] != o.id, st[3] != o.id);
+        tests += testing.bitmask().count_ones();
+        let p = Vec3x4 {
+            x: Vec4::from_array(x),
+            y: Vec4::from_array(y),
+            z: Vec4::from_array(z),
+        };
+        // `same_side_as_light`, lane by lane.
+        let tv = p.minus(o.v0);
+        let a = tv.dot(o.n);
+        let same = (a * o.light_side).cmpgt(Vec4::ZERO) & (a * a).cmpgt(side * tv.dot4(tv));
+        let candidates = testing & !same;
+        let mut hit = BVec4A::FALSE;
+        if candidates.any() {
+            // `blocks`, lane by lane.
+            let (to, pv, inv) = if directional {
+                let to = Vec3x4 {
+                    x: Vec4::splat(dir.x),
+                    y: Vec4::splat(dir.y),
+                    z: Vec4::splat(dir.z),
+                };
+                let pv = Vec3x4 {
+                    x: Vec4::splat(o.pv.x),
+                    y: Vec4::splat(o.pv.y),
+                    z: Vec4::splat(o.pv.z),
+                };
+                (to, pv, Vec4::splat(o.inv))
+            } else {
+                // `segment_terms`, lane by lane.
+                let to = p.from_minus(lp);
+                let pv = to.cross(o.e2);
+                let det = pv.dot(o.e1);
+                let bad = det.cmpeq(Vec4::ZERO) | !det.is_finite_mask();
+                (to, pv, Vec4::select(bad, Vec4::NAN, Vec4::ONE / det))
+            };
+            let u = tv.dot4(pv) * inv;
+            let inside_u = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE);
+            let qv = tv.cross(o.e1);
+            let v = to.dot4(qv) * inv;
+            let inside_v = !v.cmplt(Vec4::ZERO) & !(u + v).cmpgt(Vec4::ONE);
+            let t = qv.dot(o.e2) * inv;
+            let ahead = t.cmpgt(Vec4::ZERO) & if directional { BVec4A::TRUE } else { t.cmplt(Vec4::ONE) };
+            hit = candidates & !inv.is_nan_mask() & inside_u & inside_v & ahead;
+            let bits = hit.bitmask();
+            if bits != 0 {
+                for (l, s) in chunk.iter_mut().enumerate() {
+                    if bits & (1 << l) != 0 {
+                        s.state = shadow;
+                    }
+                }
+            }
+        }
+        let d = p.dot(axis.truncate()) + axis.w;
+        far = Vec4::select(lit & !hit, far.max(d), far);
+    }
+    (far.max_element(), tests)
+}
+
+/// A point's depth along a view's axis, `axis` from [`axis_depth`]:
+/// `(axis.x p.x + axis.y p.y) + axis.z p.z + axis.w`.
+#[inline(always)]
+fn axis_at(axis: Vec4, p: Vec3) -> f32 {
+    p.dot(axis.truncate()) + axis.w
+}
+
+/// The row of `view`'s matrix whose dot product with `(p, 1)` is p's depth along the view's
+/// axis, growing away from the light: clip `w` (the distance along the axis) for a
+/// perspective view, clip `z` for an orthographic one. Linear in p, so a triangle's nearest
+/// point along the axis is one of its vertices.
+fn axis_depth(view: &LightView) -> Vec4 {
+    view.matrix.row(if view.perspective { 3 } else { 2 })
+}
+
 /// A sample's record from pass 1: where its ray starts and the triangle it never tests
-/// (`u32::MAX`: none).
+/// ([`NO_TRIANGLE`]: none).
 #[derive(Copy, Clone, Debug, Default)]
 struct Rec {
     origin: Vec3,
@@ -550,6 +674,17 @@ impl<'a, T: Copy> Scatter<'a, T> {
         // SAFETY: in bounds (checked), and the caller guarantees no concurrent write to `i`.
         unsafe { self.ptr.add(i).write(v) }
     }
+
+    /// Reads element `i` (checked against the length).
+    ///
+    /// # Safety
+    /// No other thread may write element `i` while this read happens.
+    #[inline(always)]
+    unsafe fn read(&self, i: usize) -> T {
+        assert!(i < self.len, "scatter index {i} beyond {}", self.len);
+        // SAFETY: in bounds (checked), and the caller guarantees no concurrent write to `i`.
+        unsafe { self.ptr.add(i).read() }
+    }
 }
 
 /// One light view of the grid: its cropped matrix, the store of lists, and which sample
@@ -567,6 +702,8 @@ struct View {
     /// where it has none, so the early depth test (`LessEqual`, no writes) drops fragments on
     /// empty texels before the program runs.
     mask: Option<Surface<f32>>,
+    /// Per texel (row-major): the occluder pass's [`Texel`].
+    texels: Vec<Texel>,
     /// Occluder fragments of the pass (that reached a non-empty texel).
     fragments: u64,
     /// Occluder fragments rasterized in all.
@@ -646,6 +783,13 @@ impl Izb {
         let k = self.opts.samples.count();
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let objects = frame.gbuffer.object.data();
+        // A list sample keeps a triangle id in 31 bits (see `ListSample`).
+        let triangles = frame.scene.triangles();
+        if triangles >= NO_TRIANGLE as usize {
+            return Err(format!(
+                "technique 'izb': the scene has {triangles} triangles; the lists hold triangle ids below {NO_TRIANGLE}"
+            ));
+        }
         // Samples per row, and the capacity check before anything is allocated.
         let row_counts: Vec<u32> = objects
             .par_chunks(w)
@@ -716,7 +860,7 @@ impl Izb {
                     meta[j] = META_NONE;
                     rec[j] = Rec {
                         origin: Vec3::ZERO,
-                        triangle: u32::MAX,
+                        triangle: NO_TRIANGLE,
                     };
                     if !faces_light(&light, s) {
                         return;
@@ -737,7 +881,7 @@ impl Izb {
                         // ULPs along its normal (Wächter and Binder 2019), a property of
                         // float numbers, not a bias that depends on the scene or the light.
                         origin: offset_origin(s.position, s.normal),
-                        triangle: if skip_own { triangle } else { u32::MAX },
+                        triangle: if skip_own { triangle } else { NO_TRIANGLE },
                     };
                 };
                 if k == 1 {
@@ -857,10 +1001,13 @@ impl Izb {
         let by_row = &self.by_row;
         let mut made = Vec::with_capacity(views.len());
         for (v, (view, base, grid)) in views.into_iter().enumerate() {
-            let (mut store, mut order, mask) = match old.pop() {
-                Some(o) => (o.store, o.order, o.mask),
-                None => (PixelStore::default(), Vec::new(), None),
+            let (mut store, mut order, mask, mut texels) = match old.pop() {
+                Some(o) => (o.store, o.order, o.mask, o.texels),
+                None => (PixelStore::default(), Vec::new(), None, Vec::new()),
             };
+            let axis = axis_depth(&view);
+            texels.resize(n, Texel { far: 0.0, tests: 0 });
+            let texel_rows = Scatter::new(&mut texels);
             let runs = &row_at[v * s..=(v + 1) * s];
             let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
             order.resize((runs[s] - runs[0]) as usize, 0);
@@ -880,17 +1027,22 @@ impl Izb {
                         acc += c;
                     }
                     let mut cursor = starts.to_vec();
+                    let mut row_far = vec![f32::NEG_INFINITY; s];
                     for e in run {
+                        let f = &mut row_far[e.column as usize];
+                        *f = f.max(axis_at(axis, e.rec.origin));
                         let at = &mut cursor[e.column as usize];
                         part[*at as usize] = ListSample {
                             position: e.rec.origin,
-                            triangle: e.rec.triangle,
-                            shadowed_by: LIT,
-                            tests: 0,
+                            state: e.rec.triangle,
                         };
                         // SAFETY: every record of the view is in one row's run once.
                         unsafe { ord.write(first + *at as usize, e.sample) };
                         *at += 1;
+                    }
+                    for (x, far) in row_far.into_iter().enumerate() {
+                        // SAFETY: row `ty` alone writes texels `ty * s .. (ty + 1) * s`.
+                        unsafe { texel_rows.write(ty * s + x, Texel { far, tests: 0 }) };
                     }
                 })
                 .map_err(|e| e.to_string())?;
@@ -910,6 +1062,7 @@ impl Izb {
                 store,
                 order,
                 mask: Some(mask),
+                texels,
                 fragments: 0,
                 rasterized: 0,
             });
@@ -982,23 +1135,45 @@ impl Izb {
         };
         let lp = light.position;
         let dir = -light.direction;
-        let program = |f: &Fragment<()>, list: &mut [ListSample]| {
-            let o = &occluders[f.prim as usize];
-            for s in list {
-                if s.shadowed_by != LIT || s.triangle == o.id {
-                    continue;
-                }
-                s.tests += 1;
-                if o.same_side_as_light(s.position) {
-                    continue;
-                }
-                let to = if directional { dir } else { lp - s.position };
-                if o.blocks(s.position, to, directional) {
-                    s.shadowed_by = o.id;
-                }
-            }
-        };
+        // The depth cull's margin, far above the rounding of an axis depth anywhere in the
+        // scene (1e-5 of the largest term such a depth can have).
+        let extent = frame
+            .scene
+            .bounds()
+            .map_or(Vec3::ONE, |(lo, hi)| lo.abs().max(hi.abs()));
+        let mut near = Vec::new();
         for v in &mut self.views {
+            let axis = axis_depth(&v.view);
+            let margin = 1e-5 * (axis.truncate().abs().dot(extent) + axis.w.abs());
+            // Per occluder: its nearest vertex's axis depth, less the margin.
+            near.clear();
+            near.extend(indices.chunks_exact(3).map(|t| {
+                let d = t.iter().map(|&i| axis_at(axis, casters.positions[i as usize]));
+                d.fold(f32::INFINITY, f32::min) - margin
+            }));
+            let size = v.grid.size as usize;
+            let texels = Scatter::new(&mut v.texels);
+            let near = &near;
+            let program = |f: &Fragment<()>, list: &mut [ListSample]| {
+                let i = f.y as usize * size + f.x as usize;
+                // SAFETY: texel i's `Texel`, like its list, is touched only by the fragments
+                // of texel i, which the pipeline's raster-ordered storage gives to one worker
+                // at a time (the worker that holds its tile).
+                let t = unsafe { texels.read(i) };
+                // Depth cull: every still-lit sample of the texel lies nearer to the light than
+                // the whole triangle, so no segment from one to the light can cross it (a
+                // texel whose samples are all shadowed is culled too: its `far` is -inf).
+                if t.far < near[f.prim as usize] {
+                    return;
+                }
+                let (far, tests) = test_list(&occluders[f.prim as usize], list, directional, lp, dir, axis);
+                let t = Texel {
+                    far,
+                    tests: t.tests + tests,
+                };
+                // SAFETY: as above.
+                unsafe { texels.write(i, t) };
+            };
             let mask = v.mask.as_mut().expect("every view has its mask");
             let st = p
                 .draw_ordered(
@@ -1035,7 +1210,7 @@ impl Izb {
                 nonempty += (n > 0) as usize;
                 max = max.max(n);
             }
-            tests += s.data().iter().map(|x| x.tests as u64).sum::<u64>();
+            tests += v.texels.iter().map(|t| t.tests as u64).sum::<u64>();
         }
         (nonempty, max, tests)
     }
@@ -1131,7 +1306,7 @@ impl ShadowTechnique for Izb {
                         .zip(v.order.par_chunks(MIN_CHUNK))
                         .for_each(|(recs, order)| {
                             for (r, &i) in recs.iter().zip(order) {
-                                if r.shadowed_by == LIT {
+                                if r.state < SHADOWED {
                                     // SAFETY: every sample is in one list once.
                                     unsafe { marks.write(i as usize, 1) };
                                 }
@@ -1215,10 +1390,10 @@ impl ShadowTechnique for Izb {
                         ),
                     )
                     .int("list length", view.store.range(t).len())
-                    .int("triangles tested", ls.tests)
-                    .flag("lit", ls.shadowed_by == LIT);
-                if ls.shadowed_by != LIT {
-                    st = st.text("shadowed by", names(ls.shadowed_by));
+                    .int("triangle tests on the texel's list", view.texels[t].tests)
+                    .flag("lit", ls.shadowed_by().is_none());
+                if let Some(by) = ls.shadowed_by() {
+                    st = st.text("shadowed by", names(by));
                 } else {
                     lit_sum += 1.0;
                 }
@@ -1276,9 +1451,7 @@ impl ShadowTechnique for Izb {
             });
             // Triangle-sample tests per texel (the occluder pass's work where it went).
             let s = &self.views[i].store;
-            let tests = (0..(s.width() * s.height()) as usize)
-                .map(|t| s.data()[s.range(t)].iter().map(|x| x.tests as f32).sum())
-                .collect();
+            let tests = self.views[i].texels.iter().map(|t| t.tests as f32).collect();
             let tests = Surface::from_vec(s.width(), s.height(), tests).map_err(|e| e.to_string())?;
             let hi = tests.data().iter().copied().fold(1.0f32, f32::max);
             v.push(Stage::Scalar {
@@ -1319,7 +1492,98 @@ impl ShadowTechnique for Izb {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
     use std::path::Path;
+
+    /// [`test_list`] one sample at a time, with the one-sample tests.
+    fn test_list_one(
+        o: &Occluder,
+        list: &mut [ListSample],
+        directional: bool,
+        lp: Vec3,
+        dir: Vec3,
+        axis: Vec4,
+    ) -> (f32, u32) {
+        let (mut far, mut tests) = (f32::NEG_INFINITY, 0);
+        for s in list {
+            if s.state >= SHADOWED {
+                continue;
+            }
+            if s.state != o.id {
+                tests += 1;
+                if !o.same_side_as_light(s.position) {
+                    let to = if directional { dir } else { lp - s.position };
+                    if o.blocks(s.position, to, directional) {
+                        s.state = SHADOWED | o.id;
+                        continue;
+                    }
+                }
+            }
+            far = far.max(axis_at(axis, s.position));
+        }
+        (far, tests)
+    }
+
+    fn v3() -> impl Strategy<Value = Vec3> {
+        (-2.0f32..2.0, -2.0f32..2.0, -2.0f32..2.0).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        /// The four-lane occluder test gives the one-sample test's states, test count and
+        /// largest lit depth, for directional and point lights, samples on, near, above and
+        /// below the triangle (and on its edges), and degenerate triangles.
+        #[test]
+        fn four_lane_occluder_test_equals_the_one_sample_test(
+            tri in (v3(), v3(), v3(), 0u8..4),
+            light in (v3(), any::<bool>()),
+            samples in prop::collection::vec((0.0f32..1.0, 0.0f32..1.0, -0.5f32..0.5, (0u8..6, 0u8..4), v3()), 0..14),
+        ) {
+            let (a, mut b, mut c, degenerate) = tri;
+            match degenerate {
+                0 => b = a,
+                1 => c = a + (b - a) * 0.5,
+                _ => {}
+            }
+            let (lp, directional) = (light.0 * 3.0, light.1);
+            let l = Light {
+                kind: if directional { LightKind::Directional } else { LightKind::Point },
+                position: lp,
+                direction: (Vec3::new(0.1, -1.0, 0.2) + light.0 * 0.3).normalize(),
+                intensity: 1.0,
+            };
+            let o = Occluder::new(a, b, c, &l, 7);
+            let axis = Vec4::new(0.3, -0.8, 0.1, 0.5);
+            let dir = -l.direction;
+            let mut list: Vec<ListSample> = samples
+                .iter()
+                .map(|&(u, v, h, (kind, st), free)| {
+                    let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                    let on = a + (b - a) * u + (c - a) * v;
+                    let position = match kind {
+                        0 => free,
+                        1 => on,
+                        2 => a + (b - a) * u, // on an edge
+                        3 => [a, b, c][(u * 3.0) as usize % 3], // on a vertex
+                        4 => [a, b, c][(u * 3.0) as usize % 3] + dir * h, // above or below one
+                        _ => on + (b - a).cross(c - a).normalize_or_zero() * h,
+                    };
+                    let state = match st {
+                        0 => 7, // on the occluder itself
+                        1 => SHADOWED | 3,
+                        2 => 9,
+                        _ => NO_TRIANGLE,
+                    };
+                    ListSample { position, state }
+                })
+                .collect();
+            let mut one = list.clone();
+            let got = test_list(&o, &mut list, directional, lp, dir, axis);
+            let want = test_list_one(&o, &mut one, directional, lp, dir, axis);
+            prop_assert_eq!(&list, &one);
+            prop_assert_eq!(got.1, want.1);
+            prop_assert!(got.0 == want.0, "far {} against {}", got.0, want.0);
+        }
+    }
 
     /// The parallel counting sort gives the serial one's lists: walking the samples in order,
     /// each lands at its texel's next free place, with its own record.
