@@ -989,10 +989,15 @@ fn izb_is_identical_for_1_2_4_threads() {
 
 #[test]
 fn four_pixel_lookups_are_identical_for_1_2_4_threads() {
-    // The shadow map's wide filters, PCSS, CHS and the hybrid run four pixels at a time.
+    // The shadow map's wide filters (flat and with a receiver plane), PCSS, CHS and the
+    // hybrid run four pixels at a time.
     for (technique, sets) in [
         ("shadow-map", &[("filter", "grid"), ("kernel", "5")][..]),
         ("shadow-map", &[("filter", "rotated"), ("kernel", "4")][..]),
+        (
+            "shadow-map",
+            &[("filter", "tent"), ("kernel", "5"), ("receiver", "true")][..],
+        ),
         ("pcss", &[][..]),
         ("chs", &[][..]),
         ("hybrid", &[][..]),

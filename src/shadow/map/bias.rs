@@ -22,11 +22,15 @@ pub fn normal_offset(view: &LightView, light: &Light, s: &SamplePoint, k: f32) -
     s.position + s.normal * (k * view.texel_at(light, s.position) * sin)
 }
 
-/// Receiver-plane depth bias (Isidoro 2006): the depth change across one texel,
-/// `(|dz/du| + |dz/dv|) / size` of [`receiver_plane_gradient`], at most 0.05; zero without a
-/// gradient.
+/// The receiver plane at pixel `(x, y)` (Isidoro 2006), from one solve of its light-space
+/// depth slopes for a map of side `size`:
+/// - the gradient: dz/du and dz/dv per shadow-map texel, from the light-space (u, v, z) of
+///   this pixel and its right and lower neighbours (same surface), `None` where the
+///   neighbours are missing, the Jacobian is singular or the result is not finite;
+/// - the bias: the depth change across one texel, `(|dz/du| + |dz/dv|) / size`, at most
+///   0.05, zero without a gradient.
 #[allow(clippy::too_many_arguments)]
-pub fn receiver_plane_bias(
+pub fn receiver_plane(
     pts: &[Option<SamplePoint>],
     objs: &[u32],
     w: usize,
@@ -35,41 +39,19 @@ pub fn receiver_plane_bias(
     y: usize,
     m: &Mat4,
     size: u32,
-) -> f32 {
-    match plane_slopes(pts, objs, w, h, x, y, m) {
-        Some(d) => {
-            let b = (d.x.abs() + d.y.abs()) / size as f32;
-            if b.is_finite() {
-                b.min(0.05)
-            } else {
-                0.0
-            }
-        }
-        None => 0.0,
-    }
+) -> (Option<Vec2>, f32) {
+    let Some(d) = plane_slopes(pts, objs, w, h, x, y, m) else {
+        return (None, 0.0);
+    };
+    let g = d / size as f32;
+    let b = (d.x.abs() + d.y.abs()) / size as f32;
+    (
+        g.is_finite().then_some(g),
+        if b.is_finite() { b.min(0.05) } else { 0.0 },
+    )
 }
 
-/// The receiver plane's light-space depth gradient per shadow-map texel (Isidoro 2006): from
-/// the light-space (u, v, z) of this pixel and its right and lower neighbours (same surface),
-/// dz/du and dz/dv solved and divided by the map's `size`. `None` where the neighbours are
-/// missing, the Jacobian is singular or the result is not finite.
-#[allow(clippy::too_many_arguments)]
-pub fn receiver_plane_gradient(
-    pts: &[Option<SamplePoint>],
-    objs: &[u32],
-    w: usize,
-    h: usize,
-    x: usize,
-    y: usize,
-    m: &Mat4,
-    size: u32,
-) -> Option<Vec2> {
-    let g = plane_slopes(pts, objs, w, h, x, y, m)? / size as f32;
-    g.is_finite().then_some(g)
-}
-
-/// dz/du and dz/dv of the receiver's plane in light texture space (see
-/// [`receiver_plane_gradient`]).
+/// dz/du and dz/dv of the receiver's plane in light texture space (see [`receiver_plane`]).
 fn plane_slopes(
     pts: &[Option<SamplePoint>],
     objs: &[u32],

@@ -627,6 +627,52 @@ unsafe fn columns4(d: &[f32], row: [usize; 4], at: usize) -> [Vec4; 4] {
 
 /// `lit / total` of four lanes' disk taps at the positions `at` gives for each tap's offsets.
 #[inline(always)]
+/// Four lanes' grid or tent filters of one kernel tap by tap, for references that are not
+/// flat (a receiver plane or bias cone: each tap compares against its own reference, so the
+/// separable path does not apply): [`Kernel::filter`]'s tap-by-tap path of each lane at
+/// `(u, v)` against its reference, lanes in `active`, every tap a hardware 2x2 comparison.
+/// Returns the values (1 outside the map, as there) and the taps of each lane; each lane's
+/// sums run in tap order with the one-lane path's operations, so each value equals that
+/// path's bit for bit.
+pub fn filter_grid4(
+    map: &Surface<f32>,
+    u: Vec4,
+    v: Vec4,
+    r: &Reference4,
+    kernel: &Kernel,
+    active: [bool; 4],
+) -> ([f32; 4], [u32; 4]) {
+    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
+    let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
+    let mut out = [1.0f32; 4];
+    let mut counts = [0u32; 4];
+    if !go.iter().any(|&g| g) {
+        return (out, counts);
+    }
+    let size = Vec2::new(map.width() as f32, map.height() as f32);
+    let value = TAPS.with(|t| {
+        let mut taps = t.borrow_mut();
+        // Grid and tent taps do not depend on the pixel.
+        kernel.taps_at(0, 0, &mut taps);
+        let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
+        for &(d, w) in taps.iter() {
+            let o = d / size;
+            let (dx, dy) = (Vec4::splat(d.x), Vec4::splat(d.y));
+            let c = bilinear_compare4(map, u + Vec4::splat(o.x), v + Vec4::splat(o.y), r.at(dx, dy));
+            lit += Vec4::splat(w) * c;
+            total += Vec4::splat(w);
+        }
+        counts = go.map(|g| if g { taps.len() as u32 } else { 0 });
+        lit / total
+    });
+    for l in 0..4 {
+        if go[l] {
+            out[l] = value[l];
+        }
+    }
+    (out, counts)
+}
+
 fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
     let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
     for i in 0..disk.len() {

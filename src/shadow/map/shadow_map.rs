@@ -22,9 +22,10 @@
 //! open (two-sided) geometry, self-shadowing lost by id maps, acne of wide kernels without bias
 //! across the kernel, uniform penumbrae of fixed-width PCF.
 
-use super::bias::{normal_offset, receiver_plane_bias, receiver_plane_gradient};
+use super::bias::{normal_offset, receiver_plane};
 use super::kernel::{
-    axis_weights, filter_disk4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4, MAX_TAPS,
+    axis_weights, filter_disk4, filter_grid4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4,
+    MAX_TAPS,
 };
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -594,6 +595,19 @@ impl ShadowMap {
                     }
                 }
             }
+            Pattern::Grid | Pattern::Tent
+                if (0..4).all(|l| {
+                    kernels[l].is_none_or(|k| k.grid_n() == first.grid_n() && ats[l].is_some_and(|a| !a.r.is_flat()))
+                }) =>
+            {
+                let refs = Reference4::new(std::array::from_fn(|l| ats[l].map_or(Reference::default(), |a| a.r)));
+                let (values, taps) = filter_grid4(map, u, v, &refs, &first, go);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], *count) = (values[l], *count + taps[l] as u64);
+                    }
+                }
+            }
             Pattern::Poisson | Pattern::Rotated | Pattern::Spiral => {
                 let widths = Vec4::from_array(kernels.map(|k| k.map_or(1.0, |k| k.width)));
                 let disk = first.disk4(xs, y as u32, widths).expect("a disk pattern");
@@ -706,11 +720,11 @@ impl ShadowMap {
         }
         let mut z = z;
         let mut gradient = Vec2::ZERO;
-        if o.receiver && o.filter.pattern().is_some() {
-            gradient = receiver_plane_gradient(pts, objs, w, h, x, y, &view.matrix, size).unwrap_or(Vec2::ZERO);
-        }
         if o.receiver {
-            let b = receiver_plane_bias(pts, objs, w, h, x, y, &view.matrix, size);
+            let (g, b) = receiver_plane(pts, objs, w, h, x, y, &view.matrix, size);
+            if o.filter.pattern().is_some() {
+                gradient = g.unwrap_or(Vec2::ZERO);
+            }
             z -= b;
             t.step(|| {
                 Step::new(
@@ -968,8 +982,9 @@ mod tests {
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
         use crate::shadow::map::pcss::tests::assert_lookups;
-        let sets: [&[(&str, &str)]; 8] = [
+        let sets: [&[(&str, &str)]; 9] = [
             &[("filter", "grid"), ("kernel", "5")],
+            &[("filter", "tent"), ("kernel", "5"), ("cone", "0.5"), ("size", "256")],
             &[("filter", "tent"), ("kernel", "3"), ("size", "128")],
             &[("filter", "grid"), ("kernel", "17")],
             &[("filter", "grid"), ("kernel", "3"), ("receiver", "true")],
