@@ -359,6 +359,8 @@ pub struct Reference4 {
     pub cone: Vec4,
     /// Every lane flat ([`Reference::is_flat`]): taps compare against `z`.
     pub flat: bool,
+    /// Some lane has a bias cone.
+    pub coned: bool,
 }
 
 impl Reference4 {
@@ -370,17 +372,24 @@ impl Reference4 {
             gy: Vec4::from_array(r.map(|r| r.gradient.y)),
             cone: Vec4::from_array(r.map(|r| r.cone)),
             flat: r.iter().all(Reference::is_flat),
+            coned: r.iter().any(|r| r.cone != 0.0),
         }
     }
 
     /// [`Reference::at`] per lane, tap offsets `(dx, dy)`: the same operations, so the same
-    /// values (a flat lane's is exactly its `z`: it adds only zeros to it).
+    /// values (a flat lane's is exactly its `z`: it adds only zeros to it; without cones, the
+    /// cone's term is a zero too, left out: the value can differ only in the sign of a zero,
+    /// which no comparison sees).
     #[inline(always)]
     pub fn at(&self, dx: Vec4, dy: Vec4) -> Vec4 {
         if self.flat {
             return self.z;
         }
-        self.z + (self.gx * dx + self.gy * dy) + self.cone * crate::pipeline::wide::sqrt4(dx * dx + dy * dy)
+        let plane = self.z + (self.gx * dx + self.gy * dy);
+        if !self.coned {
+            return plane;
+        }
+        plane + self.cone * crate::pipeline::wide::sqrt4(dx * dx + dy * dy)
     }
 }
 
