@@ -182,7 +182,13 @@ impl Reference {
     /// The reference depth of a tap `d` texels from the centre.
     #[inline]
     pub fn at(&self, d: Vec2) -> f32 {
-        self.z + self.gradient.dot(d) + self.cone * d.length()
+        let plane = self.z + self.gradient.dot(d);
+        // Without a cone its term is a zero (left out: only a zero's sign could differ, which
+        // no comparison sees).
+        if self.cone == 0.0 {
+            return plane;
+        }
+        plane + self.cone * d.length()
     }
 
     /// The lowest and highest reference over a kernel of radius `r` texels.
@@ -314,31 +320,14 @@ impl Kernel {
             _ => TAPS.with(|t| {
                 let mut taps = t.borrow_mut();
                 self.taps_at(x, y, &mut taps);
-                // Four taps per vector, summed in tap order (as one at a time, bit for bit).
-                let (mut lit, mut total) = (0.0f32, 0.0f32);
+                let mut sums = TapSums::default();
                 let mut chunks = taps.chunks_exact(4);
-                let flat = r.is_flat();
                 for c in &mut chunks {
-                    let p: [Vec2; 4] = std::array::from_fn(|i| uv + c[i].0 / size);
-                    let z = if flat {
-                        Vec4::splat(r.z)
-                    } else {
-                        Vec4::from_array(std::array::from_fn(|i| r.at(c[i].0)))
-                    };
-                    let u4 = Vec4::new(p[0].x, p[1].x, p[2].x, p[3].x);
-                    let v4 = Vec4::new(p[0].y, p[1].y, p[2].y, p[3].y);
-                    let v = bilinear_compare4(map, u4, v4, z);
-                    for i in 0..4 {
-                        lit += c[i].1 * v[i];
-                        total += c[i].1;
-                    }
+                    sums.four(map, uv, size, r, c.try_into().expect("four taps"));
                 }
-                for &(d, w) in chunks.remainder() {
-                    lit += w * bilinear_compare(map, uv + d / size, r.at(d));
-                    total += w;
-                }
+                sums.each(map, uv, size, r, chunks.remainder());
                 Filtered {
-                    value: lit / total,
+                    value: sums.lit / sums.total,
                     taps: taps.len() as u32,
                 }
             }),
@@ -452,6 +441,44 @@ impl Kernel {
             _ => return None,
         };
         Some(Disk4 { base, s, c, r, turned })
+    }
+}
+
+/// The weighted sums of [`Kernel::filter`]'s tap-by-tap path: lit and total weight, summed
+/// in tap order.
+#[derive(Default)]
+struct TapSums {
+    lit: f32,
+    total: f32,
+}
+
+impl TapSums {
+    /// Four taps `(offset in texels, weight)` around `uv` of a `size` map against `r`, in
+    /// one vector of 2x2 comparisons, summed in order (as one at a time, bit for bit).
+    #[inline(always)]
+    fn four(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, c: &[(Vec2, f32); 4]) {
+        let p: [Vec2; 4] = std::array::from_fn(|i| uv + c[i].0 / size);
+        let z = if r.is_flat() {
+            Vec4::splat(r.z)
+        } else {
+            Vec4::from_array(std::array::from_fn(|i| r.at(c[i].0)))
+        };
+        let u4 = Vec4::new(p[0].x, p[1].x, p[2].x, p[3].x);
+        let v4 = Vec4::new(p[0].y, p[1].y, p[2].y, p[3].y);
+        let v = bilinear_compare4(map, u4, v4, z);
+        for i in 0..4 {
+            self.lit += c[i].1 * v[i];
+            self.total += c[i].1;
+        }
+    }
+
+    /// Taps one at a time (fewer than four at the end of a kernel).
+    #[inline(always)]
+    fn each(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, taps: &[(Vec2, f32)]) {
+        for &(d, w) in taps {
+            self.lit += w * bilinear_compare(map, uv + d / size, r.at(d));
+            self.total += w;
+        }
     }
 }
 
