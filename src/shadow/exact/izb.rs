@@ -1268,7 +1268,7 @@ impl ShadowTechnique for Izb {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        // The samples and their lists (about 88 bytes a sample: its position, record, key
+        // The samples and their lists (at most 88 bytes a sample: its position, record, key
         // and sort entry, the store's node and its index, its result), checked against the
         // memory budget before any is made.
         let (w, h) = (frame.width(), frame.height());
