@@ -494,13 +494,9 @@ pub fn filter_disk4(
     disk: &Disk4,
     active: [bool; 4],
 ) -> ([f32; 4], [u32; 4]) {
-    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
-    let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
-    let mut out = [1.0f32; 4];
-    let mut taps = [0u32; 4];
-    if !go.iter().any(|&g| g) {
-        return (out, taps);
-    }
+    let Some(go) = lanes_inside(u, v, active) else {
+        return ([1.0; 4], [0; 4]);
+    };
     let (w, h) = (map.width(), map.height());
     // A tap's offset over the map's size: for a power-of-two size, times its reciprocal,
     // which is exactly the quotient (the reciprocal is exact, and both are the one rounding
@@ -512,13 +508,24 @@ pub fn filter_disk4(
         let (sx, sy) = (Vec4::splat(w as f32), Vec4::splat(h as f32));
         disk_sum(map, disk, r, |dx, dy| (u + dx / sx, v + dy / sy))
     };
-    for l in 0..4 {
-        if go[l] {
-            out[l] = value[l];
-            taps[l] = disk.len() as u32;
-        }
-    }
-    (out, taps)
+    lane_results(go, value, disk.len() as u32)
+}
+
+/// The lanes of `active` whose point `(u, v)` lies in the map ([0, 1]², as
+/// [`Kernel::filter`] asks); `None` if there are none.
+fn lanes_inside(u: Vec4, v: Vec4, active: [bool; 4]) -> Option<[bool; 4]> {
+    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
+    let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
+    go.iter().any(|&g| g).then_some(go)
+}
+
+/// The values and tap counts of the lanes in `go` (`value`'s lane, `taps`); the others are
+/// lit with no taps (outside the map, as in [`Kernel::filter`], or idle).
+fn lane_results(go: [bool; 4], value: Vec4, taps: u32) -> ([f32; 4], [u32; 4]) {
+    (
+        std::array::from_fn(|l| if go[l] { value[l] } else { 1.0 }),
+        go.map(|g| if g { taps } else { 0 }),
+    )
 }
 
 /// Four lanes' flat grid or tent filters: [`Kernel::filter`]'s separable path at `(u, v)`
@@ -678,15 +685,11 @@ pub fn filter_grid4(
     kernel: &Kernel,
     active: [bool; 4],
 ) -> ([f32; 4], [u32; 4]) {
-    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
-    let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
-    let mut out = [1.0f32; 4];
-    let mut counts = [0u32; 4];
-    if !go.iter().any(|&g| g) {
-        return (out, counts);
-    }
+    let Some(go) = lanes_inside(u, v, active) else {
+        return ([1.0; 4], [0; 4]);
+    };
     let size = Vec2::new(map.width() as f32, map.height() as f32);
-    let value = TAPS.with(|t| {
+    let (value, n) = TAPS.with(|t| {
         let mut taps = t.borrow_mut();
         // Grid and tent taps do not depend on the pixel.
         kernel.taps_at(0, 0, &mut taps);
@@ -698,15 +701,9 @@ pub fn filter_grid4(
             lit += Vec4::splat(w) * c;
             total += Vec4::splat(w);
         }
-        counts = go.map(|g| if g { taps.len() as u32 } else { 0 });
-        lit / total
+        (lit / total, taps.len() as u32)
     });
-    for l in 0..4 {
-        if go[l] {
-            out[l] = value[l];
-        }
-    }
-    (out, counts)
+    lane_results(go, value, n)
 }
 
 fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
