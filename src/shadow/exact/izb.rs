@@ -249,7 +249,8 @@ impl ListSample {
 #[derive(Copy, Clone, Debug)]
 struct Texel {
     far: f32,
-    tests: u32,
+    /// (64 bits: a texel's list can hold millions of samples, each tested by many triangles.)
+    tests: u64,
 }
 
 /// A camera sample: the pixel it belongs to, its surface point and triangle.
@@ -1169,7 +1170,7 @@ impl Izb {
                 let (far, tests) = test_list(&occluders[f.prim as usize], list, directional, lp, dir, axis);
                 let t = Texel {
                     far,
-                    tests: t.tests + tests,
+                    tests: t.tests + tests as u64,
                 };
                 // SAFETY: as above.
                 unsafe { texels.write(i, t) };
@@ -1210,7 +1211,7 @@ impl Izb {
                 nonempty += (n > 0) as usize;
                 max = max.max(n);
             }
-            tests += v.texels.iter().map(|t| t.tests as u64).sum::<u64>();
+            tests += v.texels.iter().map(|t| t.tests).sum::<u64>();
         }
         (nonempty, max, tests)
     }
