@@ -533,9 +533,10 @@ impl ShadowMap {
     }
 
     /// [`ShadowMap::filter`] of the lanes with a kernel, all prepared on view `face`: the
-    /// hierarchy's decisions and lanes outside the map one by one; disks, and flat grids and
-    /// tents of one size, on four lanes (each lane with the one-pixel operations); anything
-    /// else one by one. Values go to `out`, taps to `count`.
+    /// hierarchy's decisions and lanes outside the map one by one; disks, and grids and tents
+    /// of one size whose lanes are all flat (separable) or all not (tap by tap), on four lanes
+    /// (each lane with the one-pixel operations); anything else one by one. Values go to
+    /// `out`, taps to `count`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn filter4(
