@@ -132,23 +132,13 @@ impl Vec3x4 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
-    /// `a - self` per lane.
+    /// The same `Vec3` in every lane.
     #[inline(always)]
-    pub fn from_minus(self, a: Vec3) -> Vec3x4 {
+    pub fn splat(v: Vec3) -> Vec3x4 {
         Vec3x4 {
-            x: Vec4::splat(a.x) - self.x,
-            y: Vec4::splat(a.y) - self.y,
-            z: Vec4::splat(a.z) - self.z,
-        }
-    }
-
-    /// `self - b` per lane.
-    #[inline(always)]
-    pub fn minus(self, b: Vec3) -> Vec3x4 {
-        Vec3x4 {
-            x: self.x - b.x,
-            y: self.y - b.y,
-            z: self.z - b.z,
+            x: Vec4::splat(v.x),
+            y: Vec4::splat(v.y),
+            z: Vec4::splat(v.z),
         }
     }
 
@@ -160,6 +150,20 @@ impl Vec3x4 {
             x: self.y * r.z - self.z * r.y,
             y: self.z * r.x - self.x * r.z,
             z: self.x * r.y - self.y * r.x,
+        }
+    }
+}
+
+impl std::ops::Sub for Vec3x4 {
+    type Output = Vec3x4;
+
+    /// `Vec3`'s subtraction per lane.
+    #[inline(always)]
+    fn sub(self, o: Vec3x4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
         }
     }
 }

@@ -561,7 +561,7 @@ fn test_list(o: &Occluder, list: &mut [ListSample], directional: bool, lp: Vec3,
             z: Vec4::from_array(z),
         };
         // `same_side_as_light`, lane by lane.
-        let tv = p.minus(o.v0);
+        let tv = p - Vec3x4::splat(o.v0);
         let a = tv.dot(o.n);
         let same = (a * o.light_side).cmpgt(Vec4::ZERO) & (a * a).cmpgt(side * tv.dot4(tv));
         let candidates = testing & !same;
@@ -569,20 +569,10 @@ fn test_list(o: &Occluder, list: &mut [ListSample], directional: bool, lp: Vec3,
         if candidates.any() {
             // `blocks`, lane by lane.
             let (to, pv, inv) = if directional {
-                let to = Vec3x4 {
-                    x: Vec4::splat(dir.x),
-                    y: Vec4::splat(dir.y),
-                    z: Vec4::splat(dir.z),
-                };
-                let pv = Vec3x4 {
-                    x: Vec4::splat(o.pv.x),
-                    y: Vec4::splat(o.pv.y),
-                    z: Vec4::splat(o.pv.z),
-                };
-                (to, pv, Vec4::splat(o.inv))
+                (Vec3x4::splat(dir), Vec3x4::splat(o.pv), Vec4::splat(o.inv))
             } else {
                 // `segment_terms`, lane by lane.
-                let to = p.from_minus(lp);
+                let to = Vec3x4::splat(lp) - p;
                 let pv = to.cross(o.e2);
                 let det = pv.dot(o.e1);
                 let bad = det.cmpeq(Vec4::ZERO) | !det.is_finite_mask();
