@@ -22,7 +22,7 @@
 //! open (two-sided) geometry, self-shadowing lost by id maps, acne of wide kernels without bias
 //! across the kernel, uniform penumbrae of fixed-width PCF.
 
-use super::bias::{normal_offset, receiver_plane};
+use super::bias::{normal_offset, receiver_plane, receiver_plane4};
 use super::kernel::{
     axis_weights, filter_disk4, filter_grid4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4,
     MAX_TAPS,
@@ -523,13 +523,37 @@ impl ShadowMap {
         out: &mut [f32; 4],
         count: &mut u64,
     ) -> Option<usize> {
+        let planes = self.planes4(frame, (x, y), n);
         for (l, a) in ats.iter_mut().enumerate().take(n) {
-            match self.prepare(frame, x + l, y, &mut NoTrace) {
+            match self.prepare_with(frame, x + l, y, &mut NoTrace, planes[l]) {
                 Prepared::Done(v, c) => (out[l], *count) = (v, *count + c),
                 Prepared::At(at) => *a = Some(at),
             }
         }
         Some(ats.iter().flatten().next()?.face)
+    }
+
+    /// The receiver planes of pixels `x .. x + n` of row `y` on four lanes
+    /// ([`receiver_plane4`]) when the lookups use them and one light view sees every pixel
+    /// with geometry; `None` per lane otherwise (each lookup then solves its own).
+    fn planes4(&self, frame: &Frame, (x, y): (usize, usize), n: usize) -> [Option<(Option<Vec2>, f32)>; 4] {
+        let o = &self.opts;
+        if !o.receiver || o.layer == Layer::Id {
+            return [None; 4];
+        }
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
+        let mut face = None;
+        for s in pts[y * w + x..y * w + x + n].iter().flatten() {
+            let f = light::face_of(self.maps.len(), &frame.light, s.position);
+            if face.is_some_and(|g| g != f) {
+                return [None; 4];
+            }
+            face = Some(f);
+        }
+        let Some(face) = face else { return [None; 4] };
+        let (map, view) = &self.maps[face];
+        receiver_plane4(pts, objs, w, h, (x, y), n, &view.matrix, map.width()).map(Some)
     }
 
     /// [`ShadowMap::filter`] of the lanes with a kernel, all prepared on view `face`: the
@@ -659,6 +683,20 @@ impl ShadowMap {
     /// the id map are [`Prepared::Done`]. The soft techniques of the family filter from here.
     #[inline(always)]
     pub(crate) fn prepare(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Prepared {
+        self.prepare_with(frame, x, y, t, None)
+    }
+
+    /// [`ShadowMap::prepare`] with the pixel's receiver plane already solved (`plane`:
+    /// [`receiver_plane`]'s value for the view that sees the pixel; `None`: solve it here).
+    #[inline(always)]
+    fn prepare_with(
+        &self,
+        frame: &Frame,
+        x: usize,
+        y: usize,
+        t: &mut impl Trace,
+        plane: Option<(Option<Vec2>, f32)>,
+    ) -> Prepared {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
         let Some(s) = pts[y * w + x] else {
@@ -722,7 +760,7 @@ impl ShadowMap {
         let mut z = z;
         let mut gradient = Vec2::ZERO;
         if o.receiver {
-            let (g, b) = receiver_plane(pts, objs, w, h, x, y, &view.matrix, size);
+            let (g, b) = plane.unwrap_or_else(|| receiver_plane(pts, objs, w, h, x, y, &view.matrix, size));
             if o.filter.pattern().is_some() {
                 gradient = g.unwrap_or(Vec2::ZERO);
             }
