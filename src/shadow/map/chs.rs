@@ -30,7 +30,7 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{DepthToDistance, LightView};
-use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
@@ -223,10 +223,32 @@ impl Chs {
 
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
-        let at = match self.map.prepare(frame, x, y, t) {
-            Prepared::Done(v, n) => return (v, n),
-            Prepared::At(at) => at,
-        };
+        match self.map.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(at) => self.lookup_at(&at, x, y, t),
+        }
+    }
+
+    /// [`Chs::lookup`] of pixels `x .. x + n` of row `y` (`n` at most 4): prepared together
+    /// ([`ShadowMap::prepare4`]: the receiver planes on four lanes), then one at a time, so
+    /// every value and count is the one-pixel lookup's.
+    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
+        let (mut out, mut count) = ([f32::NAN; 4], 0u64);
+        let mut ats = [None; 4];
+        self.map.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count);
+        for (l, at) in ats.iter().enumerate() {
+            if let Some(at) = at {
+                let (v, c) = self.lookup_at(at, x + l, y, &mut NoTrace);
+                (out[l], count) = (v, count + c);
+            }
+        }
+        (out, count)
+    }
+
+    /// [`Chs::lookup`] from its prepared position on.
+    #[inline(always)]
+    fn lookup_at(&self, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = *at;
         if self.width <= 0.0 {
             t.step(|| Step::new("hard", "the light has no width: one 2x2 comparison"));
             let map = &self.map.maps()[at.face].0;
@@ -365,7 +387,7 @@ impl ShadowTechnique for Chs {
             super::pcss::light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
         let t1 = std::time::Instant::now();
         let this = &*self;
-        let (out, taps) = per_pixel_counted(p, frame, |x, y| this.lookup(frame, x, y, &mut NoTrace));
+        let (out, taps) = per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n));
         self.taps = taps;
         self.times = vec![
             ("light pass and min/max chains", (t1 - t0).as_secs_f64() * 1e3),
@@ -440,6 +462,24 @@ mod tests {
     use super::*;
     use crate::hash::SplitMix;
     use crate::shadow::light::LightView;
+
+    /// The lookup pass (four pixels prepared together) gives every pixel the one-pixel
+    /// lookup's value, and the one-pixel taps in all, with and without the receiver plane.
+    #[test]
+    fn four_pixel_lookups_equal_one_pixel_ones() {
+        let sets: [&[(&str, &str)]; 3] = [
+            &[("angle", "3")],
+            &[("angle", "3"), ("receiver", "false"), ("kernel", "3")],
+            &[("light", "0")],
+        ];
+        crate::shadow::map::pcss::tests::assert_lookups(
+            &sets,
+            |pairs| Chs::new(declaration().parse(pairs).unwrap()).unwrap(),
+            |t, f, x, y| t.lookup(f, x, y, &mut NoTrace),
+            |_, _, _, _, _| {},
+            |t| t.taps,
+        );
+    }
 
     #[test]
     fn the_four_lane_search_equals_the_texel_by_texel_one() {
