@@ -95,7 +95,9 @@ pub fn project(m: &Mat4, p: Vec3) -> Option<(Vec2, f32)> {
     if c.w <= 0.0 {
         return None;
     }
-    let ndc = c.truncate() / c.w;
+    // One four-lane divide (the w lane is unused): per lane the same IEEE quotient as the
+    // three scalar ones.
+    let ndc = c / Vec4::splat(c.w);
     Some((Vec2::new(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), ndc.z))
 }
 
