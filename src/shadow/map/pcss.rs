@@ -556,12 +556,8 @@ impl Pcss {
             // Inside the map, `(uv * size) as u32` is the floor.
             let depth = texels4(map, floor4(tu * sz), floor4(tv * sz));
             let blocker = depth.cmplt(r.at(dx, dy)) & inside;
-            // Most taps find no blocker on any lane: adding zeros would leave the sums as they
-            // are (they start at +0 and never become -0), so the distances' divides are skipped.
-            if blocker.any() {
-                sum += Vec4::select(blocker, distance.at4(depth), Vec4::ZERO);
-                found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
-            }
+            sum += Vec4::select(blocker, distance.at4(depth), Vec4::ZERO);
+            found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
         }
         let n = disk.len() as u32;
         for l in 0..4 {
