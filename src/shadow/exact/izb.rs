@@ -847,50 +847,66 @@ impl Izb {
             .map_init(Vec::new, |buf: &mut Vec<CameraSample>, (y, (uvs, rec, meta))| {
                 let mut b = vec![empty; nb];
                 let count = uvs.len();
-                let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
-                    meta[j] = META_NONE;
-                    rec[j] = Rec {
-                        origin: Vec3::ZERO,
-                        triangle: NO_TRIANGLE,
+                // The bounds of the view the last sample fell in, kept in registers (a row's
+                // samples mostly fall in one view; min and max are exact in any order).
+                let mut cur = (usize::MAX, empty);
+                {
+                    let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
+                        let f = light::face_of(nb, &light, s.position);
+                        let seen = if faces_light(&light, s) {
+                            base[f].lookup(s.position)
+                        } else {
+                            None
+                        };
+                        let Some((uv, _)) = seen else {
+                            meta[j] = META_NONE;
+                            rec[j] = Rec {
+                                origin: Vec3::ZERO,
+                                triangle: NO_TRIANGLE,
+                            };
+                            return;
+                        };
+                        if f != cur.0 {
+                            if cur.0 != usize::MAX {
+                                b[cur.0] = cur.1;
+                            }
+                            cur = (f, b[f]);
+                        }
+                        cur.1 = (cur.1 .0.min(uv), cur.1 .1.max(uv));
+                        uvs[j] = uv;
+                        let skip_own = facing.get(triangle as usize).is_some_and(|&(n, lit)| {
+                            let flip = n.dot(s.normal) < 0.0;
+                            lit != flip
+                        });
+                        meta[j] = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
+                        rec[j] = Rec {
+                            // The ray starts where the reference's does: the point moved a few
+                            // ULPs along its normal (Wächter and Binder 2019), a property of
+                            // float numbers, not a bias that depends on the scene or the light.
+                            origin: offset_origin(s.position, s.normal),
+                            triangle: if skip_own { triangle } else { NO_TRIANGLE },
+                        };
                     };
-                    if !faces_light(&light, s) {
-                        return;
-                    }
-                    let f = light::face_of(nb, &light, s.position);
-                    let Some((uv, _)) = base[f].lookup(s.position) else {
-                        return;
-                    };
-                    b[f] = (b[f].0.min(uv), b[f].1.max(uv));
-                    uvs[j] = uv;
-                    let skip_own = facing.get(triangle as usize).is_some_and(|&(n, lit)| {
-                        let flip = n.dot(s.normal) < 0.0;
-                        lit != flip
-                    });
-                    meta[j] = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
-                    rec[j] = Rec {
-                        // The ray starts where the reference's does: the point moved a few
-                        // ULPs along its normal (Wächter and Binder 2019), a property of
-                        // float numbers, not a bias that depends on the scene or the light.
-                        origin: offset_origin(s.position, s.normal),
-                        triangle: if skip_own { triangle } else { NO_TRIANGLE },
-                    };
-                };
-                if k == 1 {
-                    let mut j = 0;
-                    for x in 0..w {
-                        let i = y * w + x;
-                        if let Some(s) = &points[i] {
-                            one(j, s, filler.triangle(i));
-                            j += 1;
+                    if k == 1 {
+                        let mut j = 0;
+                        for x in 0..w {
+                            let i = y * w + x;
+                            if let Some(s) = &points[i] {
+                                one(j, s, filler.triangle(i));
+                                j += 1;
+                            }
+                        }
+                    } else {
+                        buf.clear();
+                        buf.resize(count, CameraSample::default());
+                        filler.row(y, buf);
+                        for (j, c) in buf.iter().enumerate() {
+                            one(j, &c.point, c.triangle);
                         }
                     }
-                } else {
-                    buf.clear();
-                    buf.resize(count, CameraSample::default());
-                    filler.row(y, buf);
-                    for (j, c) in buf.iter().enumerate() {
-                        one(j, &c.point, c.triangle);
-                    }
+                }
+                if cur.0 != usize::MAX {
+                    b[cur.0] = cur.1;
                 }
                 b
             })
