@@ -43,8 +43,13 @@ pub fn receiver_plane(
     let Some(d) = plane_slopes(pts, objs, w, h, x, y, m) else {
         return (None, 0.0);
     };
-    let g = d / size as f32;
-    let b = (d.x.abs() + d.y.abs()) / size as f32;
+    plane_terms(d / size as f32, (d.x.abs() + d.y.abs()) / size as f32)
+}
+
+/// The receiver plane's gradient `g` and bias `b` as lookups use them: no gradient unless
+/// finite, a bias of at most 0.05 (0 unless finite).
+#[inline(always)]
+fn plane_terms(g: Vec2, b: f32) -> (Option<Vec2>, f32) {
     (
         g.is_finite().then_some(g),
         if b.is_finite() { b.min(0.05) } else { 0.0 },
@@ -169,11 +174,7 @@ pub fn receiver_plane4(
             if !solved.test(l) {
                 continue; // (None, 0.0)
             }
-            let g = Vec2::new(gx[l], gy[l]);
-            out[l] = (
-                g.is_finite().then_some(g),
-                if b[l].is_finite() { b[l].min(0.05) } else { 0.0 },
-            );
+            out[l] = plane_terms(Vec2::new(gx[l], gy[l]), b[l]);
         }
     }
     for (l, o) in out.iter_mut().enumerate().take(n.min(4)) {

@@ -668,8 +668,6 @@ unsafe fn columns4(d: &[f32], row: [usize; 4], at: usize) -> [Vec4; 4] {
     ]
 }
 
-/// `lit / total` of four lanes' disk taps at the positions `at` gives for each tap's offsets.
-#[inline(always)]
 /// Four lanes' grid or tent filters of one kernel tap by tap, for references that are not
 /// flat (a receiver plane or bias cone: each tap compares against its own reference, so the
 /// separable path does not apply): [`Kernel::filter`]'s tap-by-tap path of each lane at
@@ -706,6 +704,8 @@ pub fn filter_grid4(
     lane_results(go, value, n)
 }
 
+/// `lit / total` of four lanes' disk taps at the positions `at` gives for each tap's offsets.
+#[inline(always)]
 fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
     let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
     for i in 0..disk.len() {
