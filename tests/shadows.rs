@@ -1330,13 +1330,23 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
     for scene in ["contact", "overlap", "point_casters", "grazing"] {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        for filter in ["grid", "tent", "poisson", "rotated"] {
+        // Across the kernel: the bias cone, and the receiver plane (a sloped reference, which
+        // the plane-residual bounds classify).
+        for (filter, bias) in [
+            ("grid", "cone"),
+            ("tent", "cone"),
+            ("poisson", "cone"),
+            ("rotated", "cone"),
+            ("grid", "receiver"),
+            ("poisson", "receiver"),
+        ] {
             let run = |hierarchy: &str| {
+                let across = if bias == "cone" { ("cone", "2") } else { ("receiver", "true") };
                 let mut t = shadow::create(
                     "shadow-map",
                     &[
                         ("filter".into(), filter.into()),
-                        ("cone".into(), "2".into()),
+                        (across.0.into(), across.1.into()),
                         ("hierarchy".into(), hierarchy.into()),
                     ],
                 )
@@ -1346,8 +1356,8 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
                 (v.hash(), taps)
             };
             let (plain, with) = (run("false"), run("true"));
-            assert_eq!(plain.0, with.0, "{scene} {filter}: same image");
-            assert!(with.1 < plain.1, "{scene} {filter}: taps {} vs {}", with.1, plain.1);
+            assert_eq!(plain.0, with.0, "{scene} {filter} {bias}: same image");
+            assert!(with.1 < plain.1, "{scene} {filter} {bias}: taps {} vs {}", with.1, plain.1);
         }
     }
 }
@@ -1501,17 +1511,24 @@ fn pcss_hierarchy_gives_the_same_image_with_fewer_taps() {
     for scene in ["contact", "overlap", "pergola"] {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        for disk in ["poisson", "spiral"] {
+        for (disk, receiver) in [("poisson", "false"), ("spiral", "false"), ("poisson", "true")] {
             let run = |h: &str| {
-                let mut t =
-                    shadow::create("pcss", &[("disk".into(), disk.into()), ("hierarchy".into(), h.into())]).unwrap();
+                let mut t = shadow::create(
+                    "pcss",
+                    &[
+                        ("disk".into(), disk.into()),
+                        ("receiver".into(), receiver.into()),
+                        ("hierarchy".into(), h.into()),
+                    ],
+                )
+                .unwrap();
                 let v = t.visibility(&p, &f).unwrap();
                 (v.hash(), counter(&*t, "taps"), counter(&*t, "early outs"))
             };
             let (plain, with) = (run("false"), run("true"));
-            assert_eq!(plain.0, with.0, "{scene} {disk}: same image");
-            assert_eq!(plain.2, with.2, "{scene} {disk}: same early outs");
-            assert!(with.1 < plain.1, "{scene} {disk}: taps {} vs {}", with.1, plain.1);
+            assert_eq!(plain.0, with.0, "{scene} {disk} receiver={receiver}: same image");
+            assert_eq!(plain.2, with.2, "{scene} {disk} receiver={receiver}: same early outs");
+            assert!(with.1 < plain.1, "{scene} {disk} receiver={receiver}: taps {} vs {}", with.1, plain.1);
         }
     }
 }

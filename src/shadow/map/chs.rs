@@ -115,11 +115,12 @@ impl Chs {
         declaration().check(&opts)?;
         let map = ShadowMap::new(shadow_map::Options {
             filter: shadow_map::Filter::Grid,
-            // The map's min/max chains are CHS's mip chain.
-            hierarchy: true,
+            hierarchy: false,
             ..opts.map.clone()
         })
-        .map_err(|e| e.replace("'shadow-map'", "'chs'"))?;
+        .map_err(|e| e.replace("'shadow-map'", "'chs'"))?
+        // The map's min/max chains are CHS's mip chain.
+        .with_min_max();
         Ok(Chs {
             opts,
             map,
@@ -141,11 +142,9 @@ impl Chs {
         &chain.levels()[(l - 1).min(chain.level_count() - 1)]
     }
 
-    /// The min/max chains of view `face` (the map builds them: `hierarchy` is on).
+    /// The min/max chains of view `face` (the map builds them: [`ShadowMap::with_min_max`]).
     fn chains(&self, face: usize) -> &MinMax {
-        self.map
-            .hierarchy(face)
-            .expect("the map builds its chains with hierarchy on")
+        self.map.min_max(face).expect("the map builds its min/max chains")
     }
 
     fn levels(&self, face: usize) -> usize {

@@ -25,8 +25,8 @@
 //!
 //! A filter returns `lit / total`, the lit weights summed in the same order as all weights
 //! (and a 2x2 comparison of four passing texels is exactly 1), so a kernel whose taps all pass
-//! returns exactly 1 and one whose taps all fail exactly 0: the hierarchical min/max
-//! classification ([`MinMax`]) can skip the taps and still give the identical result.
+//! returns exactly 1 and one whose taps all fail exactly 0: the hierarchy's classification
+//! ([`super::planes::PlaneChain`]) can skip the taps and still give the identical result.
 
 use crate::choice_enum;
 use crate::hash::SplitMix;
@@ -833,10 +833,10 @@ fn separable<const C: usize>(map: &Surface<f32>, uv: Vec2, z: f32, t: &[f32]) ->
     lit / total
 }
 
-/// Hierarchical min/max shadow map (RTR 7.6): min and max mip chains of a depth map, built by
-/// the pipeline's reduction (from half the map's size down; the map is level 0). A kernel whose highest reference is at or before the minimum
-/// depth of its footprint is fully lit; one whose lowest reference is beyond the maximum is
-/// fully shadowed; either needs one lookup instead of its taps.
+/// Min and max mip chains of a depth map (RTR 7.6's hierarchical min/max shadow map), built
+/// by the pipeline's reduction (from half the map's size down; the map is level 0): the
+/// coarse levels contact-hardening shadows search. (Kernels are classified on
+/// [`super::planes::PlaneChain`], which keeps each block's min and max as well.)
 pub struct MinMax {
     /// The map's size.
     pub size: (u32, u32),
@@ -868,77 +868,6 @@ impl MinMax {
         }
     }
 
-    /// Classifies a kernel of radius `radius` texels at `uv` whose taps compare against `r`:
-    /// from the one level where the footprint (every texel a bilinear tap can read, one texel
-    /// of margin) spans at most 4x4 texels, each of those texels' minimum and maximum depth
-    /// against the range of `r` over the taps that can read it (so a sloped receiver's plane,
-    /// [`Reference::gradient`], does not make every kernel on it mixed). Lit when every texel's
-    /// minimum is at or beyond its highest reference, shadowed when every maximum is before
-    /// its lowest: then every tap passes (fails), the kernel's result is exactly 1 (0). A
-    /// footprint that leaves the map is mixed (its taps meet the border).
-    pub fn classify(&self, uv: Vec2, radius: f32, r: &Reference) -> Class {
-        let (w, h) = (self.size.0 as f32, self.size.1 as f32);
-        let (cx, cy) = (uv.x * w - 0.5, uv.y * h - 0.5);
-        let (x0, x1) = ((cx - radius).floor(), (cx + radius).floor() + 1.0);
-        let (y0, y1) = ((cy - radius).floor(), (cy + radius).floor() + 1.0);
-        // Tap coordinates themselves outside [0, 1] read the border.
-        let (u0, u1) = (uv.x - radius / w, uv.x + radius / w);
-        let (v0, v1) = (uv.y - radius / h, uv.y + radius / h);
-        if !(u0 >= 0.0 && u1 <= 1.0 && v0 >= 0.0 && v1 <= 1.0 && x0.is_finite() && y0.is_finite()) {
-            return Class::Mixed;
-        }
-        let clamp = |v: f32, hi: f32| v.clamp(0.0, hi - 1.0) as u32;
-        let (x0, x1, y0, y1) = (clamp(x0, w), clamp(x1, w), clamp(y0, h), clamp(y1, h));
-        // Level l of the chain is 2^l texels of the map per texel (the chain starts at l = 1).
-        let levels = self.min.level_count();
-        if levels == 0 {
-            return Class::Mixed;
-        }
-        let mut l = 1;
-        while l < levels && ((x1 >> l) - (x0 >> l) > 3 || (y1 >> l) - (y0 >> l) > 3) {
-            l += 1;
-        }
-        let (mn, mx) = (&self.min.levels()[l - 1], &self.max.levels()[l - 1]);
-        let (lw, lh) = (mn.width() - 1, mn.height() - 1);
-        let flat = r.is_flat();
-        // The cone only lowers references, by at most `cone * radius * sqrt 2`.
-        let cone_lo = (r.cone * radius * std::f32::consts::SQRT_2).min(0.0);
-        // Rounding of `Reference::at` against these bounds: a few ulps of margin.
-        let eps = if flat {
-            0.0
-        } else {
-            4.0 * f32::EPSILON * (r.z.abs() + 1.0)
-        };
-        let block = (1u32 << l) as f32;
-        // Offsets (in texels from the kernel's centre) of the tap centres that can read a
-        // texel of block `t` along one axis: the block widened by one texel.
-        let span = |t: u32, c: f32| (t as f32 * block - 1.0 - c, (t as f32 + 1.0) * block + 1.0 - c);
-        let bound = |g: f32, (a, b): (f32, f32)| if g >= 0.0 { (g * a, g * b) } else { (g * b, g * a) };
-        let (mut lit, mut shadowed) = (true, true);
-        for ty in (y0 >> l).min(lh)..=(y1 >> l).min(lh) {
-            let by = bound(r.gradient.y, span(ty, cy + 0.5));
-            for tx in (x0 >> l).min(lw)..=(x1 >> l).min(lw) {
-                let (lo, hi) = if flat {
-                    (r.z, r.z)
-                } else {
-                    let bx = bound(r.gradient.x, span(tx, cx + 0.5));
-                    (r.z + bx.0 + by.0 + cone_lo - eps, r.z + bx.1 + by.1 + eps)
-                };
-                lit &= hi <= mn.at(tx, ty);
-                shadowed &= lo > mx.at(tx, ty);
-                if !(lit || shadowed) {
-                    return Class::Mixed;
-                }
-            }
-        }
-        if lit {
-            Class::Lit
-        } else if shadowed {
-            Class::Shadowed
-        } else {
-            Class::Mixed
-        }
-    }
 }
 
 #[cfg(test)]

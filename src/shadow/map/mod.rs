@@ -7,4 +7,5 @@ pub mod chs;
 pub mod kernel;
 pub mod multi_sample;
 pub mod pcss;
+pub mod planes;
 pub mod shadow_map;

@@ -17,9 +17,11 @@
 //! 3. **Filtering.** A PCF disk of `taps` hardware 2x2 comparisons that wide
 //!    ([`super::kernel`]), with the shadow map's receiver-plane bias and bias cone across it.
 //!
-//! With `hierarchy`, min/max mip chains of the map ([`super::kernel::MinMax`]) classify the
-//! search disk (no blocker or all blockers: one lookup) and the filter disk (fully lit or in
-//! umbra) and skip their taps; the image is identical.
+//! With `hierarchy`, the map's hierarchy ([`super::planes::PlaneChain`]: per block the least
+//! and greatest depth and the depths' bounds around a plane, so that kernels on a sloped
+//! receiver with the receiver-plane bias are classified too) classifies the search disk (no
+//! blocker or all blockers: one lookup) and the filter disk (fully lit or in umbra) and skips
+//! their taps; the image is identical.
 //!
 //! The lookup pass runs four pixels at a time: each is prepared alone, then the searches and
 //! filters of pixels on the same light view run on four lanes (one pixel per lane) with the
@@ -254,9 +256,10 @@ impl Pcss {
             penumbra: 0.0,
             class: Class::Mixed,
         };
-        if let Some(mm) = self.map.hierarchy(at.face) {
+        if let Some(pc) = self.map.planes(at.face) {
             let kernel = self.search_kernel(search);
-            e.class = mm.classify(at.uv, kernel.extent() + 1.0, &at.r);
+            // The search reads the nearest texel of each tap.
+            e.class = pc.classify(at.uv, kernel.extent(), 0.5, &at.r);
             if e.class != Class::Mixed {
                 e.found = if e.class == Class::Shadowed {
                     self.opts.blockers

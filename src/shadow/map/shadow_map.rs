@@ -14,8 +14,8 @@
 //! and texel snapping so camera motion does not move the sampling grid; and the lookup's
 //! filter: one comparison, 2x2 hardware PCF, or a wide PCF kernel of [`super::kernel`] (grid,
 //! tent, Poisson, rotated Poisson, spiral; width in texels or world units; receiver-plane
-//! depth and bias cone across the kernel; min/max hierarchy to skip the taps of kernels fully
-//! lit or shadowed), or the depths filtered before one comparison, the wrong order.
+//! depth and bias cone across the kernel; a hierarchy of the map, [`super::planes`], to skip
+//! the taps of kernels fully lit or shadowed), or the depths filtered before one comparison, the wrong order.
 //!
 //! Known failures: acne without bias, Peter Panning with too much, aliasing where the map is
 //! magnified, shimmering of fitted maps without snapping, light leaks of second-depth maps on
@@ -27,6 +27,7 @@ use super::kernel::{
     axis_weights, filter_disk4, filter_grid4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4,
     MAX_TAPS,
 };
+use super::planes::PlaneChain;
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
@@ -131,8 +132,9 @@ pub struct Options {
     /// Wide filters: bias cone slope (Burley 2006), the reference moved toward the light by
     /// `cone` times each tap's distance from the centre. Default: 0.
     pub cone: f32,
-    /// Wide filters: classify kernels as fully lit or shadowed from min/max mip chains of the
-    /// map and skip their taps (identical result). Default: false.
+    /// Wide filters: classify kernels as fully lit or shadowed from a hierarchy of the map
+    /// (per block the least and greatest depth and the depths' bounds around a plane,
+    /// [`super::planes::PlaneChain`]) and skip their taps (identical result). Default: false.
     pub hierarchy: bool,
 }
 
@@ -220,7 +222,7 @@ macro_rules! shadow_map_fields {
             ),
             Field::new(
                 "hierarchy",
-                "wide filters: skip the taps of kernels a min/max mip chain shows fully lit or shadowed (pays on receivers facing the light; on sloped ones it rarely decides and costs time)",
+                "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides and costs time)",
                 |$x: &mut $o| &mut $($path)+.hierarchy,
             ),
         ]
@@ -326,8 +328,12 @@ pub struct ShadowMap {
     culled: usize,
     /// The fitted view of the last run (directional lights fitted to receivers), for `stages`.
     fitted: Option<LightView>,
-    /// Last run with `hierarchy`: the maps' min/max chains.
+    /// Whether the light pass builds the maps' min/max chains ([`ShadowMap::with_min_max`]).
+    chains: bool,
+    /// Last run with `chains`: the maps' min/max chains.
     minmax: Vec<MinMax>,
+    /// Last run with `hierarchy` and a wide filter: the maps' plane-residual chains.
+    planes: Vec<PlaneChain>,
     /// Last run: bilinear taps of all lookups, and lookups the hierarchy classified.
     taps: u64,
     times: Vec<(&'static str, f64)>,
@@ -349,7 +355,9 @@ impl ShadowMap {
             ids: Vec::new(),
             culled: 0,
             fitted: None,
+            chains: false,
             minmax: Vec::new(),
+            planes: Vec::new(),
             taps: 0,
             times: Vec::new(),
         })
@@ -441,8 +449,12 @@ impl ShadowMap {
             self.maps.push((map, view));
         }
         self.minmax.clear();
-        if o.hierarchy && o.filter.pattern().is_some() {
+        self.planes.clear();
+        if self.chains {
             self.minmax = self.maps.iter().map(|(m, _)| MinMax::new(p, m)).collect();
+        }
+        if o.hierarchy && o.filter.pattern().is_some() {
+            self.planes = self.maps.iter().map(|(m, _)| PlaneChain::new(p, m)).collect();
         }
         Ok(())
     }
@@ -801,7 +813,7 @@ impl ShadowMap {
         })
     }
 
-    /// A wide kernel at a prepared lookup: one lookup in the min/max hierarchy when it
+    /// A wide kernel at a prepared lookup: one lookup in the hierarchy when it
     /// classifies the kernel (fully lit or shadowed), otherwise the kernel's taps.
     #[inline(always)]
     pub(crate) fn filter(&self, at: &At, kernel: &Kernel, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
@@ -817,18 +829,31 @@ impl ShadowMap {
         (f.value, f.taps as u64)
     }
 
-    /// The min/max chains of the last run's maps (with `hierarchy` and a wide filter).
-    pub(crate) fn hierarchy(&self, face: usize) -> Option<&MinMax> {
+    /// The plane-residual chains of the last run's maps (with `hierarchy` and a wide filter).
+    pub(crate) fn planes(&self, face: usize) -> Option<&PlaneChain> {
+        self.planes.get(face)
+    }
+
+    /// The light pass also builds each map's min/max mip chains ([`ShadowMap::min_max`]), for
+    /// techniques that read coarse levels of the map.
+    pub(crate) fn with_min_max(mut self) -> ShadowMap {
+        self.chains = true;
+        self
+    }
+
+    /// The min/max chains of the last run's maps ([`ShadowMap::with_min_max`]).
+    pub(crate) fn min_max(&self, face: usize) -> Option<&MinMax> {
         self.minmax.get(face)
     }
 
-    /// What the min/max chains say of a kernel whose taps lie within `extent` texels of
-    /// `at` (their 2x2 footprints one texel further), reported to `t`; `Mixed` without chains.
+    /// What the hierarchy ([`PlaneChain`]) says of a kernel whose bilinear taps lie within
+    /// `extent` texels of `at` (their 2x2 footprints one texel further), reported to `t`;
+    /// `Mixed` without the hierarchy.
     pub(crate) fn classify(&self, at: &At, extent: f32, t: &mut impl Trace) -> Class {
-        let Some(mm) = self.minmax.get(at.face) else {
+        let Some(pc) = self.planes.get(at.face) else {
             return Class::Mixed;
         };
-        let class = mm.classify(at.uv, extent + 1.0, &at.r);
+        let class = pc.classify(at.uv, extent, 1.0, &at.r);
         let (lo, hi) = at.r.range(extent);
         t.step(|| class_step(lo, hi, class));
         class
@@ -856,11 +881,11 @@ pub(crate) struct At {
     pub r: Reference,
 }
 
-/// `inspect`'s account of a min/max classification.
+/// `inspect`'s account of the hierarchy's classification.
 pub(crate) fn class_step(lo: f32, hi: f32, class: Class) -> Step {
     Step::new(
-        "min/max hierarchy",
-        "the kernel's footprint in the min/max chains: fully lit or shadowed skips the taps",
+        "hierarchy",
+        "the kernel's footprint in the map's blocks (least and greatest depth, and depths around a plane): fully lit or shadowed skips the taps",
     )
     .num("lowest reference", lo)
     .num("highest reference", hi)

@@ -32,8 +32,8 @@
 //!    position jittered inside it (hashed from the pixel and the cell; `jitter=false`: the
 //!    cell centres, which bands, fig. 5.3). Filtered pixels with no volume texel around are
 //!    deep in an umbra: their width is 0 (one comparison).
-//!    Before its taps, a filter's footprint is classified on the map's min/max chains
-//!    (`hierarchy`, the shadow map's [`crate::shadow::map::kernel::MinMax`]): fully lit or
+//!    Before its taps, a filter's footprint is classified on the map's hierarchy
+//!    (`hierarchy`, the shadow map's [`crate::shadow::map::planes::PlaneChain`]): fully lit or
 //!    fully shadowed, its result is exactly 1 or 0 with no tap (not in the text; the same image).
 //! 4. **Noise reduction** (5.3). The filtered pixels are blurred,
 //!    `v = 1/b_s Σ_{i,j = -n_blur/2}^{n_blur/2} S(u + i, v + j) B(u, v, u + i, v + j)` with
@@ -81,7 +81,7 @@ crate::choice_enum! {
 pub struct Options {
     /// The depth map and its bias (the shadow map's options and `layer`; its `filter`,
     /// `kernel`, `world` and `taps` are not used); the mask has the same size. `hierarchy`
-    /// classifies each filter's footprint on the map's min/max chains first and skips the taps
+    /// classifies each filter's footprint on the map's hierarchy first and skips the taps
     /// of one fully lit or fully shadowed (the same image, fewer taps).
     /// Default: the shadow map's defaults with `size=512`, `layer=second` (the text's) and
     /// `hierarchy=true`.
@@ -391,7 +391,7 @@ impl Pvmf {
     }
 
     /// Steps 3's filter at a prepared lookup: `n_pcf²` jittered 2x2 comparisons over `w`
-    /// texels, unless the min/max chains decide the footprint; returns the visibility and the
+    /// texels, unless the map's hierarchy decides the footprint; returns the visibility and the
     /// taps taken.
     fn filter(&self, at: &At, w: f32, x: usize, y: usize, t: &mut impl Trace) -> (f32, u32) {
         // Every tap lies within w / 2 texels of the centre.
