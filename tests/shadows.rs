@@ -1341,7 +1341,11 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
             ("poisson", "receiver"),
         ] {
             let run = |hierarchy: &str| {
-                let across = if bias == "cone" { ("cone", "2") } else { ("receiver", "true") };
+                let across = if bias == "cone" {
+                    ("cone", "2")
+                } else {
+                    ("receiver", "true")
+                };
                 let mut t = shadow::create(
                     "shadow-map",
                     &[
@@ -1357,7 +1361,12 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
             };
             let (plain, with) = (run("false"), run("true"));
             assert_eq!(plain.0, with.0, "{scene} {filter} {bias}: same image");
-            assert!(with.1 < plain.1, "{scene} {filter} {bias}: taps {} vs {}", with.1, plain.1);
+            assert!(
+                with.1 < plain.1,
+                "{scene} {filter} {bias}: taps {} vs {}",
+                with.1,
+                plain.1
+            );
         }
     }
 }
@@ -1528,7 +1537,12 @@ fn pcss_hierarchy_gives_the_same_image_with_fewer_taps() {
             let (plain, with) = (run("false"), run("true"));
             assert_eq!(plain.0, with.0, "{scene} {disk} receiver={receiver}: same image");
             assert_eq!(plain.2, with.2, "{scene} {disk} receiver={receiver}: same early outs");
-            assert!(with.1 < plain.1, "{scene} {disk} receiver={receiver}: taps {} vs {}", with.1, plain.1);
+            assert!(
+                with.1 < plain.1,
+                "{scene} {disk} receiver={receiver}: taps {} vs {}",
+                with.1,
+                plain.1
+            );
         }
     }
 }

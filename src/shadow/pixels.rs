@@ -65,6 +65,22 @@ pub fn per_pixel_map<T: Copy + Default + Send>(
     out
 }
 
+/// [`per_pixel_counted`] a row at a time: `f(y, row)` writes every value of row `y` and
+/// returns its count. Each pixel's value must still depend on that pixel alone (a row may
+/// group its pixels' work in any way), so the image is the one-pixel pass's for any thread
+/// count.
+pub fn per_row_counted<T: Copy + Send>(
+    p: &Pipeline,
+    frame: &Frame,
+    init: T,
+    f: impl Fn(usize, &mut [T]) -> u64 + Sync,
+) -> (Vec<T>, u64) {
+    let w = frame.width() as usize;
+    let mut out = vec![init; w * frame.height() as usize];
+    let total = p.install(|| out.par_chunks_mut(w).enumerate().map(|(y, row)| f(y, row)).sum::<u64>());
+    (out, total)
+}
+
 /// [`per_pixel_counted`] four pixels at a time, for lookups that run on four lanes:
 /// `f(x, y, n)` gives the values of pixels `x .. x + n` of row `y` (`n` is 4, or fewer at a
 /// row's end; lanes past `n` are ignored) and their count. Each pixel's value must still

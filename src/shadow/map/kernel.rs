@@ -867,7 +867,6 @@ impl MinMax {
             max,
         }
     }
-
 }
 
 #[cfg(test)]

@@ -20,10 +20,11 @@
 //! bounds its depths more tightly.
 //!
 //! A classification looks at the first level whose blocks cut the kernel's footprint into at
-//! most 2 x 2 and tests the four blocks on four lanes, each with both tests: the plain
-//! min/max (exact for a flat reference, a few ulps of margin for a sloped one, as RTR's
-//! hierarchy) or the plane's bounds (a margin of 256 float epsilons of the magnitudes
-//! involved, far above the rounding of the chain and of [`Reference::at`]). A classified
+//! most 2 x 2 and tests the four blocks on four lanes: lit where each block passes the plain
+//! min/max test (exact for a flat reference, a few ulps of margin for a sloped one, as RTR's
+//! hierarchy) or the plane's bound (a margin of 256 float epsilons of the magnitudes
+//! involved, far above the rounding of the chain and of [`Reference::at`]); shadowed where
+//! each block passes the plain test or the plane's (`hi + max (P - r) < 0`). A classified
 //! kernel's taps all pass (all fail) exactly, so the filter's result, exactly 1 or 0 (see
 //! [`super::kernel`]), is the one the taps give.
 //!
@@ -108,8 +109,8 @@ pub struct Level {
 }
 
 /// A level's blocks as the classification reads them: per block the plane's lowest and
-/// highest offsets `c + lo` and `c + hi`, its slopes, and the magnitude `|c| + |lo| + |hi|`
-/// (for the rounding margin), one array each, rows `width + 1` long with one more row, the
+/// highest offsets `c + lo` and `c + hi`, its slopes, the magnitude `|c| + |lo| + |hi|` (for the rounding margin) and the
+/// least and greatest depth, one array each, rows `width + 1` long with one more row, the
 /// extra entries bounding nothing, so that two neighbouring blocks of two neighbouring rows
 /// are always four in-bounds reads.
 struct Tables {
@@ -213,11 +214,11 @@ impl PlaneChain {
     /// (0.5 for a nearest-texel read, 1 for a bilinear one), comparing against `r`: lit when
     /// every tap passes (its depths at or beyond its reference), shadowed when every tap fails.
     ///
-    /// It looks at the first level whose blocks cut the footprint into at most 2 x 2 and
-    /// bounds `P - r` of each of those blocks over the whole footprint (a box around `uv`), the
-    /// four blocks on four lanes. It asks of every block a margin of 256 float epsilons of the
-    /// magnitudes involved, far above the rounding of the chain, of this bound and of
-    /// [`Reference::at`]. A footprint that leaves the map is mixed (its taps meet the border).
+    /// It looks at the first level whose blocks cut the footprint into at most 2 x 2 and tests those blocks on four lanes (see the module docs): for
+    /// lit, a block's least depth or its plane's bound `P - r` over the whole footprint (a box
+    /// around `uv`), with a margin of 256 float epsilons of the magnitudes involved; for
+    /// shadowed, its greatest depth or the plane's bound. A footprint that leaves the map is mixed (its taps meet
+    /// the border).
     #[inline]
     pub fn classify(&self, uv: Vec2, radius: f32, reach: f32, r: &Reference) -> Class {
         let (w, h) = self.size;
@@ -269,7 +270,6 @@ impl PlaneChain {
         let eps =
             Vec4::splat(256.0 * f32::EPSILON) * (Vec4::splat(base) + t.quad(&t.mag, j) + tx.abs() + ty.abs() + spread);
         let lit = ((t.quad(&t.low, j) + tx) + ty) - Vec4::splat(r.z + read + up) - spread;
-        let shadowed = ((t.quad(&t.high, j) + tx) + ty) - Vec4::splat(r.z - read - down) + spread;
         // The plain min/max test: every tap's reference against the blocks' least and greatest
         // depth (exact for a flat reference, a few ulps of margin otherwise).
         let (r_lo, r_hi) = if r.is_flat() {
@@ -280,7 +280,8 @@ impl PlaneChain {
             (r.z - across - down - margin, r.z + across + up + margin)
         };
         let lit = lit.cmpge(eps) | Vec4::splat(r_hi).cmple(t.quad(&t.min, j));
-        let shadowed = shadowed.cmplt(-eps) | Vec4::splat(r_lo).cmpgt(t.quad(&t.max, j));
+        let shadowed = (((t.quad(&t.high, j) + tx) + ty) - Vec4::splat(r.z - read - down) + spread).cmplt(-eps)
+            | Vec4::splat(r_lo).cmpgt(t.quad(&t.max, j));
         if (lit | idle).all() {
             Class::Lit
         } else if (shadowed | idle).all() {
@@ -645,7 +646,12 @@ mod tests {
                             };
                             for depth in reads {
                                 let passes = r.at(d) <= depth;
-                                assert_eq!(passes, class == Class::Lit, "{class:?} tap {d} depth {depth} reference {}", r.at(d));
+                                assert_eq!(
+                                    passes,
+                                    class == Class::Lit,
+                                    "{class:?} tap {d} depth {depth} reference {}",
+                                    r.at(d)
+                                );
                             }
                         }
                     }

@@ -34,7 +34,7 @@ use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSample
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, fitted_overview, merged_casters, DepthPass, LightView};
-use crate::shadow::pixels::per_pixel4_counted;
+use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
@@ -520,6 +520,52 @@ impl ShadowMap {
         (out, count)
     }
 
+    /// [`ShadowMap::lookup`] of every pixel of row `y` into `row`, for wide filters with the
+    /// hierarchy: each pixel is prepared and classified, and the pixels the hierarchy leaves
+    /// mixed are queued per light view and filtered four at a time, so that every group of
+    /// lanes is full (a pixel the hierarchy decides frees its lane for the next mixed one)
+    /// and each lane runs the one-pixel operations. Returns the row's count.
+    fn lookup_row(&self, frame: &Frame, y: usize, pattern: Pattern, row: &mut [f32]) -> u64 {
+        let mut count = 0u64;
+        let mut queues = vec![Queued::default(); self.maps.len()];
+        let flush = |face: usize, q: &mut Queued, row: &mut [f32], count: &mut u64| {
+            let mut out = [f32::NAN; 4];
+            self.filter_lanes(face, &q.ats, q.kernels, q.xs, y, &mut out, count);
+            for l in 0..q.n {
+                row[q.xs[l] as usize] = out[l];
+            }
+            *q = Queued::default();
+        };
+        for x in (0..row.len()).step_by(4) {
+            let n = (row.len() - x).min(4);
+            let (mut ats, mut out) = ([None; 4], [f32::NAN; 4]);
+            self.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count);
+            for l in 0..n {
+                let Some(at) = ats[l] else {
+                    row[x + l] = out[l];
+                    continue;
+                };
+                let kernel = self.kernel_at(frame, &at, pattern);
+                if let Some((v, c)) = self.decide(&at, &kernel) {
+                    (row[x + l], count) = (v, count + c);
+                    continue;
+                }
+                let q = &mut queues[at.face];
+                (q.ats[q.n], q.kernels[q.n], q.xs[q.n]) = (Some(at), Some(kernel), (x + l) as u32);
+                q.n += 1;
+                if q.n == 4 {
+                    flush(at.face, q, row, &mut count);
+                }
+            }
+        }
+        for (face, q) in queues.iter_mut().enumerate() {
+            if q.n > 0 {
+                flush(face, q, row, &mut count);
+            }
+        }
+        count
+    }
+
     /// Prepares pixels `x .. x + n` of row `y` for a four-lane lookup: the pixels decided
     /// without filtering are written to `out` and counted, the others to `ats`; the light
     /// view of the first of those, `None` if there is none. (Pixels on another view, at a
@@ -585,30 +631,55 @@ impl ShadowMap {
         out: &mut [f32; 4],
         count: &mut u64,
     ) {
-        let map = &self.maps[face].0;
         for l in 0..4 {
-            let (Some(at), Some(kernel)) = (&ats[l], kernels[l]) else {
+            let (Some(at), Some(kernel)) = (&ats[l], &kernels[l]) else {
                 continue;
             };
-            let decided = match self.classify(at, kernel.extent(), &mut NoTrace) {
-                Class::Lit => Some((1.0, 1)),
-                Class::Shadowed => Some((0.0, 1)),
-                // Outside the map: lit, no taps (as `Kernel::filter`).
-                Class::Mixed if !(at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmple(Vec2::ONE).all()) => Some((1.0, 0)),
-                Class::Mixed => None,
-            };
-            if let Some((v, c)) = decided {
+            if let Some((v, c)) = self.decide(at, kernel) {
                 (out[l], *count) = (v, *count + c);
                 kernels[l] = None;
             }
         }
+        let xs = std::array::from_fn(|l| (x + l) as u32);
+        self.filter_lanes(face, ats, kernels, xs, y, out, count);
+    }
+
+    /// A wide kernel decided without its taps: by the hierarchy (lit or shadowed: one
+    /// lookup), or outside the map (lit, no taps, as `Kernel::filter`).
+    #[inline(always)]
+    fn decide(&self, at: &At, kernel: &Kernel) -> Option<(f32, u64)> {
+        match self.classify(at, kernel.extent(), &mut NoTrace) {
+            Class::Lit => Some((1.0, 1)),
+            Class::Shadowed => Some((0.0, 1)),
+            Class::Mixed if !(at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmple(Vec2::ONE).all()) => Some((1.0, 0)),
+            Class::Mixed => None,
+        }
+    }
+
+    /// The taps of the lanes with a kernel, all prepared on view `face`, lane `l` the pixel in
+    /// column `xs[l]` of row `y` (any columns: each lane's value depends on its pixel alone):
+    /// disks, and grids and tents of one size whose lanes are all flat (separable) or all not
+    /// (tap by tap), on four lanes (each lane with the one-pixel operations); anything else one
+    /// by one. Values go to `out`, taps to `count`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn filter_lanes(
+        &self,
+        face: usize,
+        ats: &[Option<At>; 4],
+        kernels: [Option<Kernel>; 4],
+        xs: [u32; 4],
+        y: usize,
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) {
+        let map = &self.maps[face].0;
         let go: [bool; 4] = kernels.map(|k| k.is_some());
         let Some(first) = kernels.iter().flatten().next().copied() else {
             return;
         };
         let lane = |f: &dyn Fn(&At) -> f32| Vec4::from_array(std::array::from_fn(|l| ats[l].as_ref().map_or(0.0, f)));
         let (u, v) = (lane(&|a| a.uv.x), lane(&|a| a.uv.y));
-        let xs = std::array::from_fn(|l| (x + l) as u32);
         match first.pattern {
             Pattern::Grid | Pattern::Tent
                 if (0..4).all(|l| {
@@ -860,6 +931,16 @@ impl ShadowMap {
     }
 }
 
+/// Pixels of a row queued for one four-lane filter ([`ShadowMap::lookup_row`]): how many,
+/// their prepared lookups, kernels and columns.
+#[derive(Copy, Clone, Default)]
+struct Queued {
+    n: usize,
+    ats: [Option<At>; 4],
+    kernels: [Option<Kernel>; 4],
+    xs: [u32; 4],
+}
+
 /// A lookup prepared up to its filter ([`ShadowMap::prepare`]).
 pub(crate) enum Prepared {
     /// Decided without filtering: the value and the taps it took.
@@ -951,7 +1032,13 @@ impl ShadowTechnique for ShadowMap {
         let t1 = std::time::Instant::now();
         // Pass 2: one lookup per camera pixel.
         let this = &*self;
-        let (out, taps) = per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n));
+        let (out, taps) = match self.opts.filter.pattern() {
+            // The hierarchy decides some pixels of a row: the others fill the lanes.
+            Some(pattern) if !self.planes.is_empty() && pattern != Pattern::DepthBilinear => {
+                per_row_counted(p, frame, f32::NAN, |y, row| this.lookup_row(frame, y, pattern, row))
+            }
+            _ => per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n)),
+        };
         self.taps = taps;
         self.times = vec![
             ("light pass", (t1 - t0).as_secs_f64() * 1e3),
@@ -1046,7 +1133,8 @@ mod tests {
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
         use crate::shadow::map::pcss::tests::assert_lookups;
-        let sets: [&[(&str, &str)]; 9] = [
+        // The hierarchy's sets take the row pass (mixed pixels queued into full lane groups).
+        let sets: [&[(&str, &str)]; 11] = [
             &[("filter", "grid"), ("kernel", "5")],
             &[("filter", "tent"), ("kernel", "5"), ("cone", "0.5"), ("size", "256")],
             &[("filter", "tent"), ("kernel", "3"), ("size", "128")],
@@ -1055,6 +1143,13 @@ mod tests {
             &[("filter", "poisson"), ("kernel", "6"), ("cone", "1")],
             &[("filter", "rotated"), ("world", "0.05")],
             &[("filter", "spiral"), ("taps", "9"), ("hierarchy", "true")],
+            &[("filter", "grid"), ("receiver", "true"), ("hierarchy", "true")],
+            &[
+                ("filter", "rotated"),
+                ("kernel", "4"),
+                ("receiver", "true"),
+                ("hierarchy", "true"),
+            ],
             &[("filter", "pcf2")],
         ];
         assert_lookups(
