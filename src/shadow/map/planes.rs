@@ -219,7 +219,6 @@ impl PlaneChain {
     /// around `uv`), with a margin of 256 float epsilons of the magnitudes involved; for
     /// shadowed, its greatest depth or the plane's bound. A footprint that leaves the map is mixed (its taps meet
     /// the border).
-    #[inline]
     pub fn classify(&self, uv: Vec2, radius: f32, reach: f32, r: &Reference) -> Class {
         let (w, h) = self.size;
         let (fw, fh) = (w as f32, h as f32);

@@ -515,7 +515,10 @@ impl ShadowMap {
                 *a = None;
             }
         }
-        let kernels = ats.map(|a| a.map(|at| self.kernel_at(frame, &at, pattern)));
+        let mut kernels = [None; 4];
+        for (k, a) in kernels.iter_mut().zip(&ats) {
+            *k = a.map(|at| self.kernel_at(frame, &at, pattern));
+        }
         self.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
         (out, count)
     }
