@@ -173,6 +173,18 @@ impl Tables {
 }
 
 impl Level {
+    /// The level of `blocks` (row-major, `width` x `height`), each `block` texels wide, with
+    /// its classification tables (made in `p`'s thread pool).
+    fn new(p: &Pipeline, block: u32, (width, height): (u32, u32), blocks: Vec<Block>) -> Level {
+        Level {
+            block,
+            width,
+            height,
+            tables: p.install(|| Tables::new(&blocks, width, height)),
+            blocks,
+        }
+    }
+
     /// Block `(x, y)`.
     #[inline(always)]
     pub fn at(&self, x: u32, y: u32) -> &Block {
@@ -317,17 +329,11 @@ fn finest(p: &Pipeline, map: &Surface<f32>) -> Level {
             }
         })
     });
-    Level {
-        block: b,
-        width: nw,
-        height: nh,
-        tables: p.install(|| Tables::new(&blocks, nw, nh)),
-        blocks,
-    }
+    Level::new(p, b, (nw, nh), blocks)
 }
 
-/// A block of the finest level at the map's last row or column (fewer than 4x4 texels):
-/// [`full4`]'s plane and residuals, one texel at a time.
+/// A block of the finest level at the map's last row or column (fewer than 8x8 texels):
+/// [`full8`]'s plane and residuals, one texel at a time.
 fn partial(d: &[f32], w: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> Block {
     let mx = 0.5 * (x0 + x1) as f32;
     let my = 0.5 * (y0 + y1) as f32;
@@ -508,13 +514,7 @@ fn coarser(p: &Pipeline, below: &Level, (w, h): (u32, u32)) -> Level {
             }
         })
     });
-    Level {
-        block: b,
-        width: nw,
-        height: nh,
-        tables: p.install(|| Tables::new(&blocks, nw, nh)),
-        blocks,
-    }
+    Level::new(p, b, (nw, nh), blocks)
 }
 
 #[cfg(test)]
