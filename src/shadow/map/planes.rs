@@ -109,10 +109,10 @@ pub struct Level {
 }
 
 /// A level's blocks as the classification reads them: per block the plane's lowest and
-/// highest offsets `c + lo` and `c + hi`, its slopes, the magnitude `|c| + |lo| + |hi|` (for the rounding margin) and the
-/// least and greatest depth, one array each, rows `width + 1` long with one more row, the
-/// extra entries bounding nothing, so that two neighbouring blocks of two neighbouring rows
-/// are always four in-bounds reads.
+/// highest offsets `c + lo` and `c + hi`, its slopes, the magnitude `|c| + |lo| + |hi|` (for
+/// the rounding margin) and the least and greatest depth, one array each, rows `width + 1`
+/// long with one more row, the extra entries bounding nothing, so that two neighbouring
+/// blocks of two neighbouring rows are always four in-bounds reads.
 struct Tables {
     stride: usize,
     low: Vec<f32>,

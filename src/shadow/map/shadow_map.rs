@@ -15,7 +15,8 @@
 //! filter: one comparison, 2x2 hardware PCF, or a wide PCF kernel of [`super::kernel`] (grid,
 //! tent, Poisson, rotated Poisson, spiral; width in texels or world units; receiver-plane
 //! depth and bias cone across the kernel; a hierarchy of the map, [`super::planes`], to skip
-//! the taps of kernels fully lit or shadowed), or the depths filtered before one comparison, the wrong order.
+//! the taps of kernels fully lit or shadowed), or the depths filtered before one comparison,
+//! the wrong order.
 //!
 //! Known failures: acne without bias, Peter Panning with too much, aliasing where the map is
 //! magnified, shimmering of fitted maps without snapping, light leaks of second-depth maps on
