@@ -226,11 +226,11 @@ impl PlaneChain {
     /// (0.5 for a nearest-texel read, 1 for a bilinear one), comparing against `r`: lit when
     /// every tap passes (its depths at or beyond its reference), shadowed when every tap fails.
     ///
-    /// It looks at the first level whose blocks cut the footprint into at most 2 x 2 and tests those blocks on four lanes (see the module docs): for
-    /// lit, a block's least depth or its plane's bound `P - r` over the whole footprint (a box
-    /// around `uv`), with a margin of 256 float epsilons of the magnitudes involved; for
-    /// shadowed, its greatest depth or the plane's bound. A footprint that leaves the map is mixed (its taps meet
-    /// the border).
+    /// It looks at the first level whose blocks cut the footprint into at most 2 x 2 and tests
+    /// those blocks on four lanes (see the module docs): for lit, a block's least depth or its
+    /// plane's bound `P - r` over the whole footprint (a box around `uv`), with a margin of 256
+    /// float epsilons of the magnitudes involved; for shadowed, its greatest depth or the
+    /// plane's bound. A footprint that leaves the map is mixed (its taps meet the border).
     pub fn classify(&self, uv: Vec2, radius: f32, reach: f32, r: &Reference) -> Class {
         let (w, h) = self.size;
         let (fw, fh) = (w as f32, h as f32);
