@@ -24,7 +24,8 @@
 //! min/max test (exact for a flat reference, a few ulps of margin for a sloped one, as RTR's
 //! hierarchy) or the plane's bound (a margin of 256 float epsilons of the magnitudes
 //! involved, far above the rounding of the chain and of [`Reference::at`]); shadowed where
-//! each block passes the plain test or the plane's (`hi + max (P - r) < 0`). A classified
+//! each block passes the plain test or the plane's (`hi + max (P - r) < 0`). A flat
+//! reference takes the plain test alone. A classified
 //! kernel's taps all pass (all fail) exactly, so the filter's result, exactly 1 or 0 (see
 //! [`super::kernel`]), is the one the taps give.
 //!
@@ -265,6 +266,19 @@ impl PlaneChain {
         let (two_x, two_y) = ((x1 >> s) > bx, (y1 >> s) > by);
         let idle = glam::BVec4A::new(false, !two_x, !two_y, !(two_x && two_y));
         let j = by as usize * t.stride + bx as usize;
+        if r.is_flat() {
+            // Every tap compares against `z` exactly: the plain min/max test, without margin.
+            // (A block's plane could only bound the footprint's part of a sloped block more
+            // tightly, which a flat reference on a receiver seldom needs.)
+            let z = Vec4::splat(r.z);
+            return if (z.cmple(t.quad(&t.min, j)) | idle).all() {
+                Class::Lit
+            } else if (z.cmpgt(t.quad(&t.max, j)) | idle).all() {
+                Class::Shadowed
+            } else {
+                Class::Mixed
+            };
+        }
         let (gx, gy) = (t.quad(&t.gx, j), t.quad(&t.gy, j));
         let tx = gx * (Vec4::splat(qx) - Vec4::new(mx0, mx1, mx0, mx1));
         let ty = gy * (Vec4::splat(qy) - Vec4::new(my0, my0, my1, my1));
