@@ -368,21 +368,51 @@ impl CompareSampler {
 /// computation (`y * width + x`) instead of four scalar ones, then four loads.
 #[inline(always)]
 pub fn texels4(s: &Surface<f32>, x: Vec4, y: Vec4) -> Vec4 {
-    let (w, h) = (s.width(), s.height());
+    texels_at4(s, Indices4::new(s, x, y))
+}
+
+/// The texel indices that [`texels4`] reads at `(x, y)` (clamped into surface `s`), made
+/// ahead of their loads: a loop that makes a batch of them first and loads them after keeps
+/// many loads in flight at once.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct Indices4([u32; 4]);
+
+impl Indices4 {
+    /// [`texels4`]'s indices at whole-number coordinates `(x, y)` of surface `s`.
+    #[inline(always)]
+    pub fn new(s: &Surface<f32>, x: Vec4, y: Vec4) -> Indices4 {
+        let (w, h) = (s.width(), s.height());
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+        {
+            use std::arch::x86_64::*;
+            // Clamped in float as `index4` does (`maxps` maps NaN to 0).
+            let cx = Vec4::splat((w - 1) as f32).min(x.max(Vec4::ZERO));
+            let cy = Vec4::splat((h - 1) as f32).min(y.max(Vec4::ZERO));
+            // SAFETY: SSE4.1 is enabled for this build; w * h < 2^31 (see `lane_indices`).
+            unsafe {
+                let i = _mm_add_epi32(
+                    _mm_mullo_epi32(_mm_cvttps_epi32(cy.into()), _mm_set1_epi32(w as i32)),
+                    _mm_cvttps_epi32(cx.into()),
+                );
+                Indices4(std::mem::transmute::<__m128i, [u32; 4]>(i))
+            }
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+        {
+            let (xs, ys) = (index4(x, w as i64 - 1), index4(y, h as i64 - 1));
+            Indices4(std::array::from_fn(|k| (ys[k] * w as usize + xs[k]) as u32))
+        }
+    }
+}
+
+/// The texels of surface `s` at indices `i` made for it.
+#[inline(always)]
+pub fn texels_at4(s: &Surface<f32>, i: Indices4) -> Vec4 {
     let d = s.data();
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
-    {
-        // Clamped in float as `index4` does (`maxps` maps NaN to 0).
-        let cx = Vec4::splat((w - 1) as f32).min(x.max(Vec4::ZERO));
-        let cy = Vec4::splat((h - 1) as f32).min(y.max(Vec4::ZERO));
-        let i = lane_indices(cx, cy, w);
-        Vec4::new(texel(d, i[0]), texel(d, i[1]), texel(d, i[2]), texel(d, i[3]))
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
-    {
-        let (xs, ys) = (index4(x, w as i64 - 1), index4(y, h as i64 - 1));
-        Vec4::from_array(std::array::from_fn(|k| texel(d, ys[k] * w as usize + xs[k])))
-    }
+    // The indices lie in the surface (clamped when made); checked here as well, since an
+    // `Indices4` made for a larger surface could be passed.
+    let at = |k: usize| d[i.0[k] as usize];
+    Vec4::new(at(0), at(1), at(2), at(3))
 }
 
 /// The texel indices `y * w + x` of four lanes of whole, in-surface coordinates, computed on

@@ -44,7 +44,7 @@ use super::kernel::{Class, Kernel, Pattern, Reference, Reference4, MAX_TAPS};
 use super::shadow_map::{self, At, Prepared, ShadowMap};
 use crate::choice_enum;
 use crate::frame::Frame;
-use crate::pipeline::sampler::texels4;
+use crate::pipeline::sampler::{texels_at4, Indices4};
 use crate::pipeline::wide::floor4;
 use crate::pipeline::{Pipeline, Surface};
 use crate::scene::LightKind;
@@ -52,7 +52,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{DepthToDistance, LightView};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
-use glam::{Vec2, Vec4};
+use glam::{BVec4A, Vec2, Vec4};
 
 choice_enum! {
     /// The disk PCSS searches and filters with.
@@ -552,15 +552,29 @@ impl Pcss {
         let (u, v) = (Vec4::from_array(u), Vec4::from_array(v));
         let r = Reference4::new(refs);
         let (mut sum, mut found) = (Vec4::ZERO, Vec4::ZERO);
-        for i in 0..disk.len() {
-            let (dx, dy) = disk.tap(i);
-            let (tu, tv) = (u + dx * inv, v + dy * inv);
-            let inside = tu.cmpge(Vec4::ZERO) & tu.cmplt(Vec4::ONE) & tv.cmpge(Vec4::ZERO) & tv.cmplt(Vec4::ONE);
-            // Inside the map, `(uv * size) as u32` is the floor.
-            let depth = texels4(map, floor4(tu * sz), floor4(tv * sz));
-            let blocker = depth.cmplt(r.at(dx, dy)) & inside;
-            sum += Vec4::select(blocker, distance.at4(depth), Vec4::ZERO);
-            found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
+        // Taps in batches: first every tap's texel, reference and inside test, then the
+        // loads and sums in tap order (the loads no longer wait behind the arithmetic).
+        const BATCH: usize = 16;
+        let mut taps = [(Indices4::default(), Vec4::ZERO, BVec4A::FALSE); BATCH];
+        for first in (0..disk.len()).step_by(BATCH) {
+            let batch = &mut taps[..BATCH.min(disk.len() - first)];
+            for (j, t) in batch.iter_mut().enumerate() {
+                let (dx, dy) = disk.tap(first + j);
+                let (tu, tv) = (u + dx * inv, v + dy * inv);
+                let inside = tu.cmpge(Vec4::ZERO) & tu.cmplt(Vec4::ONE) & tv.cmpge(Vec4::ZERO) & tv.cmplt(Vec4::ONE);
+                // Inside the map, `(uv * size) as u32` is the floor.
+                *t = (
+                    Indices4::new(map, floor4(tu * sz), floor4(tv * sz)),
+                    r.at(dx, dy),
+                    inside,
+                );
+            }
+            for &(at, reference, inside) in batch.iter() {
+                let depth = texels_at4(map, at);
+                let blocker = depth.cmplt(reference) & inside;
+                sum += Vec4::select(blocker, distance.at4(depth), Vec4::ZERO);
+                found += Vec4::select(blocker, Vec4::ONE, Vec4::ZERO);
+            }
         }
         let n = disk.len() as u32;
         for l in 0..4 {
