@@ -708,12 +708,21 @@ pub fn filter_grid4(
 #[inline(always)]
 fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, Vec4) -> (Vec4, Vec4)) -> Vec4 {
     let (mut lit, mut total) = (Vec4::ZERO, Vec4::ZERO);
-    for i in 0..disk.len() {
-        let (dx, dy) = disk.tap(i);
-        let (u, v) = at(dx, dy);
-        // Disk taps weigh 1: `lit += 1 * c` is `lit += c`, and `total += 1`.
-        lit += bilinear_compare4(map, u, v, r.at(dx, dy));
-        total += Vec4::ONE;
+    // Taps in batches: positions and references first, then the comparisons in tap order.
+    const BATCH: usize = 16;
+    let mut taps = [(Vec4::ZERO, Vec4::ZERO, Vec4::ZERO); BATCH];
+    for first in (0..disk.len()).step_by(BATCH) {
+        let batch = &mut taps[..BATCH.min(disk.len() - first)];
+        for (j, t) in batch.iter_mut().enumerate() {
+            let (dx, dy) = disk.tap(first + j);
+            let (u, v) = at(dx, dy);
+            *t = (u, v, r.at(dx, dy));
+        }
+        for &(u, v, reference) in batch.iter() {
+            // Disk taps weigh 1: `lit += 1 * c` is `lit += c`, and `total += 1`.
+            lit += bilinear_compare4(map, u, v, reference);
+            total += Vec4::ONE;
+        }
     }
     lit / total
 }
