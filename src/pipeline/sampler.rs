@@ -405,6 +405,40 @@ impl Indices4 {
     }
 }
 
+impl Indices4 {
+    /// The indices `y * width + x` of surface `s` for the lanes of `keep`, whose `(x, y)`
+    /// must lie in the surface (then truncation is the floor), and 0 for the others: for a
+    /// loop whose lanes outside the surface read a texel they then ignore.
+    #[inline(always)]
+    pub fn kept(s: &Surface<f32>, x: Vec4, y: Vec4, keep: BVec4A) -> Indices4 {
+        let w = s.width();
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE4.1 is enabled for this build; kept lanes' indices are below
+            // w * h < 2^31 (see `lane_indices`), the others are masked to 0.
+            unsafe {
+                let i = _mm_add_epi32(
+                    _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
+                    _mm_cvttps_epi32(x.into()),
+                );
+                let i = _mm_and_si128(i, _mm_castps_si128(keep.into()));
+                Indices4(std::mem::transmute::<__m128i, [u32; 4]>(i))
+            }
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+        {
+            Indices4(std::array::from_fn(|k| {
+                if keep.test(k) {
+                    y[k] as u32 * w + x[k] as u32
+                } else {
+                    0
+                }
+            }))
+        }
+    }
+}
+
 /// The texels of surface `s` at indices `i` made for it.
 #[inline(always)]
 pub fn texels_at4(s: &Surface<f32>, i: Indices4) -> Vec4 {

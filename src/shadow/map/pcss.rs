@@ -552,22 +552,40 @@ impl Pcss {
         let (u, v) = (Vec4::from_array(u), Vec4::from_array(v));
         let r = Reference4::new(refs);
         let (mut sum, mut found) = (Vec4::ZERO, Vec4::ZERO);
+        // For a power-of-two size, a tap's texel coordinate `(u + d / size) * size` is
+        // exactly `u * size + d`: the reciprocal and the scalings by `size` are exact, and
+        // scaling by a power of two commutes with rounding (a sum below the normal range is
+        // exact). So the texel (the truncation, inside the map) and the inside test are the
+        // same, for two multiplies and the floors less per tap (maps are square; the test
+        // keeps to them).
+        let texel_units = map.width().is_power_of_two() && map.height() == map.width();
+        let (us, vs) = (u * sz, v * sz);
         // Taps in batches: first every tap's texel, reference and inside test, then the
         // loads and sums in tap order (the loads no longer wait behind the arithmetic).
         const BATCH: usize = 16;
         let mut taps = [(Indices4::default(), Vec4::ZERO, BVec4A::FALSE); BATCH];
         for first in (0..disk.len()).step_by(BATCH) {
             let batch = &mut taps[..BATCH.min(disk.len() - first)];
-            for (j, t) in batch.iter_mut().enumerate() {
-                let (dx, dy) = disk.tap(first + j);
-                let (tu, tv) = (u + dx * inv, v + dy * inv);
-                let inside = tu.cmpge(Vec4::ZERO) & tu.cmplt(Vec4::ONE) & tv.cmpge(Vec4::ZERO) & tv.cmplt(Vec4::ONE);
-                // Inside the map, `(uv * size) as u32` is the floor.
-                *t = (
-                    Indices4::new(map, floor4(tu * sz), floor4(tv * sz)),
-                    r.at(dx, dy),
-                    inside,
-                );
+            if texel_units {
+                for (j, t) in batch.iter_mut().enumerate() {
+                    let (dx, dy) = disk.tap(first + j);
+                    let (tx, ty) = (us + dx, vs + dy);
+                    let inside = tx.cmpge(Vec4::ZERO) & tx.cmplt(sz) & ty.cmpge(Vec4::ZERO) & ty.cmplt(sz);
+                    *t = (Indices4::kept(map, tx, ty, inside), r.at(dx, dy), inside);
+                }
+            } else {
+                for (j, t) in batch.iter_mut().enumerate() {
+                    let (dx, dy) = disk.tap(first + j);
+                    let (tu, tv) = (u + dx * inv, v + dy * inv);
+                    let inside =
+                        tu.cmpge(Vec4::ZERO) & tu.cmplt(Vec4::ONE) & tv.cmpge(Vec4::ZERO) & tv.cmplt(Vec4::ONE);
+                    // Inside the map, `(uv * size) as u32` is the floor.
+                    *t = (
+                        Indices4::new(map, floor4(tu * sz), floor4(tv * sz)),
+                        r.at(dx, dy),
+                        inside,
+                    );
+                }
             }
             for &(at, reference, inside) in batch.iter() {
                 let depth = texels_at4(map, at);
@@ -793,8 +811,15 @@ pub(crate) mod tests {
 
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
-        let sets: [&[(&str, &str)]; 5] = [
+        let sets: [&[(&str, &str)]; 6] = [
             &[("angle", "3")],
+            // A map size that is not a power of two, and a search of two batches.
+            &[
+                ("angle", "3"),
+                ("size", "300"),
+                ("blockers", "20"),
+                ("receiver", "true"),
+            ],
             &[("angle", "3"), ("disk", "rotated"), ("receiver", "true")],
             &[("angle", "3"), ("disk", "spiral"), ("taps", "32"), ("size", "256")],
             &[("angle", "3"), ("hierarchy", "true"), ("blockers", "7")],
