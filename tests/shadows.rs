@@ -1356,17 +1356,9 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
                 )
                 .unwrap();
                 let v = t.visibility(&p, &f).unwrap();
-                let taps = t.counters().iter().find(|c| c.0 == "taps").unwrap().1;
-                (v.hash(), taps)
+                (v.hash(), counter(&*t, "taps"))
             };
-            let (plain, with) = (run("false"), run("true"));
-            assert_eq!(plain.0, with.0, "{scene} {filter} {bias}: same image");
-            assert!(
-                with.1 < plain.1,
-                "{scene} {filter} {bias}: taps {} vs {}",
-                with.1,
-                plain.1
-            );
+            same_image_fewer_taps(&format!("{scene} {filter} {bias}"), run("false"), run("true"));
         }
     }
 }
@@ -1535,14 +1527,9 @@ fn pcss_hierarchy_gives_the_same_image_with_fewer_taps() {
                 (v.hash(), counter(&*t, "taps"), counter(&*t, "early outs"))
             };
             let (plain, with) = (run("false"), run("true"));
-            assert_eq!(plain.0, with.0, "{scene} {disk} receiver={receiver}: same image");
-            assert_eq!(plain.2, with.2, "{scene} {disk} receiver={receiver}: same early outs");
-            assert!(
-                with.1 < plain.1,
-                "{scene} {disk} receiver={receiver}: taps {} vs {}",
-                with.1,
-                plain.1
-            );
+            let label = format!("{scene} {disk} receiver={receiver}");
+            assert_eq!(plain.2, with.2, "{label}: same early outs");
+            same_image_fewer_taps(&label, (plain.0, plain.1), (with.0, with.1));
         }
     }
 }
@@ -1653,6 +1640,13 @@ fn bad_soft_shadow_options_are_errors() {
 
 fn counter(t: &dyn shadow::ShadowTechnique, name: &str) -> f64 {
     t.counters().iter().find(|c| c.0 == name).unwrap().1
+}
+
+/// A hierarchy's promise, from runs without and with it: (image hash, taps) each, the same
+/// image from fewer taps.
+fn same_image_fewer_taps<H: PartialEq + std::fmt::Debug>(label: &str, plain: (H, f64), with: (H, f64)) {
+    assert_eq!(plain.0, with.0, "{label}: same image");
+    assert!(with.1 < plain.1, "{label}: taps {} vs {}", with.1, plain.1);
 }
 
 /// Contact-hardening shadows: PCSS on a min/max mip chain, the filter's level from the
