@@ -28,6 +28,29 @@ pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync
     rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
 }
 
+/// The least of `start` and the texels of `s` (NaN texels ignored, as [`f32::min`] does), with
+/// zero returned as +0: rows in parallel, each row on eight lanes.
+pub fn least(p: &Pipeline, s: &Surface<f32>, start: f32) -> f32 {
+    // `v < m` is false for a NaN `v`, so each lane ignores NaNs; the minimum of numbers is
+    // exact, so neither the lanes nor the rows' order change it (but for the sign of a zero,
+    // which `+ 0.0` makes +0).
+    let less = |m: f32, v: f32| if v < m { v } else { m };
+    let row_least = |row: &[f32]| {
+        let mut lanes = [start; 8];
+        let mut chunks = row.chunks_exact(8);
+        for c in &mut chunks {
+            for (m, &v) in lanes.iter_mut().zip(c) {
+                *m = less(*m, v);
+            }
+        }
+        let tail = chunks.remainder().iter().fold(start, |m, &v| less(m, v));
+        lanes.into_iter().fold(tail, less)
+    };
+    let w = (s.width() as usize).max(1);
+    let m = p.install(|| s.data().par_chunks(w).map(row_least).reduce(|| start, less));
+    m + 0.0
+}
+
 /// The min and max mip chains of a depth map (hierarchical min/max shadow maps, RTR 7.6):
 /// each texel of level i+1 the minimum (maximum) of the up to 2x2 texels below it, an odd last
 /// row or column folded into the previous texel. Rows in parallel; equal to
@@ -268,6 +291,31 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The parallel least texel is the serial `f32::min` fold's for any thread count, with
+    /// NaNs anywhere (in a lane, in a row's tail), a start below every texel and widths that
+    /// are not multiples of eight.
+    #[test]
+    fn least_equals_the_serial_fold_for_any_thread_count() {
+        let mut rng = crate::hash::SplitMix(3);
+        for (w, h) in [(37, 20), (64, 64), (1, 9), (8, 1), (2048, 3)] {
+            let mut data: Vec<f32> = (0..w * h).map(|_| 0.2 + rng.next_f32()).collect();
+            for i in (0..data.len()).step_by(7) {
+                data[i] = f32::NAN;
+            }
+            let s = Surface::from_vec(w, h, data.clone()).unwrap();
+            for start in [1.0, 0.1] {
+                let serial = data.iter().copied().fold(start, f32::min);
+                for t in [1, 2, 4] {
+                    let got = least(&Pipeline::new(t).unwrap(), &s, start);
+                    assert_eq!(got.to_bits(), serial.to_bits(), "{w}x{h}, start {start}, {t} threads");
+                }
+            }
+        }
+        // Zero comes back as +0 whatever its sign.
+        let z = Surface::from_vec(2, 1, vec![-0.0f32, 0.0]).unwrap();
+        assert_eq!(least(&Pipeline::new(2).unwrap(), &z, 1.0).to_bits(), 0.0f32.to_bits());
     }
 
     #[test]

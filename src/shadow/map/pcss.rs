@@ -46,7 +46,7 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{texels_at4, Indices4};
 use crate::pipeline::wide::floor4;
-use crate::pipeline::{Pipeline, Surface};
+use crate::pipeline::{compute, Pipeline, Surface};
 use crate::scene::LightKind;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{DepthToDistance, LightView};
@@ -625,13 +625,14 @@ pub(crate) fn light_pass(
     angle: f32,
 ) -> Result<(f32, Vec<f32>), String> {
     map.light_pass(p, frame)?;
-    Ok((light_width(frame, scale, angle), nearest_casters(map.maps())))
+    Ok((light_width(frame, scale, angle), nearest_casters(p, map.maps())))
 }
 
-/// Per light view: the nearest caster's distance from the light (the map's least depth).
-pub(crate) fn nearest_casters(maps: &[(Surface<f32>, LightView)]) -> Vec<f32> {
+/// Per light view: the nearest caster's distance from the light (the map's least depth, at
+/// most the far plane's).
+pub(crate) fn nearest_casters(p: &Pipeline, maps: &[(Surface<f32>, LightView)]) -> Vec<f32> {
     maps.iter()
-        .map(|(m, v)| v.distance(m.data().iter().copied().fold(1.0f32, f32::min)))
+        .map(|(m, v)| v.distance(compute::least(p, m, 1.0)))
         .collect()
 }
 
