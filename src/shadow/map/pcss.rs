@@ -21,10 +21,10 @@
 //! and greatest depth and the depths' bounds around a plane, so that kernels on a sloped
 //! receiver with the receiver-plane bias are classified too) classifies the search disk (no
 //! blocker or all blockers: one lookup) and the filter disk (fully lit or in umbra) and skips
-//! their taps; the image is identical. It saves time only where most search disks lie on
-//! planar receivers away from casters: a classification costs more than the 16 taps of a
-//! search, and a curved receiver's disks stay mixed (docs/performance.md measures both on
-//! the spheres scene, where it makes PCSS slower).
+//! their taps; the image is identical. On the scenes measured (spheres, `contact`,
+//! `pergola`) it makes PCSS slower, not faster: a classification costs about as much as the
+//! 16 taps of the search it saves, and a curved receiver's disks stay mixed
+//! (docs/performance.md).
 //!
 //! The lookup pass runs four pixels at a time: each is prepared alone, then the searches and
 //! filters of pixels on the same light view run on four lanes (one pixel per lane) with the
