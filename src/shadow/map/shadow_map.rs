@@ -223,7 +223,7 @@ macro_rules! shadow_map_fields {
             ),
             Field::new(
                 "hierarchy",
-                "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides, and for PCSS's 16-tap search, which costs about as much as a classification, it saves less than it costs)",
+                "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides, and for PCSS's 16-tap search, which costs no more than a classification, it saves less than it costs)",
                 |$x: &mut $o| &mut $($path)+.hierarchy,
             ),
         ]
