@@ -22,8 +22,8 @@
 //! receiver with the receiver-plane bias are classified too) classifies the search disk (no
 //! blocker or all blockers: one lookup) and the filter disk (fully lit or in umbra) and skips
 //! their taps; the image is identical. On the scenes measured (spheres, `contact`,
-//! `pergola`) it makes PCSS slower, not faster: a classification costs as much as or more than the
-//! 16 taps of the search it saves, and a curved receiver's disks stay mixed
+//! `pergola`) it makes PCSS slower, not faster: a classification costs as much as or more
+//! than the 16 taps of the search it saves, and a curved receiver's disks stay mixed
 //! (docs/performance.md).
 //!
 //! The lookup pass runs four pixels at a time: each is prepared alone, then the searches and
