@@ -388,14 +388,8 @@ impl Indices4 {
             // Clamped in float as `index4` does (`maxps` maps NaN to 0).
             let cx = Vec4::splat((w - 1) as f32).min(x.max(Vec4::ZERO));
             let cy = Vec4::splat((h - 1) as f32).min(y.max(Vec4::ZERO));
-            // SAFETY: SSE4.1 is enabled for this build; w * h < 2^31 (see `lane_indices`).
-            unsafe {
-                let i = _mm_add_epi32(
-                    _mm_mullo_epi32(_mm_cvttps_epi32(cy.into()), _mm_set1_epi32(w as i32)),
-                    _mm_cvttps_epi32(cx.into()),
-                );
-                Indices4(std::mem::transmute::<__m128i, [u32; 4]>(i))
-            }
+            // SAFETY: four lanes of u32 are one __m128i.
+            Indices4(unsafe { std::mem::transmute::<__m128i, [u32; 4]>(lane_index_vector(cx, cy, w)) })
         }
         #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
         {
@@ -403,9 +397,7 @@ impl Indices4 {
             Indices4(std::array::from_fn(|k| (ys[k] * w as usize + xs[k]) as u32))
         }
     }
-}
 
-impl Indices4 {
     /// The indices `y * width + x` of surface `s` for the lanes of `keep`, whose `(x, y)`
     /// must lie in the surface (then truncation is the floor), and 0 for the others: for a
     /// loop whose lanes outside the surface read a texel they then ignore.
@@ -415,14 +407,11 @@ impl Indices4 {
         #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
         {
             use std::arch::x86_64::*;
-            // SAFETY: SSE4.1 is enabled for this build; kept lanes' indices are below
-            // w * h < 2^31 (see `lane_indices`), the others are masked to 0.
+            // SAFETY: SSE4.1 is enabled for this build; four lanes of u32 are one __m128i.
+            // Kept lanes' indices are below w * h (see `lane_index_vector`), the others are
+            // masked to 0.
             unsafe {
-                let i = _mm_add_epi32(
-                    _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
-                    _mm_cvttps_epi32(x.into()),
-                );
-                let i = _mm_and_si128(i, _mm_castps_si128(keep.into()));
+                let i = _mm_and_si128(lane_index_vector(x, y, w), _mm_castps_si128(keep.into()));
                 Indices4(std::mem::transmute::<__m128i, [u32; 4]>(i))
             }
         }
@@ -449,6 +438,20 @@ pub fn texels_at4(s: &Surface<f32>, i: Indices4) -> Vec4 {
     Vec4::new(at(0), at(1), at(2), at(3))
 }
 
+/// [`lane_indices`] as one vector of four u32 lanes.
+#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+#[inline(always)]
+fn lane_index_vector(x: Vec4, y: Vec4, w: u32) -> std::arch::x86_64::__m128i {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE4.1 is enabled for this build.
+    unsafe {
+        _mm_add_epi32(
+            _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
+            _mm_cvttps_epi32(x.into()),
+        )
+    }
+}
+
 /// The texel indices `y * w + x` of four lanes of whole, in-surface coordinates, computed on
 /// all lanes at once (w * h < 2^31: both sides at most MAX_DIMENSION = 2^14, so the indices
 /// fit an i32 and are zero-extended).
@@ -456,12 +459,9 @@ pub fn texels_at4(s: &Surface<f32>, i: Indices4) -> Vec4 {
 #[inline(always)]
 fn lane_indices(x: Vec4, y: Vec4, w: u32) -> [usize; 4] {
     use std::arch::x86_64::*;
+    let i = lane_index_vector(x, y, w);
     // SAFETY: SSE4.1 is enabled for this build.
     unsafe {
-        let i = _mm_add_epi32(
-            _mm_mullo_epi32(_mm_cvttps_epi32(y.into()), _mm_set1_epi32(w as i32)),
-            _mm_cvttps_epi32(x.into()),
-        );
         [
             _mm_cvtsi128_si32(i) as u32 as usize,
             _mm_extract_epi32::<1>(i) as u32 as usize,
