@@ -57,6 +57,17 @@ fn technique_outputs_match_their_golden_hashes() {
             None => bad.push(format!("missing: {w}")),
         }
     }
+    // Every computed set must have a recorded hash: a new sweep or extended option set
+    // without one fails here instead of passing unchecked.
+    for g in &got {
+        let key = &g[..g.rfind(' ').unwrap()];
+        if !want
+            .iter()
+            .any(|w| w.starts_with(key) && w[key.len()..].starts_with(' '))
+        {
+            bad.push(format!("unrecorded: {g}"));
+        }
+    }
     assert!(bad.is_empty(), "{}\nall:\n{}", bad.join("\n"), got.join("\n"));
 }
 

@@ -49,7 +49,12 @@ impl Default for Options {
 
 /// The option declaration: PCSS's, the IZB's grid and the blend band.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::shadow_map_fields!(Options, |o| o.pcss.map);
+    let mut fields = crate::map_fields!(Options, |o| o.pcss.map);
+    fields.extend(crate::bias_fields!(Options, |o| o.pcss.bias));
+    fields.extend([
+        crate::cone_field!(Options, |o| o.pcss.wide),
+        crate::hierarchy_field!(Options, |o| o.pcss.wide),
+    ]);
     fields.extend(crate::light_size_fields!(Options, |o| o.pcss));
     fields.extend([
         Field::range(

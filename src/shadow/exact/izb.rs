@@ -852,7 +852,7 @@ impl Izb {
                 let mut cur = (usize::MAX, empty);
                 {
                     let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
-                        let f = light::face_of(nb, &light, s.position);
+                        let f = light::view_of(nb, &light, s.position);
                         let seen = if faces_light(&light, s) {
                             base[f].lookup(s.position)
                         } else {

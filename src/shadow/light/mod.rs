@@ -9,10 +9,17 @@
 //!   snapping so sub-texel camera motion keeps the sampling grid in place.
 //! - [`depth`]: the casters merged into one draw and the depth pass into any depth format
 //!   with polygon offset, face culling and depth peeling.
-//! - [`LightView::lookup`] / [`project`]: a world point to light texture coordinates and depth;
-//!   [`face_of`]: which cube face sees a point.
+//! - [`maps`]: the map pass ([`LightMaps`], [`MapOptions`]) and [`locate`], where a world
+//!   point falls in the maps (the view that sees it, its texture coordinate and depth), with
+//!   the one edge rule [`inside`].
+//! - [`soft`]: an area light's soft-shadow geometry (light width, blocker-search and
+//!   penumbra widths, RTR eq. 7.6).
+//! - [`LightView::lookup`] / [`project`]: a world point to one view's texture coordinates and
+//!   depth.
 
 pub mod depth;
+pub mod maps;
+pub mod soft;
 
 use crate::frame::Frame;
 use crate::pipeline::{CubeFace, Pipeline, Rgba8, Surface};
@@ -20,6 +27,9 @@ use crate::scene::{Light, LightKind};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 pub use depth::{merged_casters, scene_depth, Casters, DepthPass};
+pub use maps::{
+    inside, inside4, locate, locate_on, texel, view_of, FitTo, Layer, LightMaps, MapOptions, MapPoint, OnView,
+};
 
 /// One light view: world to light clip, and the world size of one texel at unit distance
 /// (orthographic: everywhere; perspective: times the distance to the light).
@@ -280,16 +290,6 @@ pub fn fit(frame: &Frame, size: u32, to_receivers: bool, snap: bool) -> Fit {
         culled: keep.iter().filter(|k| !**k).count(),
         casters: keep,
         fitted: Some(view),
-    }
-}
-
-/// Which of `views` light views (six: cube faces in [`CubeFace::ALL`] order) sees `position`;
-/// 0 for single-view lights.
-pub fn face_of(views: usize, light: &Light, position: Vec3) -> usize {
-    if views == 6 {
-        CubeFace::from_direction(position - light.position).map_or(0, |f| f.0 as usize)
-    } else {
-        0
     }
 }
 

@@ -24,12 +24,12 @@
 //! shadows and lose thin occluders in wide penumbrae.
 
 use super::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
-use super::pcss::Estimate;
-use super::shadow_map::{self, At, Prepared, ShadowMap};
+use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{DepthToDistance, LightView};
+use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
+use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
@@ -40,10 +40,13 @@ pub const SEARCH: u32 = 8;
 /// Options of contact-hardening shadows.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The shadow map and its bias (the shadow map's options; its `layer`, `filter`,
-    /// `kernel`, `world`, `taps` and `hierarchy` are not used). Default: the shadow map's
-    /// defaults with the receiver-plane bias on, which the coarse levels need.
-    pub map: shadow_map::Options,
+    /// The map pass. Default: its defaults (2048 texels, f32, 4 units, slope 1.1).
+    pub map: MapOptions,
+    /// Normal-offset and receiver-plane bias. Default: the receiver plane on, which the
+    /// coarse levels need.
+    pub bias: Bias,
+    /// The bias cone across the filter (Burley 2006). Default: 0.
+    pub cone: f32,
     /// The light's width as a multiple of the scene's area light (0: a hard shadow).
     /// Default: 1.
     pub light: f32,
@@ -56,10 +59,12 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            map: shadow_map::Options {
+            map: MapOptions::default(),
+            bias: Bias {
                 receiver: true,
                 ..Default::default()
             },
+            cone: 0.0,
             light: 1.0,
             angle: 0.0,
             kernel: 7,
@@ -69,8 +74,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
-    fields.retain(|f| f.key != "hierarchy");
+    let mut fields = crate::map_fields!(Options, |o| o.map);
+    fields.extend(crate::bias_fields!(Options, |o| o.bias));
+    fields.push(crate::cone_field!(Options, |o| o));
     fields.extend(crate::light_size_fields!(Options, |o| o));
     fields.extend([Field::range(
         "kernel",
@@ -102,7 +108,7 @@ pub fn info() -> TechniqueInfo {
 /// Contact-hardening shadows (see the module docs).
 pub struct Chs {
     opts: Options,
-    map: ShadowMap,
+    lookup: MapLookup,
     nearest: Vec<f32>,
     width: f32,
     taps: u64,
@@ -113,17 +119,21 @@ impl Chs {
     /// CHS with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Chs, String> {
         declaration().check(&opts)?;
-        let map = ShadowMap::new(shadow_map::Options {
-            filter: shadow_map::Filter::Grid,
-            hierarchy: false,
-            ..opts.map.clone()
-        })
-        .map_err(|e| e.replace("'shadow-map'", "'chs'"))?
-        // The map's min/max chains are CHS's mip chain.
-        .with_min_max();
+        let lookup = MapLookup::new(Setup {
+            map: opts.map.clone(),
+            layer: Layer::First,
+            bias: opts.bias,
+            // Wide kernels (the receiver plane and cone across the filter), no hierarchy.
+            wide: Some(Wide {
+                cone: opts.cone,
+                hierarchy: false,
+            }),
+            // The map's min/max chains are CHS's mip chain.
+            min_max: true,
+        });
         Ok(Chs {
             opts,
-            map,
+            lookup,
             nearest: Vec::new(),
             width: 0.0,
             taps: 0,
@@ -135,16 +145,16 @@ impl Chs {
     /// the map itself.
     fn level(&self, face: usize, l: usize, max: bool) -> &Surface<f32> {
         if l == 0 {
-            return &self.map.maps()[face].0;
+            return &self.lookup.maps()[face].0;
         }
         let c = self.chains(face);
         let chain = if max { &c.max } else { &c.min };
         &chain.levels()[(l - 1).min(chain.level_count() - 1)]
     }
 
-    /// The min/max chains of view `face` (the map builds them: [`ShadowMap::with_min_max`]).
+    /// The min/max chains of view `face` (the lookup builds them: [`Setup::min_max`]).
     fn chains(&self, face: usize) -> &MinMax {
-        self.map.min_max(face).expect("the map builds its min/max chains")
+        self.lookup.min_max(face).expect("the map builds its min/max chains")
     }
 
     fn levels(&self, face: usize) -> usize {
@@ -153,11 +163,11 @@ impl Chs {
 
     /// Steps 1 and 2 (the search on the minimum chain and the penumbra estimate).
     fn estimate(&self, at: &At) -> (Estimate, usize) {
-        let view: &LightView = &self.map.maps()[at.face].1;
-        let size = self.map.maps()[at.face].0.width() as f32;
+        let view: &LightView = &self.lookup.maps()[at.face].1;
+        let size = self.lookup.maps()[at.face].0.width() as f32;
         let d_r = view.distance(at.r.z);
         let d_min = self.nearest[at.face].min(d_r);
-        let search = super::pcss::search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
+        let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
         let ls = ((search / SEARCH as f32).log2().ceil().max(0.0) as usize).min(self.levels(at.face) - 1);
         let lvl = self.level(at.face, ls, false);
         let scale = (1u32 << ls) as f32;
@@ -195,7 +205,7 @@ impl Chs {
         }
         let d_o = sum / found as f32;
         e.blocker = d_o;
-        e.penumbra = super::pcss::penumbra_texels(view, self.width, d_r, d_o).min(size);
+        e.penumbra = penumbra_texels(view, self.width, d_r, d_o).min(size);
         (e, ls)
     }
 
@@ -222,19 +232,19 @@ impl Chs {
 
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
-        match self.map.prepare(frame, x, y, t) {
+        match self.lookup.prepare(frame, x, y, t) {
             Prepared::Done(v, n) => (v, n),
             Prepared::At(at) => self.lookup_at(&at, x, y, t),
         }
     }
 
     /// [`Chs::lookup`] of pixels `x .. x + n` of row `y` (`n` at most 4): prepared together
-    /// ([`ShadowMap::prepare4`]: the receiver planes on four lanes), then one at a time, so
+    /// ([`MapLookup::prepare4`]: the receiver planes on four lanes), then one at a time, so
     /// every value and count is the one-pixel lookup's.
     fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
         let (mut out, mut count) = ([f32::NAN; 4], 0u64);
         let mut ats = [None; 4];
-        self.map.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count);
+        self.lookup.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count);
         for (l, at) in ats.iter().enumerate() {
             if let Some(at) = at {
                 let (v, c) = self.lookup_at(at, x + l, y, &mut NoTrace);
@@ -250,7 +260,7 @@ impl Chs {
         let at = *at;
         if self.width <= 0.0 {
             t.step(|| Step::new("hard", "the light has no width: one 2x2 comparison"));
-            let map = &self.map.maps()[at.face].0;
+            let map = &self.lookup.maps()[at.face].0;
             return (super::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
         }
         let (e, ls) = self.estimate(&at);
@@ -382,8 +392,9 @@ impl ShadowTechnique for Chs {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
-        (self.width, self.nearest) =
-            super::pcss::light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
+        self.lookup.light_pass(p, frame)?;
+        self.width = light_width(frame, self.opts.light, self.opts.angle);
+        self.nearest = self.lookup.light_maps().nearest_casters(p);
         let t1 = std::time::Instant::now();
         let this = &*self;
         let (out, taps) = per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n));
@@ -397,12 +408,12 @@ impl ShadowTechnique for Chs {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut t = Steps::default();
-        if self.map.maps().is_empty() {
+        if self.lookup.maps().is_empty() {
             return t.0;
         }
         t.step(|| {
             Step::new("map", "the light pass of the last run and its min/max chains")
-                .int("views", self.map.maps().len())
+                .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .int("levels", self.levels(0))
                 .num("light width", self.width)
@@ -417,16 +428,16 @@ impl ShadowTechnique for Chs {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        vec![("map texels", self.map.texels() as f64), ("taps", self.taps as f64)]
+        vec![("map texels", self.lookup.texels() as f64), ("taps", self.taps as f64)]
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        let mut v = self.map.stages(p, frame)?;
-        if self.map.maps().is_empty() || self.width <= 0.0 {
+        let mut v = self.lookup.stages(p, frame)?;
+        if self.lookup.maps().is_empty() || self.width <= 0.0 {
             return Ok(v);
         }
         // The filter level per pixel, and the min chain's levels 1-3 of the first view.
-        let level = per_pixel(p, frame, |x, y| match self.map.prepare(frame, x, y, &mut NoTrace) {
+        let level = per_pixel(p, frame, |x, y| match self.lookup.prepare(frame, x, y, &mut NoTrace) {
             Prepared::At(at) => {
                 let (e, _) = self.estimate(&at);
                 if e.found == 0 {

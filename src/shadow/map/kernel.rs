@@ -290,7 +290,7 @@ impl Kernel {
     /// grids and tents take the separable path (texel comparisons with collapsed weights);
     /// everything else compares tap by tap with each tap's own reference.
     pub fn filter(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32) -> Filtered {
-        if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) {
+        if !crate::shadow::light::inside(uv) {
             return Filtered { value: 1.0, taps: 0 };
         }
         let size = Vec2::new(map.width() as f32, map.height() as f32);
@@ -511,10 +511,10 @@ pub fn filter_disk4(
     lane_results(go, value, disk.len() as u32)
 }
 
-/// The lanes of `active` whose point `(u, v)` lies in the map ([0, 1]², as
-/// [`Kernel::filter`] asks); `None` if there are none.
+/// The lanes of `active` whose point `(u, v)` lies in the map (the edge rule of
+/// [`crate::shadow::light::inside`], as [`Kernel::filter`]); `None` if there are none.
 fn lanes_inside(u: Vec4, v: Vec4, active: [bool; 4]) -> Option<[bool; 4]> {
-    let inside = u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE);
+    let inside = crate::shadow::light::inside4(u, v);
     let go: [bool; 4] = std::array::from_fn(|l| active[l] && inside.test(l));
     go.iter().any(|&g| g).then_some(go)
 }
@@ -950,7 +950,7 @@ mod tests {
                 let (u, v) = (Vec4::new(c(), c(), c(), c()), Vec4::new(c(), c(), c(), c()));
                 let z = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32());
                 let uv = |l: usize| Vec2::new(u[l], v[l]);
-                let inside = |l: usize| uv(l).cmpge(Vec2::ZERO).all() && uv(l).cmple(Vec2::ONE).all();
+                let inside = |l: usize| crate::shadow::light::inside(uv(l));
                 for pattern in [Pattern::Grid, Pattern::Tent] {
                     let width = [1.0, 3.0, 5.0, 7.0, 9.0, 17.0][(rng.next_f32() * 6.0) as usize % 6];
                     let k = Kernel {

@@ -1,10 +1,16 @@
 //! Shadow maps (Williams 1978; RTR 7.4): a depth map from the light through the pipeline and
-//! a depth comparison per camera pixel, with the bias terms ([`bias`]) that the rest of the
-//! family (filtering, resolution) shares.
+//! a depth comparison per camera pixel.
+//!
+//! The family's shared modules, which every map-based technique calls with its own options:
+//! [`lookup`] (from a camera pixel to the maps, the reference depth with every bias, and the
+//! comparisons and kernels), [`bias`] (normal offset, receiver plane), [`kernel`] (the PCF
+//! kernels) and [`planes`] (the min/max hierarchy). The light's maps themselves are
+//! [`crate::shadow::light`]'s. No technique here holds another.
 
 pub mod bias;
 pub mod chs;
 pub mod kernel;
+pub mod lookup;
 pub mod multi_sample;
 pub mod pcss;
 pub mod planes;

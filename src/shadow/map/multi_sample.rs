@@ -16,13 +16,15 @@
 //! wider than `N`'s spacing allows (few samples, large lights); each map's own bias and
 //! aliasing, repeated `N` times.
 
-use super::shadow_map::{self, ShadowMap};
+use super::lookup::{MapLookup, Prepared, Setup};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8, Surface};
 use crate::reference::concentric_disk;
 use crate::scene::{AreaShape, Light, LightKind};
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step};
+use crate::shadow::light::{Layer, MapOptions};
+use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
@@ -144,7 +146,8 @@ pub fn sample_points(light: &Light, n: u32) -> Vec<Vec3> {
 /// The multi-sample area light (see the module docs).
 pub struct MultiSample {
     opts: Options,
-    map: ShadowMap,
+    /// With `method=maps`: the sample's cube map and its lookups.
+    lookup: MapLookup,
     volume: ShadowVolume,
     points: Vec<Vec3>,
     taps: f64,
@@ -156,7 +159,7 @@ impl MultiSample {
     pub fn new(opts: Options) -> Result<MultiSample, String> {
         declaration().check(&opts)?;
         Ok(MultiSample {
-            map: ShadowMap::new(Self::map_options(&opts))?,
+            lookup: MapLookup::new(Self::setup(&opts)),
             volume: ShadowVolume::new(shadow_volume::Options::default())?,
             opts,
             points: Vec::new(),
@@ -165,15 +168,55 @@ impl MultiSample {
         })
     }
 
-    fn map_options(o: &Options) -> shadow_map::Options {
-        shadow_map::Options {
-            size: o.size,
-            filter: if o.pcf {
-                shadow_map::Filter::Pcf2
-            } else {
-                shadow_map::Filter::None
+    /// The lookup of each sample's map: the default map pass at `size`, no per-pixel bias,
+    /// one comparison or 2x2 PCF.
+    fn setup(o: &Options) -> Setup {
+        Setup {
+            map: MapOptions {
+                size: o.size,
+                ..Default::default()
             },
-            ..Default::default()
+            layer: Layer::First,
+            bias: Default::default(),
+            wide: None,
+            min_max: false,
+        }
+    }
+
+    /// One sample's hard shadow at pixel `(x, y)` of `frame` (whose light is the sample's)
+    /// from `lookup`'s last pass: the visibility and the taps.
+    #[inline(always)]
+    fn hard(lookup: &MapLookup, frame: &Frame, pcf: bool, x: usize, y: usize) -> (f32, u64) {
+        match lookup.prepare(frame, x, y, &mut NoTrace) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(at) => (lookup.compare(&at, pcf, &mut NoTrace), 1),
+        }
+    }
+
+    /// One sample's hard visibility per pixel of `frame` (whose light is the sample's), with
+    /// the taps and the passes' times.
+    #[allow(clippy::type_complexity)]
+    fn sample(&mut self, p: &Pipeline, frame: &Frame) -> Result<(Vec<f32>, u64, Vec<(&'static str, f64)>), String> {
+        match self.opts.method {
+            Method::Maps => {
+                let t0 = std::time::Instant::now();
+                self.lookup.light_pass(p, frame)?;
+                let t1 = std::time::Instant::now();
+                let (lookup, pcf) = (&self.lookup, self.opts.pcf);
+                let (v, taps) = per_pixel_counted(p, frame, |x, y| Self::hard(lookup, frame, pcf, x, y));
+                let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+                Ok((
+                    v,
+                    taps,
+                    vec![("light pass", ms(t1 - t0)), ("lookup pass", ms(t1.elapsed()))],
+                ))
+            }
+            Method::Volumes => {
+                let Visibility::Scalar(v) = self.volume.visibility(p, frame)? else {
+                    return Err("technique 'multi-sample': a sample's hard shadow was not scalar".into());
+                };
+                Ok((v, 0, self.volume.timings()))
+            }
         }
     }
 
@@ -203,29 +246,23 @@ impl ShadowTechnique for MultiSample {
         let mut sum = vec![0.0f32; frame.points().len()];
         let mut times: Vec<(&'static str, f64)> = Vec::new();
         self.taps = 0.0;
-        for &q in &self.points {
+        for q in self.points.clone() {
             sampled.light = match frame.light.kind {
                 LightKind::Area(_) => Self::point_light(&frame.light, q),
                 _ => frame.light,
             };
-            let t: &mut dyn ShadowTechnique = match self.opts.method {
-                Method::Maps => &mut self.map,
-                Method::Volumes => &mut self.volume,
-            };
-            let Visibility::Scalar(v) = t.visibility(p, &sampled)? else {
-                return Err("technique 'multi-sample': a sample's hard shadow was not scalar".into());
-            };
+            let (v, taps, sample_times) = self.sample(p, &sampled)?;
             // The same order of additions at every pixel for any thread count.
             for (s, v) in sum.iter_mut().zip(&v) {
                 *s += v;
             }
-            for (name, ms) in t.timings() {
+            for (name, ms) in sample_times {
                 match times.iter_mut().find(|(n, _)| *n == name) {
                     Some(e) => e.1 += ms,
                     None => times.push((name, ms)),
                 }
             }
-            self.taps += t.counters().iter().find(|c| c.0 == "taps").map_or(0.0, |c| c.1);
+            self.taps += taps as f64;
         }
         let n = self.points.len() as f32;
         sum.iter_mut().for_each(|s| *s /= n);
@@ -254,15 +291,17 @@ impl ShadowTechnique for MultiSample {
                 _ => frame.light,
             };
             let v = match self.opts.method {
+                // The sample's map drawn again, and the pixel's comparison in it.
                 Method::Maps => {
-                    ShadowMap::new(Self::map_options(&self.opts)).map(|t| Box::new(t) as Box<dyn ShadowTechnique>)
+                    let mut lookup = MapLookup::new(Self::setup(&self.opts));
+                    lookup
+                        .light_pass(&p, &sampled)
+                        .map(|()| Self::hard(&lookup, &sampled, self.opts.pcf, x as usize, y as usize).0)
                 }
-                Method::Volumes => {
-                    ShadowVolume::new(Default::default()).map(|t| Box::new(t) as Box<dyn ShadowTechnique>)
-                }
+                Method::Volumes => ShadowVolume::new(Default::default())
+                    .and_then(|mut t| t.visibility(&p, &sampled))
+                    .map(|v| v.value(i)),
             }
-            .and_then(|mut t| t.visibility(&p, &sampled))
-            .map(|v| v.value(i))
             .unwrap_or(f32::NAN);
             sum += v;
             if k < 32 {
@@ -285,7 +324,7 @@ impl ShadowTechnique for MultiSample {
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let mut c = vec![("samples", self.points.len() as f64)];
         if self.opts.method == Method::Maps {
-            c.push(("map texels per sample", self.map.texels() as f64));
+            c.push(("map texels per sample", self.lookup.texels() as f64));
             c.push(("taps", self.taps));
         }
         c
@@ -317,7 +356,7 @@ impl ShadowTechnique for MultiSample {
         }];
         if self.opts.method == Method::Maps {
             // The last sample's maps.
-            v.extend(self.map.stages(p, frame)?);
+            v.extend(self.lookup.stages(p, frame)?);
         }
         Ok(v)
     }

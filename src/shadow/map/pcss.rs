@@ -44,15 +44,15 @@
 //! resolution (contact-hardening shadows use a mip chain against that).
 
 use super::kernel::{Class, Kernel, Pattern, Reference, Reference4, MAX_TAPS};
-use super::shadow_map::{self, At, Prepared, ShadowMap};
+use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{texels_at4, Indices4};
 use crate::pipeline::wide::floor4;
-use crate::pipeline::{compute, Pipeline, Surface};
-use crate::scene::LightKind;
+use crate::pipeline::Pipeline;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{DepthToDistance, LightView};
+use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels, world};
+use crate::shadow::light::{DepthToDistance, Layer, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{BVec4A, Vec2, Vec4};
@@ -83,9 +83,13 @@ impl Disk {
 /// Options of PCSS.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The shadow map and its bias (the shadow map's options; its `layer`, `filter`, `kernel`,
-    /// `world` and `taps` are not used). Default: the shadow map's defaults.
-    pub map: shadow_map::Options,
+    /// The map pass. Default: its defaults (2048 texels, f32, 4 units, slope 1.1).
+    pub map: MapOptions,
+    /// Normal-offset and receiver-plane bias. Default: none.
+    pub bias: Bias,
+    /// The bias cone across the disks and the hierarchy that classifies them. Default: no
+    /// cone, no hierarchy.
+    pub wide: Wide,
     /// The light's width as a multiple of the scene's area light (0: a hard shadow).
     /// Default: 1.
     pub light: f32,
@@ -102,7 +106,9 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            map: shadow_map::Options::default(),
+            map: MapOptions::default(),
+            bias: Bias::default(),
+            wide: Wide::default(),
             light: 1.0,
             angle: 0.0,
             blockers: 16,
@@ -112,34 +118,14 @@ impl Default for Options {
     }
 }
 
-/// The declaration of the light-size options of the PCSS-style techniques (`light`, `angle`)
-/// for an options struct whose light width and angle are reached by `|o| path`.
-#[macro_export]
-macro_rules! light_size_fields {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        use $crate::shadow::Field;
-        [
-            Field::range(
-                "light",
-                "the light's width as a multiple of the scene's area light (0: hard shadow)",
-                0.0,
-                1e3,
-                |$x: &mut $o| &mut $($path)+.light,
-            ),
-            Field::range(
-                "angle",
-                "directional lights: angular diameter in degrees (0: hard shadow)",
-                0.0,
-                90.0,
-                |$x: &mut $o| &mut $($path)+.angle,
-            ),
-        ]
-    }};
-}
-
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    let mut fields = crate::map_fields!(Options, |o| o.map);
+    fields.extend(crate::bias_fields!(Options, |o| o.bias));
+    fields.extend([
+        crate::cone_field!(Options, |o| o.wide),
+        crate::hierarchy_field!(Options, |o| o.wide),
+    ]);
     fields.extend(crate::light_size_fields!(Options, |o| o));
     fields.extend([
         Field::range("blockers", "blocker-search taps", 1, MAX_TAPS, |o: &mut Options| {
@@ -182,29 +168,10 @@ pub fn info() -> TechniqueInfo {
     }
 }
 
-/// One pixel's blocker search and penumbra estimate.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Estimate {
-    /// Search disk width in texels.
-    pub search: f32,
-    /// Taps that found a blocker, of `taps`.
-    pub found: u32,
-    /// Search taps read (1 when the hierarchy classified the disk).
-    pub taps: u32,
-    /// The receiver's distance from the light along the view axis.
-    pub receiver: f32,
-    /// The blockers' average distance (NaN without blockers).
-    pub blocker: f32,
-    /// Penumbra width in texels (0 without blockers; the search width in umbra).
-    pub penumbra: f32,
-    /// What decided the search: mixed (filter), lit (no blocker) or shadowed (all blockers).
-    pub class: Class,
-}
-
 /// Percentage-closer soft shadows (see the module docs).
 pub struct Pcss {
     opts: Options,
-    map: ShadowMap,
+    lookup: MapLookup,
     /// Per light view of the last run: the nearest caster's distance from the light.
     nearest: Vec<f32>,
     /// The light's width (world units; for directional lights `2 tan(angle / 2)`).
@@ -221,16 +188,18 @@ impl Pcss {
     /// PCSS with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Pcss, String> {
         declaration().check(&opts)?;
-        let map = ShadowMap::new(shadow_map::Options {
-            // A wide filter, so that the map prepares the kernel's receiver plane and cone and
-            // builds the hierarchy when asked.
-            filter: shadow_map::Filter::Poisson,
-            ..opts.map.clone()
-        })
-        .map_err(|e| e.replace("'shadow-map'", "'pcss'"))?;
+        // Wide kernels: the lookup prepares the disks' receiver plane and cone, and builds the
+        // hierarchy when asked.
+        let lookup = MapLookup::new(Setup {
+            map: opts.map.clone(),
+            layer: Layer::First,
+            bias: opts.bias,
+            wide: Some(opts.wide),
+            min_max: false,
+        });
         Ok(Pcss {
             opts,
-            map,
+            lookup,
             nearest: Vec::new(),
             width: 0.0,
             taps: 0,
@@ -245,7 +214,7 @@ impl Pcss {
     /// view's [`LightView::depth_to_distance`], its constants made once), the search width,
     /// and the hierarchy's decision where it makes one (the class is then not mixed).
     fn begin(&self, at: &At, distance: &DepthToDistance) -> Estimate {
-        let (map, view) = &self.map.maps()[at.face];
+        let (map, view) = &self.lookup.maps()[at.face];
         let size = map.width() as f32;
         let d_r = distance.at(at.r.z);
         let d_min = self.nearest[at.face].min(d_r);
@@ -259,7 +228,7 @@ impl Pcss {
             penumbra: 0.0,
             class: Class::Mixed,
         };
-        if let Some(pc) = self.map.planes(at.face) {
+        if let Some(pc) = self.lookup.planes(at.face) {
             let kernel = self.search_kernel(search);
             // The search reads the nearest texel of each tap.
             e.class = pc.classify(at.uv, kernel.extent(), 0.5, &at.r);
@@ -288,7 +257,7 @@ impl Pcss {
     /// distances sum to `sum`: the early outs, or RTR eq. 7.6's penumbra,
     /// `w_penumbra = w_light (d_r - d_o) / d_o`, in texels at the receiver.
     fn conclude(&self, e: &mut Estimate, face: usize, n: u32, found: u32, sum: f32) {
-        let (map, view) = &self.map.maps()[face];
+        let (map, view) = &self.lookup.maps()[face];
         e.taps = n;
         e.found = found;
         if found == 0 {
@@ -305,7 +274,7 @@ impl Pcss {
 
     /// Steps 1 and 2 at a prepared lookup.
     fn estimate(&self, at: &At, x: usize, y: usize) -> Estimate {
-        let (map, view) = &self.map.maps()[at.face];
+        let (map, view) = &self.lookup.maps()[at.face];
         let size = map.width() as f32;
         let distance = view.depth_to_distance();
         let mut e = self.begin(at, &distance);
@@ -339,10 +308,10 @@ impl Pcss {
     /// The penumbra's world width at pixel `(x, y)` of the last run's maps, from the blocker
     /// search (in umbra, the search disk's); `None` without geometry, light width or blockers.
     pub fn penumbra_world(&self, frame: &Frame, x: usize, y: usize) -> Option<f32> {
-        if self.width <= 0.0 || self.map.maps().is_empty() {
+        if self.width <= 0.0 || self.lookup.maps().is_empty() {
             return None;
         }
-        let Prepared::At(at) = self.map.prepare(frame, x, y, &mut NoTrace) else {
+        let Prepared::At(at) = self.lookup.prepare(frame, x, y, &mut NoTrace) else {
             return None;
         };
         self.world(at.face, &self.estimate(&at, x, y))
@@ -353,13 +322,7 @@ impl Pcss {
         if e.class == Class::Lit {
             return None;
         }
-        let view = &self.map.maps()[face].1;
-        let texel = if view.perspective {
-            view.texel * e.receiver
-        } else {
-            view.texel
-        };
-        Some(e.penumbra * texel)
+        Some(world(&self.lookup.maps()[face].1, e.penumbra, e.receiver))
     }
 
     /// Keep each pixel's [`Pcss::penumbra_world`] from the lookup pass of every run
@@ -381,7 +344,7 @@ impl Pcss {
     /// step reported to `t`; the count's bit 32 marks an early out.
     #[inline(always)]
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
-        match self.map.prepare(frame, x, y, t) {
+        match self.lookup.prepare(frame, x, y, t) {
             Prepared::Done(v, n) => (v, n),
             Prepared::At(at) => self.lookup_at(&at, x, y, t),
         }
@@ -391,7 +354,7 @@ impl Pcss {
     #[inline(always)]
     fn lookup_at(&self, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
         let at = *at;
-        let map = &self.map.maps()[at.face].0;
+        let map = &self.lookup.maps()[at.face].0;
         if self.width <= 0.0 {
             t.step(|| {
                 Step::new(
@@ -442,7 +405,7 @@ impl Pcss {
             taps: self.opts.taps,
             width: e.penumbra,
         };
-        let (v, n) = self.map.filter(&at, &kernel, x, y, t);
+        let (v, n) = self.lookup.filter(&at, &kernel, x, y, t);
         (v, n + e.taps as u64)
     }
 }
@@ -473,7 +436,7 @@ impl Pcss {
             return (out, pen, count);
         }
         let mut ats = [None; 4];
-        let Some(face) = self.map.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
+        let Some(face) = self.lookup.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
             return (out, pen, count);
         };
         // Pixels on another view (a cube map's edge): one at a time.
@@ -504,7 +467,7 @@ impl Pcss {
                 }
             }
         }
-        self.map.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
+        self.lookup.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
         (out, pen, count)
     }
 
@@ -523,7 +486,7 @@ impl Pcss {
     fn estimate4(&self, ats: &[Option<At>; 4], x: usize, y: usize) -> [Option<Estimate>; 4] {
         let mut es: [Option<Estimate>; 4] = [None; 4];
         let face = ats.iter().flatten().next().map_or(0, |a| a.face);
-        let (map, view) = &self.map.maps()[face];
+        let (map, view) = &self.lookup.maps()[face];
         let size = map.width() as f32;
         let mut go = [false; 4];
         let mut widths = [1.0f32; 4];
@@ -607,67 +570,6 @@ impl Pcss {
     }
 }
 
-/// The light's width for PCSS-style estimates: the scene's area light (a disk's or sphere's
-/// diameter, a rectangle's mean side) times `scale`; `2 tan(angle / 2)` for a directional
-/// light of angular diameter `angle` degrees; 0 for point and spot lights.
-pub(crate) fn light_width(frame: &Frame, scale: f32, angle: f32) -> f32 {
-    match frame.light.kind {
-        LightKind::Area(shape) => shape.width() * scale,
-        LightKind::Directional => 2.0 * (angle.to_radians() * 0.5).tan(),
-        LightKind::Point | LightKind::Spot { .. } => 0.0,
-    }
-}
-
-/// The light pass of the PCSS-style techniques: `map`'s maps, the light's width
-/// ([`light_width`]) and each view's nearest caster ([`nearest_casters`]).
-pub(crate) fn light_pass(
-    map: &mut ShadowMap,
-    p: &Pipeline,
-    frame: &Frame,
-    scale: f32,
-    angle: f32,
-) -> Result<(f32, Vec<f32>), String> {
-    map.light_pass(p, frame)?;
-    Ok((light_width(frame, scale, angle), nearest_casters(p, map.maps())))
-}
-
-/// Per light view: the nearest caster's distance from the light (the map's least depth, at
-/// most the far plane's).
-pub(crate) fn nearest_casters(p: &Pipeline, maps: &[(Surface<f32>, LightView)]) -> Vec<f32> {
-    maps.iter()
-        .map(|(m, v)| v.distance(compute::least(p, m, 1.0)))
-        .collect()
-}
-
-/// A width in world units at distance `d` from the light, in texels of `view`.
-fn texels(view: &LightView, world: f32, d: f32) -> f32 {
-    if view.perspective {
-        world / (view.texel * d.max(1e-6))
-    } else {
-        world / view.texel
-    }
-}
-
-/// The blocker search width in texels: the cone from a receiver at distance `d_r` to a light
-/// of width `w` (directional: `2 tan(angle / 2)`), cut at the nearest caster `d_min`.
-pub(crate) fn search_texels(view: &LightView, w: f32, d_r: f32, d_min: f32) -> f32 {
-    if view.perspective {
-        texels(view, w * (d_r - d_min) / d_r.max(1e-6), d_min)
-    } else {
-        texels(view, (d_r - d_min) * w, d_r)
-    }
-}
-
-/// RTR eq. 7.6, `w_penumbra = w_light (d_r - d_o) / d_o` (directional:
-/// `(d_r - d_o) 2 tan(angle / 2)`), in texels at the receiver.
-pub(crate) fn penumbra_texels(view: &LightView, w: f32, d_r: f32, d_o: f32) -> f32 {
-    if view.perspective {
-        texels(view, w * (d_r - d_o).max(0.0) / d_o.max(1e-6), d_r)
-    } else {
-        texels(view, (d_r - d_o).max(0.0) * w, d_r)
-    }
-}
-
 thread_local! {
     /// Scratch search taps per worker.
     static SEARCH: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
@@ -680,7 +582,9 @@ impl ShadowTechnique for Pcss {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = std::time::Instant::now();
-        (self.width, self.nearest) = light_pass(&mut self.map, p, frame, self.opts.light, self.opts.angle)?;
+        self.lookup.light_pass(p, frame)?;
+        self.width = light_width(frame, self.opts.light, self.opts.angle);
+        self.nearest = self.lookup.light_maps().nearest_casters(p);
         let t1 = std::time::Instant::now();
         let this = &*self;
         let keep = self.keep;
@@ -704,15 +608,15 @@ impl ShadowTechnique for Pcss {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut t = Steps::default();
-        if self.map.maps().is_empty() {
+        if self.lookup.maps().is_empty() {
             return t.0;
         }
         t.step(|| {
             Step::new("map", "the light pass of the last run")
-                .int("views", self.map.maps().len())
+                .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .num("light width", self.width)
-                .flag("hierarchy", self.opts.map.hierarchy)
+                .flag("hierarchy", self.opts.wide.hierarchy)
         });
         let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
         t.0.push(inspect::result(v));
@@ -725,7 +629,7 @@ impl ShadowTechnique for Pcss {
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
         vec![
-            ("map texels", self.map.texels() as f64),
+            ("map texels", self.lookup.texels() as f64),
             // Search taps (raw depth reads) plus filter taps (2x2 comparisons); one per
             // kernel the hierarchy classified.
             ("taps", self.taps as f64),
@@ -734,11 +638,11 @@ impl ShadowTechnique for Pcss {
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        let mut v = self.map.stages(p, frame)?;
-        if self.map.maps().is_empty() || self.width <= 0.0 {
+        let mut v = self.lookup.stages(p, frame)?;
+        if self.lookup.maps().is_empty() || self.width <= 0.0 {
             return Ok(v);
         }
-        let est = |x: usize, y: usize| match self.map.prepare(frame, x, y, &mut NoTrace) {
+        let est = |x: usize, y: usize| match self.lookup.prepare(frame, x, y, &mut NoTrace) {
             Prepared::At(at) => Some(self.estimate(&at, x, y)),
             Prepared::Done(..) => None,
         };

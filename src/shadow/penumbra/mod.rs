@@ -20,15 +20,15 @@ pub mod pvmf;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::LightKind;
+use crate::shadow::light::soft::light_width;
 use crate::shadow::light::{homogeneous_position, LightView};
-use crate::shadow::map::pcss::light_width;
 use crate::shadow::volume::silhouette;
 use crate::shadow::Field;
 use glam::{Vec3, Vec4};
 use std::collections::HashMap;
 
 /// The light's radius for penumbra volumes: half the scene's area light width (the soft
-/// techniques' light width, `pcss::light_width`) times `scale`; 0 for point, spot and directional lights (no
+/// techniques' light width, [`light_width`]) times `scale`; 0 for point, spot and directional lights (no
 /// extent, or no centre to extrude from).
 pub fn light_radius(frame: &Frame, scale: f32) -> f32 {
     match frame.light.kind {

@@ -30,7 +30,7 @@
 //!    comparison).
 //!
 //! The light is a sphere of radius `r`: half the scene's area light width
-//! ([`crate::shadow::map::pcss`]'s light width) times `light`. Point and spot lights have
+//! ([`crate::shadow::light::soft::light_width`]) times `light`. Point and spot lights have
 //! none, and a directional light has no centre to extrude from, so those get the hard map; a
 //! radius of 0 is exactly `shadow-map [filter=pcf2]` with the same map options.
 //!
@@ -46,8 +46,9 @@ use super::{
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::bilinear_compare;
-use crate::shadow::map::shadow_map::{self, Prepared, ShadowMap};
+use crate::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -57,10 +58,11 @@ use std::time::Instant;
 /// Options of penumbra volume maps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The depth map and its bias (the shadow map's options; its `layer`, `filter`, `kernel`,
-    /// `world`, `taps` and `hierarchy` are not used); the volume map has the same size.
-    /// Default: the shadow map's defaults.
-    pub map: shadow_map::Options,
+    /// The depth map's pass; the volume map has the same size. Default: its defaults (2048
+    /// texels, f32, 4 units, slope 1.1).
+    pub map: MapOptions,
+    /// Normal-offset and receiver-plane bias of the depth map's 2x2 comparison. Default: none.
+    pub bias: Bias,
     /// The light's radius as a multiple of half the scene's area light width (0: the hard
     /// shadow map). Default: 1.
     pub light: f32,
@@ -72,7 +74,8 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            map: shadow_map::Options::default(),
+            map: MapOptions::default(),
+            bias: Bias::default(),
             light: 1.0,
             smooth: true,
         }
@@ -81,7 +84,8 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    let mut fields = crate::map_fields!(Options, |o| o.map);
+    fields.extend(crate::bias_fields!(Options, |o| o.bias));
     fields.extend([
         light_field(|o: &mut Options| &mut o.light),
         Field::new(
@@ -197,7 +201,7 @@ pub fn volume_quads(s: &Silhouettes, ext: &[Extrusion]) -> Quads {
 /// Penumbra volume maps (see the module docs).
 pub struct Pvm {
     opts: Options,
-    map: ShadowMap,
+    lookup: MapLookup,
     sil: Silhouettes,
     ext: Vec<Extrusion>,
     volumes: Vec<VolumeMap>,
@@ -221,15 +225,17 @@ impl Pvm {
     /// Penumbra volume maps with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Pvm, String> {
         declaration().check(&opts)?;
-        let map = ShadowMap::new(shadow_map::Options {
-            filter: shadow_map::Filter::Pcf2,
-            hierarchy: false,
-            ..opts.map.clone()
-        })
-        .map_err(|e| e.replace("'shadow-map'", "'pvm'"))?;
+        // The depth map, compared with 2x2 PCF outside the volumes.
+        let lookup = MapLookup::new(Setup {
+            map: opts.map.clone(),
+            layer: Layer::First,
+            bias: opts.bias,
+            wide: None,
+            min_max: false,
+        });
         Ok(Pvm {
             opts,
-            map,
+            lookup,
             sil: Silhouettes::default(),
             ext: Vec::new(),
             volumes: Vec::new(),
@@ -248,11 +254,11 @@ impl Pvm {
 
     /// Pass 3 at one pixel; every step reported to `t`.
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Option<Found> {
-        let at = match self.map.prepare(frame, x, y, t) {
+        let at = match self.lookup.prepare(frame, x, y, t) {
             Prepared::Done(v, _) => return v.is_finite().then_some(Found::Map(v)),
             Prepared::At(at) => at,
         };
-        let map = &self.map.maps()[at.face].0;
+        let map = &self.lookup.maps()[at.face].0;
         if let Some(vm) = self.volumes.get(at.face) {
             let size = vm.depth.width() as f32;
             let inside_map = at.uv.cmpge(Vec2::ZERO).all() && at.uv.cmplt(Vec2::ONE).all();
@@ -326,7 +332,7 @@ impl ShadowTechnique for Pvm {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = Instant::now();
-        self.map.light_pass(p, frame)?;
+        self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
         let t1 = Instant::now();
         let l = frame.light.position;
@@ -349,7 +355,7 @@ impl ShadowTechnique for Pvm {
             self.quads = quads.len();
             t3 = Instant::now();
             let size = self.opts.map.size;
-            for (_, view) in self.map.maps() {
+            for (_, view) in self.lookup.maps() {
                 self.volumes.push(render(p, &quads, view, size)?);
             }
         }
@@ -379,12 +385,12 @@ impl ShadowTechnique for Pvm {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut t = Steps::default();
-        if self.map.maps().is_empty() {
+        if self.lookup.maps().is_empty() {
             return t.0;
         }
         t.step(|| {
             Step::new("maps", "the depth map and the penumbra volume map of the last run")
-                .int("views", self.map.maps().len())
+                .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
@@ -411,7 +417,7 @@ impl ShadowTechnique for Pvm {
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
         vec![
-            ("map texels", self.map.texels() as f64),
+            ("map texels", self.lookup.texels() as f64),
             ("silhouette edges", self.sil.edges.len() as f64),
             ("volume quads", self.quads as f64),
             (
@@ -424,7 +430,7 @@ impl ShadowTechnique for Pvm {
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        let mut v = self.map.stages(p, frame)?;
+        let mut v = self.lookup.stages(p, frame)?;
         if self.volumes.is_empty() {
             return Ok(v);
         }

@@ -56,8 +56,9 @@ use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
-use crate::shadow::map::shadow_map::{self, At, Layer, Prepared, ShadowMap};
+use crate::shadow::map::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
@@ -79,13 +80,17 @@ crate::choice_enum! {
 /// Options of penumbra volume mask filtering.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The depth map and its bias (the shadow map's options and `layer`; its `filter`,
-    /// `kernel`, `world` and `taps` are not used); the mask has the same size. `hierarchy`
-    /// classifies each filter's footprint on the map's hierarchy first and skips the taps
-    /// of one fully lit or fully shadowed (the same image, fewer taps).
-    /// Default: the shadow map's defaults with `size=512`, `layer=second` (the text's) and
-    /// `hierarchy=true`.
-    pub map: shadow_map::Options,
+    /// The depth map's pass; the mask has the same size. Default: its defaults with
+    /// `size=512`.
+    pub map: MapOptions,
+    /// Normal-offset and receiver-plane bias. Default: none.
+    pub bias: Bias,
+    /// What pass 1's map stores. Default: second (the text's).
+    pub layer: Layer,
+    /// The bias cone across the filter, and the hierarchy: it classifies each filter's
+    /// footprint first and skips the taps of one fully lit or fully shadowed (the same image,
+    /// fewer taps). Default: no cone, the hierarchy on.
+    pub wide: Wide,
     /// The light's radius as a multiple of half the scene's area light width (0: the hard
     /// shadow map). Default: 1.
     pub light: f32,
@@ -115,11 +120,15 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            map: shadow_map::Options {
+            map: MapOptions {
                 size: 512,
-                layer: Layer::Second,
-                hierarchy: true,
                 ..Default::default()
+            },
+            bias: Bias::default(),
+            layer: Layer::Second,
+            wide: Wide {
+                cone: 0.0,
+                hierarchy: true,
             },
             light: 1.0,
             spread: 0.5,
@@ -136,12 +145,15 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::shadow_map_fields!(Options, |o| o.map);
+    let mut fields = crate::map_fields!(Options, |o| o.map);
+    fields.extend(crate::bias_fields!(Options, |o| o.bias));
     fields.extend([
+        crate::cone_field!(Options, |o| o.wide),
+        crate::hierarchy_field!(Options, |o| o.wide),
         Field::new(
             "layer",
             "pass 1: first, second (back faces, the text's) or midpoint depth",
-            |o: &mut Options| &mut o.map.layer,
+            |o: &mut Options| &mut o.layer,
         ),
         light_field(|o: &mut Options| &mut o.light),
         Field::range(
@@ -313,7 +325,7 @@ impl Found {
 /// Penumbra volume mask filtering (see the module docs).
 pub struct Pvmf {
     opts: Options,
-    map: ShadowMap,
+    lookup: MapLookup,
     sil: Silhouettes,
     vols: Vec<MaskVolume>,
     masks: Vec<VolumeMap>,
@@ -339,20 +351,22 @@ impl Pvmf {
                 opts.spread
             ));
         }
-        if opts.map.layer == Layer::Id {
+        if opts.layer == Layer::Id {
             return Err(
                 "technique 'pvmf': option layer=id stores no depth to filter (first, second or midpoint)".into(),
             );
         }
-        let map = ShadowMap::new(shadow_map::Options {
-            // A wide filter, so that the map prepares the receiver plane and cone of the taps.
-            filter: shadow_map::Filter::Poisson,
-            ..opts.map.clone()
-        })
-        .map_err(|e| e.replace("'shadow-map'", "'pvmf'"))?;
+        // Wide kernels: the lookup prepares the receiver plane and cone of the taps.
+        let lookup = MapLookup::new(Setup {
+            map: opts.map.clone(),
+            layer: opts.layer,
+            bias: opts.bias,
+            wide: Some(opts.wide),
+            min_max: false,
+        });
         Ok(Pvmf {
             opts,
-            map,
+            lookup,
             sil: Silhouettes::default(),
             vols: Vec::new(),
             masks: Vec::new(),
@@ -395,12 +409,12 @@ impl Pvmf {
     /// taps taken.
     fn filter(&self, at: &At, w: f32, x: usize, y: usize, t: &mut impl Trace) -> (f32, u32) {
         // Every tap lies within w / 2 texels of the centre.
-        match self.map.classify(at, 0.5 * w, t) {
+        match self.lookup.classify(at, 0.5 * w, t) {
             Class::Lit => return (1.0, 1),
             Class::Shadowed => return (0.0, 1),
             Class::Mixed => {}
         }
-        let map = &self.map.maps()[at.face].0;
+        let map = &self.lookup.maps()[at.face].0;
         let inv = 1.0 / map.width() as f32;
         let n = self.opts.pcf;
         let mut rng = SplitMix(((y as u64) << 32 | x as u64) ^ 0x5056_4d46);
@@ -421,11 +435,11 @@ impl Pvmf {
 
     /// Step 3 at one pixel; every step reported to `t`.
     fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Found {
-        let at = match self.map.prepare(frame, x, y, t) {
+        let at = match self.lookup.prepare(frame, x, y, t) {
             Prepared::Done(v, _) => return Found::Plain(v),
             Prepared::At(at) => at,
         };
-        let (map, view) = &self.map.maps()[at.face];
+        let (map, view) = &self.lookup.maps()[at.face];
         let hard = bilinear_compare(map, at.uv, at.r.z);
         let Some(mask) = self.masks.get(at.face) else {
             t.step(|| Step::new("hard", "no light radius: one 2x2 comparison, no mask").num("visibility", hard));
@@ -538,7 +552,7 @@ impl ShadowTechnique for Pvmf {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let t0 = Instant::now();
-        self.map.light_pass(p, frame)?;
+        self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
         let t1 = Instant::now();
         self.masks.clear();
@@ -551,7 +565,7 @@ impl ShadowTechnique for Pvmf {
             let (vols, quads) = mask_quads(&self.sil, frame.light.position, self.radius, self.opts.spread);
             self.vols = vols;
             t3 = Instant::now();
-            for (_, view) in self.map.maps() {
+            for (_, view) in self.lookup.maps() {
                 self.masks.push(render(p, &quads, view, self.opts.map.size)?);
             }
         }
@@ -596,14 +610,14 @@ impl ShadowTechnique for Pvmf {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut t = Steps::default();
-        if self.map.maps().is_empty() {
+        if self.lookup.maps().is_empty() {
             return t.0;
         }
         t.step(|| {
             Step::new("maps", "the depth map and the penumbra volume mask of the last run")
-                .int("views", self.map.maps().len())
+                .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
-                .text("layer", self.opts.map.layer.as_str())
+                .text("layer", self.opts.layer.as_str())
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
                 .num("s_e", self.opts.spread)
@@ -645,7 +659,7 @@ impl ShadowTechnique for Pvmf {
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let filtered = self.filtered.iter().filter(|&&f| f).count() as f64;
         vec![
-            ("map texels", self.map.texels() as f64),
+            ("map texels", self.lookup.texels() as f64),
             ("silhouette edges", self.sil.edges.len() as f64),
             ("mask quads", 2.0 * self.vols.len() as f64),
             (
@@ -663,7 +677,7 @@ impl ShadowTechnique for Pvmf {
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        let mut v = self.map.stages(p, frame)?;
+        let mut v = self.lookup.stages(p, frame)?;
         for (i, m) in self.masks.iter().enumerate() {
             if m.fragments == 0 {
                 continue;

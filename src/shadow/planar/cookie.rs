@@ -19,7 +19,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, LightView};
 use crate::shadow::pixels::per_pixel;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
-use glam::{Vec2, Vec4};
+use glam::Vec4;
 
 choice_enum! {
     /// How the mask is sampled.
@@ -150,13 +150,12 @@ impl Cookie {
             });
             return 1.0;
         }
-        let face = light::face_of(self.masks.len(), &frame.light, s.position);
-        let (m, view) = &self.masks[face];
-        let Some((uv, _)) = view.lookup(s.position) else {
+        let Some(at) = light::locate(&self.masks, &frame.light, s.position) else {
             t.step(|| Step::new("behind the light", "the point is behind the projector: lit"));
             return 1.0;
         };
-        let inside = !(uv.cmplt(Vec2::ZERO).any() || uv.cmpgt(Vec2::ONE).any());
+        let (face, uv, inside) = (at.view, at.uv, at.inside());
+        let m = &self.masks[face].0;
         t.step(|| {
             Step::new(
                 "projection",

@@ -264,19 +264,15 @@ impl Avsm {
 
     /// The curve of the texel the point `p` falls in, with its view and texel.
     fn curve_at(&self, frame: &Frame, p: Vec3) -> Option<(usize, Vec2, f32, Curve<'_>)> {
-        let f = light::face_of(self.maps.len(), &frame.light, p);
-        let (store, view) = &self.maps[f];
-        let (uv, z) = view.lookup(p)?;
-        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
-            return None;
-        }
+        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
+        let store = &self.maps[at.view].0;
         let s = store.width();
-        let (tx, ty) = ((uv.x * s as f32) as u32, (uv.y * s as f32) as u32);
+        let (tx, ty) = at.texel(s, s);
         Some((
-            f,
+            at.view,
             Vec2::new(tx as f32, ty as f32),
-            z,
-            Curve(store.pixel(tx.min(s - 1), ty.min(s - 1))),
+            at.depth,
+            Curve(store.pixel(tx, ty)),
         ))
     }
 }

@@ -254,6 +254,12 @@ struct Map {
     fragments: u64,
 }
 
+impl crate::shadow::light::OnView for Map {
+    fn light_view(&self) -> &LightView {
+        &self.view
+    }
+}
+
 /// Where one point reads the map.
 struct Lookup {
     view: usize,
@@ -293,24 +299,17 @@ impl DeepShadowMap {
     /// hardware PCF, clamped to the map's edge, weights `(1 - fx)(1 - fy)`, `fx (1 - fy)`,
     /// `(1 - fx) fy`, `fx fy`). `None` outside every view.
     fn taps(&self, frame: &Frame, p: Vec3) -> Option<Lookup> {
-        let f = light::face_of(self.maps.len(), &frame.light, p);
-        let m = &self.maps[f];
-        let (uv, z) = m.view.lookup(p)?;
-        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmple(Vec2::ONE).all()) {
-            return None;
-        }
+        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
+        let (f, uv, m) = (at.view, at.uv, &self.maps[at.view]);
         let s = m.size;
-        let z = z.clamp(0.0, 1.0);
+        let z = at.depth.clamp(0.0, 1.0);
         Some(match self.opts.filter {
-            Filter::Nearest => {
-                let t = |c: f32| ((c * s as f32) as u32).min(s - 1);
-                Lookup {
-                    view: f,
-                    depth: z,
-                    texels: [(t(uv.x), t(uv.y)); 4],
-                    frac: None,
-                }
-            }
+            Filter::Nearest => Lookup {
+                view: f,
+                depth: z,
+                texels: [at.texel(s, s); 4],
+                frac: None,
+            },
             Filter::Bilinear => {
                 let (x, y, fx, fy) = footprint((s, s), uv);
                 let c = |v: i64| v.clamp(0, s as i64 - 1) as u32;

@@ -130,6 +130,12 @@ struct Maps {
     slices: Vec<Surface<Vec4>>,
 }
 
+impl crate::shadow::light::OnView for Maps {
+    fn light_view(&self) -> &LightView {
+        &self.view
+    }
+}
+
 /// Opacity shadow maps and deep opacity maps (see the module docs).
 pub struct OpacityMaps {
     opts: Options,
@@ -160,18 +166,11 @@ impl OpacityMaps {
     }
 
     fn lookup(&self, frame: &Frame, p: Vec3) -> Option<Found> {
-        let f = light::face_of(self.maps.len(), &frame.light, p);
-        let m = &self.maps[f];
-        let (uv, z) = m.view.lookup(p)?;
-        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
-            return None;
-        }
+        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
+        let (f, m) = (at.view, &self.maps[at.view]);
         let s = m.opaque.width();
-        let (tx, ty) = (
-            ((uv.x * s as f32) as u32).min(s - 1),
-            ((uv.y * s as f32) as u32).min(s - 1),
-        );
-        let z = z.clamp(0.0, 1.0);
+        let (tx, ty) = at.texel(s, s);
+        let z = at.depth.clamp(0.0, 1.0);
         let od = m.opaque.at(tx, ty);
         let start = m.start.at(tx, ty);
         let k = m.slices.len();

@@ -85,6 +85,12 @@ struct Maps {
     colour: Surface<Vec4>,
 }
 
+impl crate::shadow::light::OnView for Maps {
+    fn light_view(&self) -> &LightView {
+        &self.view
+    }
+}
+
 /// The coloured transparency map (see the module docs).
 pub struct TransparencyMap {
     opts: Options,
@@ -108,18 +114,11 @@ impl TransparencyMap {
     /// The lookup at world point `p`: (view, uv, depth, opaque depth, transparent depth,
     /// colour, result).
     fn lookup(&self, frame: &Frame, p: Vec3) -> Option<(usize, Vec2, f32, f32, f32, Vec3, Vec3)> {
-        let f = light::face_of(self.maps.len(), &frame.light, p);
-        let m = &self.maps[f];
-        let (uv, z) = m.view.lookup(p)?;
-        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all()) {
-            return None;
-        }
+        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
+        let (f, m) = (at.view, &self.maps[at.view]);
         let s = m.opaque.width();
-        let (tx, ty) = (
-            ((uv.x * s as f32) as u32).min(s - 1),
-            ((uv.y * s as f32) as u32).min(s - 1),
-        );
-        let z = z.clamp(0.0, 1.0);
+        let (tx, ty) = at.texel(s, s);
+        let z = at.depth.clamp(0.0, 1.0);
         let (od, td, c) = (m.opaque.at(tx, ty), m.depth.at(tx, ty), m.colour.at(tx, ty).truncate());
         let v = if z > od {
             Vec3::ZERO

@@ -1,0 +1,461 @@
+//! The light's depth maps: the map pass every map-based technique starts with, and
+//! [`locate`], where a world point falls in them.
+//!
+//! [`MapOptions`] are the pass's settings (size, depth format, polygon offset, fitting,
+//! snapping); [`LightMaps::render`] draws one depth map per light view ([`super::fit`]: one
+//! orthographic or perspective view, or six cube faces) with the casters merged into one
+//! draw ([`super::depth`]), storing the [`Layer`] a technique asks for (the nearest surface,
+//! back faces, the midpoint of two peeled layers, or object ids).
+//!
+//! [`locate`] is the one lookup from world to map: the view that sees the point (one of six
+//! faces for cube maps), its texture coordinate and depth there. [`MapPoint::inside`] is the
+//! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
+
+use super::{fit, merged_casters, DepthPass, LightView};
+use crate::choice_enum;
+use crate::frame::Frame;
+use crate::pipeline::*;
+use crate::scene::Light;
+use crate::shadow::Stage;
+use glam::{BVec4A, Vec2, Vec3, Vec4};
+
+choice_enum! {
+    /// What the map stores.
+    pub enum Layer {
+        /// The nearest surface (Williams).
+        First = "first",
+        /// Back faces only (Wang and Molnar 1994).
+        Second = "second",
+        /// The average of the two nearest layers, by depth peeling (Woo 1992).
+        Midpoint = "midpoint",
+        /// Object ids of the nearest surface instead of depth (Cournia 3.1.2).
+        Id = "id",
+    }
+}
+
+choice_enum! {
+    /// Which frustum a directional light's map covers.
+    pub enum FitTo {
+        /// The whole scene's bounds.
+        Scene = "scene",
+        /// The receivers the camera sees, with casters that cannot shadow them culled.
+        Receivers = "receivers",
+    }
+}
+
+/// Settings of the map pass ([`LightMaps::render`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapOptions {
+    /// Map side in texels (a cube map has six faces of this size). Default: 2048.
+    pub size: u32,
+    /// Depth storage. Default: f32.
+    pub format: DepthFormat,
+    /// Constant polygon offset, in units of the format's resolvable depth step. Default: 4.
+    pub units: f32,
+    /// Slope-scaled polygon offset factor. Default: 1.1.
+    pub slope: f32,
+    /// Directional lights: fit the map to the scene or to the visible receivers. Default: scene.
+    pub fit: FitTo,
+    /// Snap the fitted frustum to whole texels (against shimmering). Default: false.
+    pub snap: bool,
+}
+
+impl Default for MapOptions {
+    fn default() -> Self {
+        MapOptions {
+            size: 2048,
+            format: DepthFormat::F32,
+            units: 4.0,
+            slope: 1.1,
+            fit: FitTo::Scene,
+            snap: false,
+        }
+    }
+}
+
+/// The declaration of [`MapOptions`]' fields (size, format, polygon offset, fitting,
+/// snapping) for an options struct whose `MapOptions` is reached by `|o| path`
+/// (`map_fields!(Options, |o| o.map)`).
+#[macro_export]
+macro_rules! map_fields {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        use $crate::shadow::Field;
+        vec![
+            Field::range(
+                "size",
+                "map side in texels (a cube map has six faces of this size)",
+                16,
+                $crate::pipeline::MAX_DIMENSION,
+                |$x: &mut $o| &mut $($path)+.size,
+            ),
+            Field::new("format", "depth storage: f32, u24 or u16", |$x: &mut $o| &mut $($path)+.format),
+            Field::range(
+                "units",
+                "constant polygon offset, in units of the format's resolvable depth step",
+                -1e6,
+                1e6,
+                |$x: &mut $o| &mut $($path)+.units,
+            ),
+            Field::range(
+                "slope",
+                "slope-scaled polygon offset factor",
+                -1e3,
+                1e3,
+                |$x: &mut $o| &mut $($path)+.slope,
+            ),
+            Field::new(
+                "fit",
+                "directional lights: scene bounds, or receivers (casters that shadow visible receivers)",
+                |$x: &mut $o| &mut $($path)+.fit,
+            ),
+            Field::new(
+                "snap",
+                "snap the fitted frustum to whole texels (against shimmering)",
+                |$x: &mut $o| &mut $($path)+.snap,
+            ),
+        ]
+    }};
+}
+
+/// Where a world point falls in a light's maps ([`locate`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MapPoint {
+    /// The light view that sees the point (a cube face's index for cube maps).
+    pub view: usize,
+    /// Texture coordinate in that view (origin top-left; inside the map in `[0, 1)²`).
+    pub uv: Vec2,
+    /// Depth in the view (the light's clip depth, `[0, 1]` between its planes).
+    pub depth: f32,
+}
+
+impl MapPoint {
+    /// Whether the point lies on the map: the one edge rule, [`inside`].
+    #[inline(always)]
+    pub fn inside(&self) -> bool {
+        inside(self.uv)
+    }
+
+    /// The texel holding the point in a `width x height` map (`floor(uv * size)`), clamped to
+    /// the map (points off the map take its edge texel).
+    #[inline(always)]
+    pub fn texel(&self, width: u32, height: u32) -> (u32, u32) {
+        texel(self.uv, width, height)
+    }
+}
+
+/// The edge rule of every lookup: `uv` lies on a map when it is in `[0, 1)²`, where its texel
+/// `floor(uv * size)` exists (so a coordinate of exactly 1 is off the map, as a texel index
+/// of `size` would be).
+#[inline(always)]
+pub fn inside(uv: Vec2) -> bool {
+    uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0
+}
+
+/// [`inside`] of four coordinates `(u[l], v[l])`, one per lane.
+#[inline(always)]
+pub fn inside4(u: Vec4, v: Vec4) -> BVec4A {
+    u.cmpge(Vec4::ZERO) & u.cmplt(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmplt(Vec4::ONE)
+}
+
+/// The texel of `uv` in a `width x height` map, clamped to the map.
+#[inline(always)]
+pub fn texel(uv: Vec2, width: u32, height: u32) -> (u32, u32) {
+    let clamp = |t: f32, n: u32| (t.floor().max(0.0) as u32).min(n - 1);
+    (clamp(uv.x * width as f32, width), clamp(uv.y * height as f32, height))
+}
+
+/// Something with a light view: a [`LightView`] itself, or a map paired with its view, so
+/// that [`locate`] serves every technique's per-view data.
+pub trait OnView {
+    /// The light view.
+    fn light_view(&self) -> &LightView;
+}
+
+impl OnView for LightView {
+    #[inline(always)]
+    fn light_view(&self) -> &LightView {
+        self
+    }
+}
+
+impl<T> OnView for (T, LightView) {
+    #[inline(always)]
+    fn light_view(&self) -> &LightView {
+        &self.1
+    }
+}
+
+/// Which of `views` sees world point `p`: a cube face by the direction from the light for six
+/// views ([`CubeFace::ALL`] order), the one view otherwise.
+#[inline(always)]
+pub fn view_of(views: usize, light: &Light, p: Vec3) -> usize {
+    if views == 6 {
+        CubeFace::from_direction(p - light.position).map_or(0, |f| f.0 as usize)
+    } else {
+        0
+    }
+}
+
+/// Where world point `p` falls in `views`: the view that sees it ([`view_of`]), its texture
+/// coordinate and depth there; `None` behind a perspective view's eye. The point is on the
+/// map when [`MapPoint::inside`].
+#[inline(always)]
+pub fn locate(views: &[impl OnView], light: &Light, p: Vec3) -> Option<MapPoint> {
+    locate_on(views, view_of(views.len(), light, p), p)
+}
+
+/// [`locate`] in a given view `view` (a technique that moves the lookup point, as the
+/// normal offset does, keeps the view its surface point chose).
+#[inline(always)]
+pub fn locate_on(views: &[impl OnView], view: usize, p: Vec3) -> Option<MapPoint> {
+    let (uv, depth) = views[view].light_view().lookup(p)?;
+    Some(MapPoint { view, uv, depth })
+}
+
+/// The light's maps of one frame: one depth map per light view, and what the pass found.
+#[derive(Default)]
+pub struct LightMaps {
+    maps: Vec<(Surface<f32>, LightView)>,
+    /// With [`Layer::Id`]: object id + 1 per texel (0: empty), per view.
+    ids: Vec<Surface<f32>>,
+    culled: usize,
+    fitted: Option<LightView>,
+}
+
+impl LightMaps {
+    /// The map pass: the maps of `frame`'s light with options `o`, storing `layer`. The maps
+    /// of the last call are reused where their size allows; the memory the pass adds is
+    /// checked against the budget before anything is drawn.
+    pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), String> {
+        let fit = fit(frame, o.size, o.fit == FitTo::Receivers, o.snap);
+        self.culled = fit.culled;
+        self.fitted = fit.fitted;
+        let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
+        self.ids.clear();
+        // Every map this pass allocates (views × layers), checked against the memory budget
+        // before the first is: the maps of the last run are reused, so they do not count.
+        let layers: u64 = match layer {
+            Layer::First | Layer::Second => 1,
+            Layer::Midpoint => 3,
+            Layer::Id => 2,
+        };
+        let reused = old.iter().filter(|m| m.width() == o.size).count() as u64;
+        let new_maps = (fit.views.len() as u64 * layers).saturating_sub(reused);
+        if new_maps > 0 {
+            check_room(o.size, o.size, 4, new_maps).map_err(|e| {
+                format!(
+                    "the light's maps ({} views, option size={}): {e}",
+                    fit.views.len(),
+                    o.size
+                )
+            })?;
+        }
+        let casters = merged_casters(frame, &fit.casters)?;
+        let pass = DepthPass {
+            size: o.size,
+            format: o.format,
+            offset: PolygonOffset {
+                units: o.units,
+                factor: o.slope,
+            },
+        };
+        for view in fit.views {
+            let reuse = old.pop();
+            let map = match layer {
+                Layer::First => pass.render(p, &casters, &view, CullMode::None, None, reuse)?,
+                Layer::Second => pass.render(p, &casters, &view, CullMode::Front, None, reuse)?,
+                Layer::Midpoint => {
+                    let d1 = pass.render(p, &casters, &view, CullMode::None, None, reuse)?;
+                    let d2 = pass.render(p, &casters, &view, CullMode::None, Some(&d1), None)?;
+                    let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
+                    Surface::from_vec(o.size, o.size, mid).map_err(|e| e.to_string())?
+                }
+                Layer::Id => {
+                    // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
+                    // `dump` shows.
+                    let mut ids = Surface::new(o.size, o.size, 0.0f32).map_err(|e| e.to_string())?;
+                    let mut depth = Surface::new(o.size, o.size, 1.0f32).map_err(|e| e.to_string())?;
+                    for (oi, ob) in frame.scene.objects.iter().enumerate().filter(|(i, _)| fit.casters[*i]) {
+                        let id = oi as f32 + 1.0;
+                        let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
+                        p.draw(
+                            &mut Targets::color(&mut ids).with_depth(&mut depth),
+                            &RenderState::default(),
+                            &ob.mesh.positions,
+                            &ob.mesh.indices,
+                            &TransformPositions(view.matrix),
+                            &fs,
+                        )
+                        .map_err(|e| e.to_string())?;
+                    }
+                    self.ids.push(ids);
+                    depth
+                }
+            };
+            self.maps.push((map, view));
+        }
+        Ok(())
+    }
+
+    /// The maps of the last pass, one per light view (six for cube maps), with their views.
+    pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
+        &self.maps
+    }
+
+    /// Whether the pass has not run (or found no view).
+    pub fn is_empty(&self) -> bool {
+        self.maps.is_empty()
+    }
+
+    /// The map and view of view `i`.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> &(Surface<f32>, LightView) {
+        &self.maps[i]
+    }
+
+    /// With [`Layer::Id`]: view `i`'s object ids (+1; 0 where empty).
+    pub fn ids(&self, i: usize) -> Option<&Surface<f32>> {
+        self.ids.get(i)
+    }
+
+    /// Where world point `p` falls in the maps ([`locate`]).
+    #[inline(always)]
+    pub fn locate(&self, light: &Light, p: Vec3) -> Option<MapPoint> {
+        locate(&self.maps, light, p)
+    }
+
+    /// Texels of the last pass's maps, all views.
+    pub fn texels(&self) -> usize {
+        self.maps.iter().map(|(m, _)| m.data().len()).sum()
+    }
+
+    /// Casters culled by fitting in the last pass.
+    pub fn culled(&self) -> usize {
+        self.culled
+    }
+
+    /// The fitted view of the last pass (directional lights fitted to receivers).
+    pub fn fitted(&self) -> Option<&LightView> {
+        self.fitted.as_ref()
+    }
+
+    /// Per view: the nearest caster's distance from the light (the map's least depth, at
+    /// most the far plane's; [`LightView::distance`]), from a parallel reduction.
+    pub fn nearest_casters(&self, p: &Pipeline) -> Vec<f32> {
+        self.maps
+            .iter()
+            .map(|(m, v)| v.distance(compute::least(p, m, 1.0)))
+            .collect()
+    }
+
+    /// The pass's buffers for `dump`: each depth map, the fitted frustum over the whole
+    /// scene's map (RTR fig. 7.11) and the id maps.
+    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        let mut v: Vec<Stage> = self
+            .maps
+            .iter()
+            .enumerate()
+            .map(|(i, (m, _))| Stage::Scalar {
+                name: format!("depth_map{i}"),
+                data: m.clone(),
+                lo: 0.0,
+                hi: 1.0,
+            })
+            .collect();
+        if let Some(fitted) = &self.fitted {
+            v.push(Stage::Color {
+                name: "fitted_frustum".into(),
+                data: super::fitted_overview(p, frame, fitted)?,
+            });
+        }
+        for (i, ids) in self.ids.iter().enumerate() {
+            let hi = ids.data().iter().copied().fold(1.0f32, f32::max);
+            v.push(Stage::Scalar {
+                name: format!("id_map{i}"),
+                data: ids.clone(),
+                lo: 0.0,
+                hi,
+            });
+        }
+        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::LightKind;
+
+    fn light(kind: LightKind) -> Light {
+        Light {
+            kind,
+            position: Vec3::new(0.5, 3.0, -0.25),
+            direction: Vec3::new(0.0, -1.0, 0.0),
+            intensity: 1.0,
+        }
+    }
+
+    #[test]
+    fn the_edge_rule_is_half_open() {
+        for (uv, on) in [
+            (Vec2::new(0.0, 0.0), true),
+            (Vec2::new(0.999_999_9, 0.5), true),
+            (Vec2::new(1.0, 0.5), false),
+            (Vec2::new(0.5, 1.0), false),
+            (Vec2::new(-1e-9, 0.5), false),
+            (Vec2::new(f32::NAN, 0.5), false),
+        ] {
+            assert_eq!(inside(uv), on, "{uv}");
+            if on {
+                let (x, y) = texel(uv, 64, 32);
+                assert!(x < 64 && y < 32);
+                assert_eq!((x, y), ((uv.x * 64.0) as u32, (uv.y * 32.0) as u32));
+            }
+        }
+        // Off the map, the texel is the edge's.
+        assert_eq!(texel(Vec2::new(1.0, -0.5), 64, 32), (63, 0));
+    }
+
+    #[test]
+    fn cube_faces_meet_without_a_gap() {
+        // Points on a sphere around a point light: each falls inside the face that sees it,
+        // including on the faces' seams and corners.
+        let l = light(LightKind::Point);
+        let views: Vec<LightView> = (0..6)
+            .map(|i| {
+                let (fwd, u, v) = CubeFace::ALL[i].basis();
+                let e = l.position;
+                let view = glam::Mat4::from_cols(
+                    Vec4::new(u.x, -v.x, -fwd.x, 0.0),
+                    Vec4::new(u.y, -v.y, -fwd.y, 0.0),
+                    Vec4::new(u.z, -v.z, -fwd.z, 0.0),
+                    Vec4::new(-u.dot(e), v.dot(e), fwd.dot(e), 1.0),
+                );
+                LightView {
+                    matrix: glam::Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, 0.01, 50.0) * view,
+                    texel: 2.0 / 64.0,
+                    perspective: true,
+                }
+            })
+            .collect();
+        let mut n = 0;
+        for i in 0..40 {
+            for j in 0..80 {
+                let th = std::f32::consts::PI * (i as f32 + 0.5) / 40.0;
+                let ph = std::f32::consts::TAU * j as f32 / 80.0;
+                let d = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+                for dir in [d, d.signum() * Vec3::ONE.normalize(), Vec3::new(d.x.signum(), 0.0, 1.0)] {
+                    let m = locate(&views, &l, l.position + dir * 2.0).expect("in front of its face");
+                    assert!(m.uv.x >= -1e-6 && m.uv.x <= 1.0 + 1e-6, "{dir} {m:?}");
+                    assert!(m.uv.y >= -1e-6 && m.uv.y <= 1.0 + 1e-6, "{dir} {m:?}");
+                    let (x, y) = m.texel(64, 64);
+                    assert!(x < 64 && y < 64);
+                    n += 1;
+                }
+            }
+        }
+        assert_eq!(n, 40 * 80 * 3);
+        // One view: always view 0.
+        assert_eq!(view_of(1, &l, Vec3::new(9.0, -3.0, 2.0)), 0);
+    }
+}

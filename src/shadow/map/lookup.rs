@@ -1,0 +1,650 @@
+//! The per-pixel half of every depth-map technique: from a camera pixel to its place in the
+//! light's maps, the reference depth with every bias applied, and the filters that compare
+//! it. A technique holds one [`MapLookup`] (its [`Setup`] built from the technique's own
+//! options), runs [`MapLookup::light_pass`], then per pixel [`MapLookup::prepare`] and one of
+//! the filters:
+//!
+//! - [`MapLookup::compare`]: one comparison of the nearest texel, or hardware-style 2x2 PCF;
+//! - [`MapLookup::filter`] / [`MapLookup::filter4`]: a wide PCF kernel of [`super::kernel`]
+//!   (grid, tent, Poisson, rotated Poisson, spiral) with the receiver plane and the bias
+//!   cone across it, classified first by the map's hierarchy ([`super::planes`]) when the
+//!   setup asks for it.
+//!
+//! The bias terms (RTR 7.4): the polygon offset is the map pass's ([`MapOptions`]); the
+//! normal offset (Holbert 2011) and the receiver-plane depth bias (Isidoro 2006) are
+//! [`Bias`], applied in [`MapLookup::prepare`] ([`super::bias`]); the bias cone (Burley 2006)
+//! is [`Wide::cone`]. Where the point falls in the maps is [`crate::shadow::light::locate`]'s
+//! rule, so every technique has the same view choice and the same edge.
+
+use super::bias::{normal_offset, receiver_plane, receiver_plane4};
+use super::kernel::{
+    axis_weights, filter_disk4, filter_grid4, separable4, Class, Kernel, MinMax, Pattern, Reference, Reference4,
+};
+use super::planes::PlaneChain;
+use crate::frame::Frame;
+use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
+use crate::pipeline::*;
+use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
+use crate::shadow::Stage;
+use glam::{Vec2, Vec4};
+
+/// The lookup's depth-bias terms applied per pixel (the polygon offset is the map pass's).
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
+pub struct Bias {
+    /// Normal-offset bias: texels along the normal, times sin(angle to the light)
+    /// (Holbert 2011). Default: 0.
+    pub normal: f32,
+    /// Receiver-plane depth bias: one texel of the receiver's depth slope, and across wide
+    /// kernels the receiver's plane (Isidoro 2006). Default: false.
+    pub receiver: bool,
+}
+
+/// The declaration of [`Bias`]' fields for an options struct whose `Bias` is reached by
+/// `|o| path` (`bias_fields!(Options, |o| o.bias)`).
+#[macro_export]
+macro_rules! bias_fields {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        use $crate::shadow::Field;
+        [
+            Field::range(
+                "normal",
+                "normal-offset bias: texels along the normal, times sin(angle to the light)",
+                0.0,
+                100.0,
+                |$x: &mut $o| &mut $($path)+.normal,
+            ),
+            Field::new(
+                "receiver",
+                "receiver-plane depth bias (one texel of the receiver's depth slope; across wide kernels, the receiver's plane)",
+                |$x: &mut $o| &mut $($path)+.receiver,
+            ),
+        ]
+    }};
+}
+
+/// What a lookup that filters with wide kernels prepares beyond the reference depth.
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
+pub struct Wide {
+    /// Bias cone slope (Burley 2006): the reference moved toward the light by `cone` times
+    /// each tap's distance from the centre. Default: 0.
+    pub cone: f32,
+    /// Classify kernels as fully lit or shadowed from a hierarchy of the map (per block the
+    /// least and greatest depth and the depths' bounds around a plane,
+    /// [`super::planes::PlaneChain`]) and skip their taps (identical result). Default: false.
+    pub hierarchy: bool,
+}
+
+/// The declaration of [`Wide`]'s bias cone for an options struct whose `Wide` is reached by
+/// `|o| path`.
+#[macro_export]
+macro_rules! cone_field {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        $crate::shadow::Field::range(
+            "cone",
+            "wide filters: bias cone slope (Burley), depth toward the light per unit of tap distance",
+            0.0,
+            100.0,
+            |$x: &mut $o| &mut $($path)+.cone,
+        )
+    }};
+}
+
+/// The declaration of [`Wide`]'s hierarchy switch for an options struct whose `Wide` is
+/// reached by `|o| path`.
+#[macro_export]
+macro_rules! hierarchy_field {
+    ($o:ty, |$x:ident| $($path:tt)+) => {{
+        $crate::shadow::Field::new(
+            "hierarchy",
+            "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides, and for PCSS's 16-tap search, which costs no more than a classification, it saves less than it costs)",
+            |$x: &mut $o| &mut $($path)+.hierarchy,
+        )
+    }};
+}
+
+/// What a technique's lookup needs: the map pass, the layer it stores, the bias, and, for
+/// wide kernels, their bias cone and hierarchy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setup {
+    /// The map pass.
+    pub map: MapOptions,
+    /// What the maps store.
+    pub layer: Layer,
+    /// The per-pixel bias.
+    pub bias: Bias,
+    /// Wide kernels: the receiver plane's gradient across them, their cone and hierarchy
+    /// (`None`: one comparison or 2x2 PCF only).
+    pub wide: Option<Wide>,
+    /// Build each map's min/max mip chains ([`MapLookup::min_max`]), for techniques that read
+    /// coarse levels of the map.
+    pub min_max: bool,
+}
+
+/// The light's maps of the last pass and the lookups into them (see the module docs).
+pub struct MapLookup {
+    setup: Setup,
+    maps: LightMaps,
+    /// With `setup.min_max`: the maps' min/max chains.
+    minmax: Vec<MinMax>,
+    /// With a hierarchy for wide kernels: the maps' plane-residual chains.
+    planes: Vec<PlaneChain>,
+}
+
+impl MapLookup {
+    /// Lookups with `setup` (nothing drawn until [`MapLookup::light_pass`]).
+    pub fn new(setup: Setup) -> MapLookup {
+        MapLookup {
+            setup,
+            maps: LightMaps::default(),
+            minmax: Vec::new(),
+            planes: Vec::new(),
+        }
+    }
+
+    /// The setup.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// The map pass of `frame` ([`LightMaps::render`]), and the chains the setup asks for.
+    pub fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
+        self.maps.render(p, frame, &self.setup.map, self.setup.layer)?;
+        self.minmax.clear();
+        self.planes.clear();
+        if self.setup.min_max {
+            self.minmax = self.maps.maps().iter().map(|(m, _)| MinMax::new(p, m)).collect();
+        }
+        if self.setup.wide.is_some_and(|w| w.hierarchy) {
+            self.planes = self.maps.maps().iter().map(|(m, _)| PlaneChain::new(p, m)).collect();
+        }
+        Ok(())
+    }
+
+    /// The maps of the last pass.
+    pub fn light_maps(&self) -> &LightMaps {
+        &self.maps
+    }
+
+    /// The maps of the last pass, one per light view (six for cube maps), with their views.
+    #[inline(always)]
+    pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
+        self.maps.maps()
+    }
+
+    /// Texels of the last pass's maps, all views.
+    pub fn texels(&self) -> usize {
+        self.maps.texels()
+    }
+
+    /// The last pass's buffers for `dump` ([`LightMaps::stages`]).
+    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        self.maps.stages(p, frame)
+    }
+
+    /// `inspect`'s opening step: what the light pass made.
+    pub fn pass_step(&self) -> Step {
+        Step::new("maps", "the light pass of the last run")
+            .int("views", self.maps.maps().len())
+            .int("size", self.setup.map.size)
+            .text(
+                "format",
+                crate::shadow::options::OptionValue::show(&self.setup.map.format),
+            )
+            .text("layer", self.setup.layer.as_str())
+            .int("casters culled by fitting", self.maps.culled())
+    }
+
+    /// One comparison at a prepared lookup: the nearest texel's, or with `pcf` the
+    /// hardware-style 2x2 PCF of the four texels around it (bilinearly weighted), reported
+    /// to `t`.
+    #[inline(always)]
+    pub fn compare(&self, at: &At, pcf: bool, t: &mut impl Trace) -> f32 {
+        let map = &self.maps.maps()[at.face].0;
+        let sampler = CompareSampler::default();
+        let v = if pcf {
+            sampler.pcf2x2(map, at.uv, at.r.z)
+        } else {
+            sampler.nearest(map, at.uv, at.r.z)
+        };
+        t.step(|| texel_steps(map, at.uv, at.r.z, pcf));
+        v
+    }
+
+    /// Prepares pixels `x .. x + n` of row `y` for a four-lane lookup: the pixels decided
+    /// without filtering are written to `out` and counted, the others to `ats`; the light
+    /// view of the first of those, `None` if there is none. (Pixels on another view, at a
+    /// cube map's edge, are the caller's to take out.)
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare4(
+        &self,
+        frame: &Frame,
+        (x, y): (usize, usize),
+        n: usize,
+        ats: &mut [Option<At>; 4],
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) -> Option<usize> {
+        let planes = self.planes4(frame, (x, y), n);
+        for (l, a) in ats.iter_mut().enumerate().take(n) {
+            match self.prepare_with(frame, x + l, y, &mut NoTrace, planes[l]) {
+                Prepared::Done(v, c) => (out[l], *count) = (v, *count + c),
+                Prepared::At(at) => *a = Some(at),
+            }
+        }
+        Some(ats.iter().flatten().next()?.face)
+    }
+
+    /// The receiver planes of pixels `x .. x + n` of row `y` on four lanes
+    /// ([`receiver_plane4`]) when the lookups use them and one light view sees every pixel
+    /// with geometry; `None` per lane otherwise (each lookup then solves its own).
+    fn planes4(&self, frame: &Frame, (x, y): (usize, usize), n: usize) -> [Option<(Option<Vec2>, f32)>; 4] {
+        let o = &self.setup;
+        if !o.bias.receiver || o.layer == Layer::Id {
+            return [None; 4];
+        }
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
+        let mut face = None;
+        for s in pts[y * w + x..y * w + x + n].iter().flatten() {
+            let f = light::view_of(self.maps.maps().len(), &frame.light, s.position);
+            if face.is_some_and(|g| g != f) {
+                return [None; 4];
+            }
+            face = Some(f);
+        }
+        let Some(face) = face else { return [None; 4] };
+        let (map, view) = &self.maps.maps()[face];
+        receiver_plane4(pts, objs, w, h, (x, y), n, &view.matrix, map.width()).map(Some)
+    }
+
+    /// [`MapLookup::filter`] of the lanes with a kernel, all prepared on view `face`: the
+    /// hierarchy's decisions and lanes outside the map one by one; disks, and grids and tents
+    /// of one size whose lanes are all flat (separable) or all not (tap by tap), on four lanes
+    /// (each lane with the one-pixel operations); anything else one by one. Values go to
+    /// `out`, taps to `count`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn filter4(
+        &self,
+        face: usize,
+        ats: &[Option<At>; 4],
+        mut kernels: [Option<Kernel>; 4],
+        x: usize,
+        y: usize,
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) {
+        for l in 0..4 {
+            let (Some(at), Some(kernel)) = (&ats[l], &kernels[l]) else {
+                continue;
+            };
+            if let Some((v, c)) = self.decide(at, kernel) {
+                (out[l], *count) = (v, *count + c);
+                kernels[l] = None;
+            }
+        }
+        let xs = std::array::from_fn(|l| (x + l) as u32);
+        self.filter_lanes(face, ats, kernels, xs, y, out, count);
+    }
+
+    /// A wide kernel decided without its taps: by the hierarchy (lit or shadowed: one
+    /// lookup), or outside the map (lit, no taps, as `Kernel::filter`).
+    #[inline(always)]
+    pub fn decide(&self, at: &At, kernel: &Kernel) -> Option<(f32, u64)> {
+        match self.classify(at, kernel.extent(), &mut NoTrace) {
+            Class::Lit => Some((1.0, 1)),
+            Class::Shadowed => Some((0.0, 1)),
+            Class::Mixed if !light::inside(at.uv) => Some((1.0, 0)),
+            Class::Mixed => None,
+        }
+    }
+
+    /// The taps of the lanes with a kernel, all prepared on view `face`, lane `l` the pixel in
+    /// column `xs[l]` of row `y` (any columns: each lane's value depends on its pixel alone):
+    /// disks, and grids and tents of one size whose lanes are all flat (separable) or all not
+    /// (tap by tap), on four lanes (each lane with the one-pixel operations); anything else one
+    /// by one. Values go to `out`, taps to `count`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn filter_lanes(
+        &self,
+        face: usize,
+        ats: &[Option<At>; 4],
+        kernels: [Option<Kernel>; 4],
+        xs: [u32; 4],
+        y: usize,
+        out: &mut [f32; 4],
+        count: &mut u64,
+    ) {
+        let map = &self.maps.maps()[face].0;
+        let go: [bool; 4] = kernels.map(|k| k.is_some());
+        let Some(first) = kernels.iter().flatten().next().copied() else {
+            return;
+        };
+        let lane = |f: &dyn Fn(&At) -> f32| Vec4::from_array(std::array::from_fn(|l| ats[l].as_ref().map_or(0.0, f)));
+        let (u, v) = (lane(&|a| a.uv.x), lane(&|a| a.uv.y));
+        match first.pattern {
+            Pattern::Grid | Pattern::Tent
+                if (0..4).all(|l| {
+                    kernels[l].is_none_or(|k| k.grid_n() == first.grid_n() && ats[l].is_some_and(|a| a.r.is_flat()))
+                }) =>
+            {
+                let k = first.grid_n();
+                // The per-axis weights on the stack for the common sizes.
+                let (mut small, mut large) = ([0.0f32; 16], Vec::new());
+                let t = if k < 16 {
+                    &mut small[..k as usize]
+                } else {
+                    large.resize(k as usize, 0.0);
+                    &mut large[..]
+                };
+                axis_weights(first.pattern, k, t);
+                let values = separable4(map, u, v, lane(&|a| a.r.z), t);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], *count) = (values[l], *count + (k * k) as u64);
+                    }
+                }
+            }
+            Pattern::Grid | Pattern::Tent
+                if (0..4).all(|l| {
+                    kernels[l].is_none_or(|k| k.grid_n() == first.grid_n() && ats[l].is_some_and(|a| !a.r.is_flat()))
+                }) =>
+            {
+                let refs = Reference4::new(std::array::from_fn(|l| ats[l].map_or(Reference::default(), |a| a.r)));
+                let (values, taps) = filter_grid4(map, u, v, &refs, &first, go);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], *count) = (values[l], *count + taps[l] as u64);
+                    }
+                }
+            }
+            Pattern::Poisson | Pattern::Rotated | Pattern::Spiral => {
+                let widths = Vec4::from_array(kernels.map(|k| k.map_or(1.0, |k| k.width)));
+                let disk = first.disk4(xs, y as u32, widths).expect("a disk pattern");
+                let refs = Reference4::new(std::array::from_fn(|l| ats[l].map_or(Reference::default(), |a| a.r)));
+                let (values, taps) = filter_disk4(map, u, v, &refs, &disk, go);
+                for l in 0..4 {
+                    if go[l] {
+                        (out[l], *count) = (values[l], *count + taps[l] as u64);
+                    }
+                }
+            }
+            _ => {
+                for l in 0..4 {
+                    if let (Some(k), Some(at)) = (kernels[l], &ats[l]) {
+                        let f = k.filter(map, at.uv, &at.r, xs[l], y as u32);
+                        (out[l], *count) = (f.value, *count + f.taps as u64);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The lookup up to its filter: the view that sees pixel `(x, y)`, its map position and
+    /// the reference depth with every bias applied (normal offset, receiver plane, polygon
+    /// offset in the map, quantization; for wide filters the receiver-plane gradient and the
+    /// bias cone across the kernel). Pixels without geometry, behind the light or decided by
+    /// the id map are [`Prepared::Done`]. The soft techniques of the family filter from here.
+    #[inline(always)]
+    pub fn prepare(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Prepared {
+        self.prepare_with(frame, x, y, t, None)
+    }
+
+    /// [`MapLookup::prepare`] with the pixel's receiver plane already solved (`plane`:
+    /// [`receiver_plane`]'s value for the view that sees the pixel; `None`: solve it here).
+    #[inline(always)]
+    fn prepare_with(
+        &self,
+        frame: &Frame,
+        x: usize,
+        y: usize,
+        t: &mut impl Trace,
+        plane: Option<(Option<Vec2>, f32)>,
+    ) -> Prepared {
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
+        let Some(s) = pts[y * w + x] else {
+            return Prepared::Done(f32::NAN, 0);
+        };
+        let o = &self.setup;
+        let light = &frame.light;
+        let face = light::view_of(self.maps.maps().len(), light, s.position);
+        let (map, view) = &self.maps.maps()[face];
+        // Normal offset: move the lookup point along the normal (Holbert 2011).
+        let pos = normal_offset(view, light, &s, o.bias.normal);
+        t.step(|| {
+            Step::new(
+                "light view",
+                "the view that sees the point (one of six cube faces for point lights)",
+            )
+            .int("view", face)
+            .int("views", self.maps.maps().len())
+            .flag("perspective", view.perspective)
+            .num("texel size at the point", view.texel_at(light, s.position))
+        });
+        if o.bias.normal > 0.0 {
+            t.step(|| {
+                Step::new("normal offset", "lookup point moved along the normal (Holbert 2011)")
+                    .num("texels", o.bias.normal)
+                    .vec3("lookup point", pos)
+                    .num("moved by", (pos - s.position).length())
+            });
+        }
+        let Some((uv, z)) = view.lookup(pos) else {
+            t.step(|| Step::new("behind the light", "the point is behind the view's eye: lit"));
+            return Prepared::Done(1.0, 0);
+        };
+        let size = map.width();
+        t.step(|| {
+            Step::new(
+                "light-space position",
+                "texture coordinate (top-left origin) and depth in the view",
+            )
+            .vec2("uv", uv)
+            .vec2("texel", uv * size as f32)
+            .num("depth", z)
+        });
+        if o.layer == Layer::Id {
+            let id = sample_nearest(self.maps.ids(face).expect("an id map per view"), uv, Address::Clamp);
+            let inside = light::inside(uv);
+            let own = objs[y * w + x];
+            let lit = !inside || id == 0.0 || id as u32 == own + 1;
+            t.step(|| {
+                Step::new(
+                    "id comparison",
+                    "lit when the nearest surface stored is the pixel's own object",
+                )
+                .int("stored object id + 1", id as i64)
+                .int("own object id + 1", own as i64 + 1)
+                .flag("inside the map", inside)
+                .flag("lit", lit)
+            });
+            return Prepared::Done(if lit { 1.0 } else { 0.0 }, 1);
+        }
+        let mut z = z;
+        let mut gradient = Vec2::ZERO;
+        if o.bias.receiver {
+            let (g, b) = plane.unwrap_or_else(|| receiver_plane(pts, objs, w, h, x, y, &view.matrix, size));
+            if o.wide.is_some() {
+                gradient = g.unwrap_or(Vec2::ZERO);
+            }
+            z -= b;
+            t.step(|| {
+                Step::new(
+                    "receiver-plane bias",
+                    "one texel of the receiver's depth slope (Isidoro 2006)",
+                )
+                .num("bias", b)
+            });
+        }
+        let z = o.map.format.quantize(z.clamp(0.0, 1.0));
+        t.step(|| {
+            Step::new(
+                "reference depth",
+                "the point's depth, clamped and quantized to the map's format; the polygon offset was added to the map",
+            )
+            .num("depth", z)
+            .num("polygon offset units", o.map.units)
+            .num("polygon offset slope", o.map.slope)
+        });
+        let cone = match o.wide {
+            // Burley's bias cone: the depth change of one texel's world size toward the
+            // light, times the slope.
+            Some(Wide { cone, .. }) if cone > 0.0 => {
+                let step = view.texel_at(light, pos);
+                match view.lookup(pos + light.to_light(pos) * step) {
+                    Some((_, zl)) => cone * (zl - z).min(0.0),
+                    None => 0.0,
+                }
+            }
+            _ => 0.0,
+        };
+        Prepared::At(At {
+            face,
+            uv,
+            pos,
+            r: Reference { z, gradient, cone },
+        })
+    }
+
+    /// A wide kernel at a prepared lookup: one lookup in the hierarchy when it
+    /// classifies the kernel (fully lit or shadowed), otherwise the kernel's taps.
+    #[inline(always)]
+    pub fn filter(&self, at: &At, kernel: &Kernel, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let map = &self.maps.maps()[at.face].0;
+        let r = &at.r;
+        match self.classify(at, kernel.extent(), t) {
+            Class::Lit => return (1.0, 1),
+            Class::Shadowed => return (0.0, 1),
+            Class::Mixed => {}
+        }
+        let f = kernel.filter(map, at.uv, r, x as u32, y as u32);
+        t.step(|| kernel.explain(map, at.uv, r, x as u32, y as u32));
+        (f.value, f.taps as u64)
+    }
+
+    /// The plane-residual chains of the last run's maps (with `hierarchy` and a wide filter).
+    pub fn planes(&self, face: usize) -> Option<&PlaneChain> {
+        self.planes.get(face)
+    }
+
+    /// The min/max chains of the last run's maps (with [`Setup::min_max`]).
+    pub fn min_max(&self, face: usize) -> Option<&MinMax> {
+        self.minmax.get(face)
+    }
+
+    /// What the hierarchy ([`PlaneChain`]) says of a kernel whose bilinear taps lie within
+    /// `extent` texels of `at` (their 2x2 footprints one texel further), reported to `t`;
+    /// `Mixed` without the hierarchy.
+    pub fn classify(&self, at: &At, extent: f32, t: &mut impl Trace) -> Class {
+        let Some(pc) = self.planes.get(at.face) else {
+            return Class::Mixed;
+        };
+        let class = pc.classify(at.uv, extent, 1.0, &at.r);
+        let (lo, hi) = at.r.range(extent);
+        t.step(|| class_step(lo, hi, class));
+        class
+    }
+}
+
+/// A lookup prepared up to its filter ([`ShadowMap::prepare`]).
+pub enum Prepared {
+    /// Decided without filtering: the value and the taps it took.
+    Done(f32, u64),
+    /// Where to filter.
+    At(At),
+}
+
+/// The map position of one pixel's lookup.
+#[derive(Copy, Clone)]
+pub struct At {
+    /// The light view (cube face) that sees the point.
+    pub face: usize,
+    /// Texture coordinate in that view's map.
+    pub uv: Vec2,
+    /// The lookup point (after the normal offset).
+    pub pos: glam::Vec3,
+    /// The reference depth and its change across a kernel.
+    pub r: Reference,
+}
+
+/// `inspect`'s account of the hierarchy's classification.
+pub fn class_step(lo: f32, hi: f32, class: Class) -> Step {
+    Step::new(
+        "hierarchy",
+        "the kernel's footprint in the map's blocks (least and greatest depth, and depths around a plane): fully lit or shadowed skips the taps",
+    )
+    .num("lowest reference", lo)
+    .num("highest reference", hi)
+    .text(
+        "class",
+        match class {
+            Class::Lit => "lit",
+            Class::Shadowed => "shadowed",
+            Class::Mixed => "mixed",
+        },
+    )
+}
+
+/// One pixel's blocker search and penumbra estimate.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Search disk width in texels.
+    pub search: f32,
+    /// Taps that found a blocker, of `taps`.
+    pub found: u32,
+    /// Search taps read (1 when the hierarchy classified the disk).
+    pub taps: u32,
+    /// The receiver's distance from the light along the view axis.
+    pub receiver: f32,
+    /// The blockers' average distance (NaN without blockers).
+    pub blocker: f32,
+    /// Penumbra width in texels (0 without blockers; the search width in umbra).
+    pub penumbra: f32,
+    /// What decided the search: mixed (filter), lit (no blocker) or shadowed (all blockers).
+    pub class: Class,
+}
+
+/// The texels a lookup compared, with their stored depths and outcomes (for `inspect`).
+fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool) -> Step {
+    let (w, h) = (map.width() as i64, map.height() as i64);
+    let mut step = Step::new(
+        "comparison",
+        match pcf {
+            true => "four texels compared, then weighted bilinearly by the fraction (hardware PCF)",
+            _ => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
+        },
+    );
+    let texels: Vec<(i64, i64, f32)> = match pcf {
+        true => {
+            let (x, y, fx, fy) = footprint((w as u32, h as u32), uv);
+            step = step.vec2("fraction", Vec2::new(fx, fy));
+            [
+                (0, 0, (1.0 - fx) * (1.0 - fy)),
+                (1, 0, fx * (1.0 - fy)),
+                (0, 1, (1.0 - fx) * fy),
+                (1, 1, fx * fy),
+            ]
+            .iter()
+            .map(|&(dx, dy, wt)| ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1), wt))
+            .collect()
+        }
+        _ => {
+            let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);
+            let ty = ((uv.y * h as f32).floor() as i64).clamp(0, h - 1);
+            vec![(tx, ty, 1.0)]
+        }
+    };
+    for (i, (tx, ty, wt)) in texels.into_iter().enumerate() {
+        let d = map.at(tx as u32, ty as u32);
+        step = step
+            .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
+            .num(&format!("stored depth {i}"), d)
+            .flag(&format!("lit {i}"), z <= d)
+            .num(&format!("weight {i}"), wt);
+    }
+    step
+}
