@@ -23,6 +23,7 @@ pub mod penumbra;
 pub mod pixels;
 pub mod planar;
 pub mod reference;
+pub mod timing;
 pub mod volume;
 pub mod volumetric;
 

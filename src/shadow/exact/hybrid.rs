@@ -20,6 +20,7 @@ use crate::shadow::exact::izb::{self, Izb};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::map::pcss::{self, Pcss};
 use crate::shadow::pixels::per_pixel;
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
 /// Options of the hybrid.
@@ -171,15 +172,15 @@ impl ShadowTechnique for Hybrid {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = std::time::Instant::now();
+        let mut passes = Passes::start();
         let Visibility::Scalar(soft) = self.pcss.visibility(p, frame)? else {
             return Err("technique 'hybrid': PCSS returned colour".into());
         };
-        let t1 = std::time::Instant::now();
+        passes.end("pcss");
         let Visibility::Scalar(hard) = self.izb.visibility(p, frame)? else {
             return Err("technique 'hybrid': the IZB returned colour".into());
         };
-        let t2 = std::time::Instant::now();
+        passes.end("izb");
         let this = &*self;
         // The penumbra widths PCSS kept from its lookup pass: its blocker searches are not
         // made twice.
@@ -196,11 +197,8 @@ impl ShadowTechnique for Hybrid {
             .map(|(&t, (&h, &s))| if t == 0.0 { h } else { h + (s - h) * t })
             .collect();
         self.last = out.clone();
-        self.times = vec![
-            ("pcss", (t1 - t0).as_secs_f64() * 1e3),
-            ("izb", (t2 - t1).as_secs_f64() * 1e3),
-            ("blend", t2.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("blend");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

@@ -74,11 +74,11 @@ use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette::Adjacency;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{BVec4A, Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
-use std::time::Instant;
 
 choice_enum! {
     /// Samples per pixel.
@@ -1286,11 +1286,11 @@ impl ShadowTechnique for Izb {
                 self.opts.samples.count()
             )
         })?;
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         p.install(|| self.insert(frame))?;
-        let t1 = Instant::now();
+        passes.end("sample insertion");
         self.occlude(p, frame)?;
-        let t2 = Instant::now();
+        passes.end("occluder pass");
         // Resolve: each list's lit samples marked in sample order (one byte each, every
         // sample in one list once); then each pixel's mean over its samples, row by row (a
         // row's samples are contiguous, pixel after pixel, k each). The mean is the count of
@@ -1334,11 +1334,8 @@ impl ShadowTechnique for Izb {
                 }
             })
         });
-        self.times = vec![
-            ("sample insertion", (t1 - t0).as_secs_f64() * 1e3),
-            ("occluder pass", (t2 - t1).as_secs_f64() * 1e3),
-            ("resolve", t2.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("resolve");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

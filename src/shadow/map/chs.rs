@@ -31,6 +31,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec4};
 
@@ -391,18 +392,16 @@ impl ShadowTechnique for Chs {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = std::time::Instant::now();
+        let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.width = light_width(frame, self.opts.light, self.opts.angle);
         self.nearest = self.lookup.light_maps().nearest_casters(p);
-        let t1 = std::time::Instant::now();
+        passes.end("light pass and min/max chains");
         let this = &*self;
         let (out, taps) = per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n));
         self.taps = taps;
-        self.times = vec![
-            ("light pass and min/max chains", (t1 - t0).as_secs_f64() * 1e3),
-            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("lookup pass");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

@@ -25,6 +25,7 @@ use crate::scene::{AreaShape, Light, LightKind};
 use crate::shadow::inspect::{self, NoTrace, Step};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pixels::per_pixel_counted;
+use crate::shadow::timing::Passes;
 use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
@@ -194,28 +195,26 @@ impl MultiSample {
     }
 
     /// One sample's hard visibility per pixel of `frame` (whose light is the sample's), with
-    /// the taps and the passes' times.
-    #[allow(clippy::type_complexity)]
-    fn sample(&mut self, p: &Pipeline, frame: &Frame) -> Result<(Vec<f32>, u64, Vec<(&'static str, f64)>), String> {
+    /// the taps; the passes' times added to `passes`.
+    fn sample(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<(Vec<f32>, u64), String> {
+        passes.skip();
         match self.opts.method {
             Method::Maps => {
-                let t0 = std::time::Instant::now();
                 self.lookup.light_pass(p, frame)?;
-                let t1 = std::time::Instant::now();
+                passes.end("light pass");
                 let (lookup, pcf) = (&self.lookup, self.opts.pcf);
                 let (v, taps) = per_pixel_counted(p, frame, |x, y| Self::hard(lookup, frame, pcf, x, y));
-                let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-                Ok((
-                    v,
-                    taps,
-                    vec![("light pass", ms(t1 - t0)), ("lookup pass", ms(t1.elapsed()))],
-                ))
+                passes.end("lookup pass");
+                Ok((v, taps))
             }
             Method::Volumes => {
                 let Visibility::Scalar(v) = self.volume.visibility(p, frame)? else {
                     return Err("technique 'multi-sample': a sample's hard shadow was not scalar".into());
                 };
-                Ok((v, 0, self.volume.timings()))
+                for (name, ms) in self.volume.timings() {
+                    passes.add(name, ms);
+                }
+                Ok((v, 0))
             }
         }
     }
@@ -244,29 +243,23 @@ impl ShadowTechnique for MultiSample {
         self.points = sample_points(&frame.light, self.opts.samples);
         let mut sampled = frame.with_light(frame.light);
         let mut sum = vec![0.0f32; frame.points().len()];
-        let mut times: Vec<(&'static str, f64)> = Vec::new();
+        let mut passes = Passes::start();
         self.taps = 0.0;
         for q in self.points.clone() {
             sampled.light = match frame.light.kind {
                 LightKind::Area(_) => Self::point_light(&frame.light, q),
                 _ => frame.light,
             };
-            let (v, taps, sample_times) = self.sample(p, &sampled)?;
+            let (v, taps) = self.sample(p, &sampled, &mut passes)?;
             // The same order of additions at every pixel for any thread count.
             for (s, v) in sum.iter_mut().zip(&v) {
                 *s += v;
-            }
-            for (name, ms) in sample_times {
-                match times.iter_mut().find(|(n, _)| *n == name) {
-                    Some(e) => e.1 += ms,
-                    None => times.push((name, ms)),
-                }
             }
             self.taps += taps as f64;
         }
         let n = self.points.len() as f32;
         sum.iter_mut().for_each(|s| *s /= n);
-        self.times = times;
+        self.times = passes.finish();
         Ok(Visibility::Scalar(sum))
     }
 

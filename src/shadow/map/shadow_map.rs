@@ -32,6 +32,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 pub use crate::shadow::light::{FitTo, Layer};
 use crate::shadow::light::{LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
 choice_enum! {
@@ -392,9 +393,9 @@ impl ShadowTechnique for ShadowMap {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = std::time::Instant::now();
+        let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
-        let t1 = std::time::Instant::now();
+        passes.end("light pass");
         // Pass 2: one lookup per camera pixel.
         let this = &*self;
         let (out, taps) = match self.opts.filter.pattern() {
@@ -405,10 +406,8 @@ impl ShadowTechnique for ShadowMap {
             _ => per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n)),
         };
         self.taps = taps;
-        self.times = vec![
-            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
-            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("lookup pass");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

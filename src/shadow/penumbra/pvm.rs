@@ -51,9 +51,9 @@ use crate::shadow::map::kernel::bilinear_compare;
 use crate::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
-use std::time::Instant;
 
 /// Options of penumbra volume maps.
 #[derive(Clone, Debug, PartialEq)]
@@ -331,16 +331,15 @@ impl ShadowTechnique for Pvm {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
-        let t1 = Instant::now();
+        passes.end("light pass");
         let l = frame.light.position;
         self.volumes.clear();
         self.sil = Silhouettes::default();
         self.ext.clear();
         self.quads = 0;
-        let (mut t2, mut t3) = (t1, t1);
         if self.radius > 0.0 {
             self.sil = silhouettes(p, frame);
             if self.sil.edges.len() >= 1 << 23 {
@@ -349,17 +348,22 @@ impl ShadowTechnique for Pvm {
                     self.sil.edges.len()
                 ));
             }
-            t2 = Instant::now();
+        }
+        passes.end("silhouettes");
+        let mut quads = Quads::default();
+        if self.radius > 0.0 {
             self.ext = extrusions(&self.sil, l, self.radius);
-            let quads = volume_quads(&self.sil, &self.ext);
+            quads = volume_quads(&self.sil, &self.ext);
             self.quads = quads.len();
-            t3 = Instant::now();
+        }
+        passes.end("volume construction");
+        if self.radius > 0.0 {
             let size = self.opts.map.size;
             for (_, view) in self.lookup.maps() {
                 self.volumes.push(render(p, &quads, view, size)?);
             }
         }
-        let t4 = Instant::now();
+        passes.end("volume rendering");
         let this = &*self;
         let (out, count) = per_pixel_counted(p, frame, |x, y| {
             let f = this.lookup(frame, x, y, &mut NoTrace);
@@ -372,14 +376,8 @@ impl ShadowTechnique for Pvm {
         });
         self.inside = count & 0xffff_ffff;
         self.umbra = count >> 32;
-        let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
-        self.times = vec![
-            ("light pass", ms(t0, t1)),
-            ("silhouettes", ms(t1, t2)),
-            ("volume construction", ms(t2, t3)),
-            ("volume rendering", ms(t3, t4)),
-            ("visibility", t4.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("visibility");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

@@ -60,9 +60,9 @@ use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
 use crate::shadow::map::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
-use std::time::Instant;
 
 crate::choice_enum! {
     /// What the blur's `B(u, v, s, t)` compares (Cournia 5.3).
@@ -551,25 +551,28 @@ impl ShadowTechnique for Pvmf {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
-        let t1 = Instant::now();
+        passes.end("light pass");
         self.masks.clear();
         self.sil = Silhouettes::default();
         self.vols.clear();
-        let (mut t2, mut t3) = (t1, t1);
+        let mut quads = Quads::default();
         if self.radius > 0.0 {
             self.sil = silhouettes(p, frame);
-            t2 = Instant::now();
-            let (vols, quads) = mask_quads(&self.sil, frame.light.position, self.radius, self.opts.spread);
-            self.vols = vols;
-            t3 = Instant::now();
+        }
+        passes.end("silhouettes");
+        if self.radius > 0.0 {
+            (self.vols, quads) = mask_quads(&self.sil, frame.light.position, self.radius, self.opts.spread);
+        }
+        passes.end("volume construction");
+        if self.radius > 0.0 {
             for (_, view) in self.lookup.maps() {
                 self.masks.push(render(p, &quads, view, self.opts.map.size)?);
             }
         }
-        let t4 = Instant::now();
+        passes.end("volume rendering");
         let this = &*self;
         let pass = per_pixel_map(p, frame, |x, y| match this.lookup(frame, x, y, &mut NoTrace) {
             Found::Plain(v) => (v, 0u32),
@@ -582,7 +585,7 @@ impl ShadowTechnique for Pvmf {
         let any = self.filtered.iter().any(|&f| f);
         let n = raw.len();
         self.covered = frame.points().iter().filter(|p| p.is_some()).count() as u64;
-        let t5 = Instant::now();
+        passes.end("visibility");
         let out = if self.opts.blur > 0 && any {
             self.ids = (0..n).map(|i| self.id(frame, i)).collect();
             let this = &*self;
@@ -596,15 +599,8 @@ impl ShadowTechnique for Pvmf {
             raw.clone()
         };
         self.raw = raw;
-        let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
-        self.times = vec![
-            ("light pass", ms(t0, t1)),
-            ("silhouettes", ms(t1, t2)),
-            ("volume construction", ms(t2, t3)),
-            ("volume rendering", ms(t3, t4)),
-            ("visibility", ms(t4, t5)),
-            ("blur", t5.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("blur");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

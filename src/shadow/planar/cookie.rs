@@ -18,6 +18,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, LightView};
 use crate::shadow::pixels::per_pixel;
+use crate::shadow::timing::Passes;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::Vec4;
 
@@ -191,7 +192,7 @@ impl ShadowTechnique for Cookie {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = std::time::Instant::now();
+        let mut passes = Passes::start();
         self.occluding = self.pick(frame)?;
         let size = self.opts.size;
         // Pass 1: the occluders' silhouette, 1 where covered (no depth).
@@ -218,14 +219,12 @@ impl ShadowTechnique for Cookie {
             }
             self.masks.push((mask, view));
         }
-        let t1 = std::time::Instant::now();
+        passes.end("mask pass");
         // Pass 2: project the mask onto every receiver pixel.
         let this = &*self;
         let out = per_pixel(p, frame, |x, y| this.project(frame, x, y, &mut NoTrace));
-        self.times = vec![
-            ("mask pass", (t1 - t0).as_secs_f64() * 1e3),
-            ("projection pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("projection pass");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

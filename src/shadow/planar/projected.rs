@@ -27,6 +27,7 @@ use crate::pipeline::*;
 use crate::scene::Mesh;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::homogeneous_position;
+use crate::shadow::timing::Passes;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
@@ -227,7 +228,8 @@ impl ShadowTechnique for Planar {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = std::time::Instant::now();
+        let mut passes = Passes::start();
+        passes.add("flatten casters", 0.0);
         let scene = frame.scene;
         let receivers: Vec<usize> = if self.opts.receiver == "auto" {
             (0..scene.objects.len()).collect()
@@ -247,7 +249,6 @@ impl ShadowTechnique for Planar {
         let mut shadow = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
         self.masks.clear();
         self.fragments = 0;
-        let mut setup = 0.0;
         for r in receivers {
             let Some((n, d)) = plane_of(&scene.objects[r].mesh) else {
                 continue;
@@ -262,9 +263,9 @@ impl ShadowTechnique for Planar {
             if side < 0.0 {
                 plane = -plane;
             }
-            let ts = std::time::Instant::now();
+            passes.end("stencil passes");
             let (verts, idx) = self.flattened(frame, r, plane, light);
-            setup += ts.elapsed().as_secs_f64() * 1e3;
+            passes.end("flatten casters");
             // Pass 1: stencil 1 where the receiver is the visible surface.
             let mut depth = frame.gbuffer.depth.clone();
             let mut mask = Surface::new(w, h, 0u8).map_err(|e| e.to_string())?;
@@ -361,10 +362,8 @@ impl ShadowTechnique for Planar {
             .map(|(pt, &s)| if pt.is_some() { s } else { f32::NAN })
             .collect();
         self.shadow = Some(shadow);
-        self.times = vec![
-            ("flatten casters", setup),
-            ("stencil passes", t0.elapsed().as_secs_f64() * 1e3 - setup),
-        ];
+        passes.end("stencil passes");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

@@ -29,9 +29,9 @@ use crate::scene::LightKind;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Mat4, Vec3, Vec4};
-use std::time::Instant;
 
 choice_enum! {
     /// How the stencil counts volumes.
@@ -161,10 +161,10 @@ impl ShadowTechnique for ShadowVolume {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         let light = homogeneous_position(&frame.light);
         (self.volumes, self.irregular) = silhouette::scene_volumes(p, frame, light);
-        let t1 = Instant::now();
+        passes.end("silhouettes");
         self.chose_zpass = match self.mode {
             "auto" => zpass_is_safe(frame),
             m => m.starts_with("zpass"),
@@ -174,7 +174,7 @@ impl ShadowTechnique for ShadowVolume {
         } else {
             silhouette::eye_count(&self.volumes, frame.camera.position, light)
         };
-        let t2 = Instant::now();
+        passes.end("eye count");
         // Camera transform and depth: the G-buffer's, or for `zfail-infinite` a projection with
         // the far plane at infinity (Everitt and Kilgard 2002) and a depth pre-pass with it.
         let infinite = self.mode == "zfail-infinite";
@@ -259,11 +259,8 @@ impl ShadowTechnique for ShadowVolume {
             })
             .collect();
         self.stencil = Some(stencil);
-        self.times = vec![
-            ("silhouettes", (t1 - t0).as_secs_f64() * 1e3),
-            ("eye count", (t2 - t1).as_secs_f64() * 1e3),
-            ("stencil pass", t2.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("stencil pass");
+        self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 

@@ -32,9 +32,9 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
-use std::time::Instant;
 
 /// Most nodes a texel may keep.
 pub const MAX_NODES: usize = 64;
@@ -283,7 +283,7 @@ impl ShadowTechnique for Avsm {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
         self.coloured = super::coloured(scene);
@@ -348,7 +348,7 @@ impl ShadowTechnique for Avsm {
             self.fragments += st.fragments_shaded;
             self.maps.push((store, view));
         }
-        let t1 = Instant::now();
+        passes.end("light pass");
         // Lookup: each receiver's depth against its texel's curve.
         let this = &*self;
         let coloured = self.coloured;
@@ -356,10 +356,8 @@ impl ShadowTechnique for Avsm {
             Some((_, _, z, c)) => c.at(z.clamp(0.0, 1.0)),
             None => Vec3::ONE,
         });
-        self.times = vec![
-            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
-            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("lookup pass");
+        self.times = passes.finish();
         Ok(out)
     }
 

@@ -33,10 +33,10 @@ use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
-use std::time::Instant;
 
 choice_enum! {
     /// How the lookup combines texels.
@@ -363,7 +363,7 @@ impl ShadowTechnique for DeepShadowMap {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
         self.coloured = super::coloured(scene);
@@ -467,17 +467,15 @@ impl ShadowTechnique for DeepShadowMap {
                 fragments: lists.len() as u64,
             });
         }
-        let t1 = Instant::now();
+        passes.end("light pass and compression");
         let this = &*self;
         let coloured = self.coloured;
         let out = super::resolve(p, frame, coloured, |s| {
             this.taps(frame, s.position)
                 .map_or(Vec3::ONE, |l| this.transmittance(&l))
         });
-        self.times = vec![
-            ("light pass and compression", (t1 - t0).as_secs_f64() * 1e3),
-            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("lookup pass");
+        self.times = passes.finish();
         Ok(out)
     }
 

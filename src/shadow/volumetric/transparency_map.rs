@@ -19,9 +19,9 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
+use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3, Vec4};
-use std::time::Instant;
 
 /// Options of the coloured transparency map.
 #[derive(Clone, Debug, PartialEq)]
@@ -137,7 +137,7 @@ impl ShadowTechnique for TransparencyMap {
     }
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let t0 = Instant::now();
+        let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
         let transparent: Vec<bool> = scene
@@ -193,16 +193,14 @@ impl ShadowTechnique for TransparencyMap {
                 colour,
             });
         }
-        let t1 = Instant::now();
+        passes.end("light pass");
         let this = &*self;
         let coloured = self.coloured;
         let out = super::resolve(p, frame, coloured, |s| {
             this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.6)
         });
-        self.times = vec![
-            ("light pass", (t1 - t0).as_secs_f64() * 1e3),
-            ("lookup pass", t1.elapsed().as_secs_f64() * 1e3),
-        ];
+        passes.end("lookup pass");
+        self.times = passes.finish();
         Ok(out)
     }
 
