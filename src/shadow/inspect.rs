@@ -101,6 +101,15 @@ pub fn result(v: f32) -> Step {
     Step::new("result", "the visibility the technique returned here").num("visibility", v)
 }
 
+/// `inspect`'s answer from a technique's per-pixel function, the one its image comes from:
+/// `f` runs with a recording trace, and its value closes the steps as the [`result`].
+pub fn explain(f: impl FnOnce(&mut Steps) -> f32) -> Vec<Step> {
+    let mut t = Steps::default();
+    let v = f(&mut t);
+    t.0.push(result(v));
+    t.0
+}
+
 /// Where a technique's per-pixel code reports its steps: [`Steps`] records them (for
 /// `inspect`), [`NoTrace`] drops them at no cost (the timed pass), so one function computes
 /// both and the explanation can never disagree with the image.

@@ -17,9 +17,9 @@
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::izb::{self, Izb};
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::map::pcss::{self, Pcss};
-use crate::shadow::pixels::per_pixel;
+use crate::shadow::pixels::per_pixel_map;
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 
@@ -104,9 +104,8 @@ pub struct Hybrid {
     opts: Options,
     pcss: Pcss,
     izb: Izb,
-    /// Last run: the blend weight of PCSS per pixel, and the result.
+    /// Last run: the blend weight of PCSS per pixel.
     weight: Vec<f32>,
-    last: Vec<f32>,
     times: Vec<(&'static str, f64)>,
 }
 
@@ -131,7 +130,6 @@ impl Hybrid {
             .map_err(|e| e.replace("'izb'", "'hybrid'"))?,
             opts,
             weight: Vec::new(),
-            last: Vec::new(),
             times: Vec::new(),
         })
     }
@@ -166,6 +164,32 @@ impl Hybrid {
     }
 }
 
+impl Hybrid {
+    /// The blend of the IZB's `hard` and PCSS's `soft` visibility with PCSS's weight `t`
+    /// (`px`: the penumbra's width in pixels that gave it), reported to `trace`: the image's
+    /// per-pixel function, and `inspect`'s.
+    #[inline(always)]
+    fn blend(&self, hard: f32, soft: f32, t: f32, px: f32, trace: &mut impl Trace) -> f32 {
+        trace.step(|| {
+            Step::new(
+                "blend",
+                "PCSS's weight: smoothstep(from, to, penumbra width in camera pixels at the point); (1 - weight) IZB + weight PCSS",
+            )
+            .num("penumbra width in pixels", px)
+            .num("from", self.opts.from)
+            .num("to", self.opts.to)
+            .num("weight of PCSS", t)
+            .num("IZB", hard)
+            .num("PCSS", soft)
+        });
+        if t == 0.0 {
+            hard
+        } else {
+            hard + (soft - hard) * t
+        }
+    }
+}
+
 impl ShadowTechnique for Hybrid {
     fn name(&self) -> &'static str {
         "hybrid"
@@ -186,49 +210,52 @@ impl ShadowTechnique for Hybrid {
         // made twice.
         let kept = this.pcss.kept_penumbra();
         let w = frame.width() as usize;
-        self.weight = per_pixel(p, frame, |x, y| {
-            let world = kept[y * w + x];
-            this.weight_of(frame, x, y, (!world.is_nan()).then_some(world)).0
+        let both = per_pixel_map(p, frame, |x, y| {
+            let i = y * w + x;
+            let world = kept[i];
+            let (t, px) = this.weight_of(frame, x, y, (!world.is_nan()).then_some(world));
+            (this.blend(hard[i], soft[i], t, px, &mut NoTrace), t)
         });
-        let out: Vec<f32> = self
-            .weight
-            .iter()
-            .zip(hard.iter().zip(&soft))
-            .map(|(&t, (&h, &s))| if t == 0.0 { h } else { h + (s - h) * t })
-            .collect();
-        self.last = out.clone();
+        let out: Vec<f32> = both.iter().map(|b| b.0).collect();
+        self.weight = both.iter().map(|b| b.1).collect();
         passes.end("blend");
         self.times = passes.finish();
         Ok(Visibility::Scalar(out))
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut steps = vec![Step::new(
+        // Each part's own steps, its result renamed: the hybrid's result is the blend's.
+        let part = |name: &str, what: &str, mut part: Vec<Step>| -> (Vec<Step>, f32) {
+            let v = match part.last() {
+                Some(last) if last.name == "result" => match last.values.first() {
+                    Some((_, inspect::Value::Num(v))) => *v as f32,
+                    _ => f32::NAN,
+                },
+                _ => f32::NAN,
+            };
+            if let Some(last) = part.last_mut().filter(|l| l.name == "result") {
+                last.name = format!("{name} result");
+            }
+            let mut steps = vec![Step::new(name, what)];
+            steps.extend(part);
+            (steps, v)
+        };
+        let (mut steps, soft) = part(
             "pcss",
             "PCSS at the pixel: the blocker search gives the penumbra",
-        )];
-        steps.extend(self.pcss.inspect(frame, x, y));
-        steps.push(Step::new(
+            self.pcss.inspect(frame, x, y),
+        );
+        let (izb, hard) = part(
             "izb",
             "the irregular z-buffer at the pixel: the exact hard shadow",
-        ));
-        steps.extend(self.izb.inspect(frame, x, y));
-        let (t, px) = self.weight_at(frame, x as usize, y as usize);
-        let i = (y * frame.width() + x) as usize;
-        steps.push(
-            Step::new(
-                "blend",
-                "PCSS's weight: smoothstep(from, to, penumbra width in camera pixels at the point)",
-            )
-            .num("penumbra width in pixels", px)
-            .num("from", self.opts.from)
-            .num("to", self.opts.to)
-            .num("weight of PCSS", t),
+            self.izb.inspect(frame, x, y),
         );
-        if let Some(&v) = self.last.get(i) {
-            steps.push(inspect::result(v));
-        }
-        steps
+        steps.extend(izb);
+        let (t, px) = self.weight_at(frame, x as usize, y as usize);
+        let mut trace = Steps(steps);
+        let v = self.blend(hard, soft, t, px, &mut trace);
+        trace.0.push(inspect::result(v));
+        trace.0
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -72,7 +72,7 @@ use crate::pipeline::wide::Vec3x4;
 use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette::Adjacency;
@@ -1269,6 +1269,20 @@ impl Grid {
     }
 }
 
+/// The per-pixel resolve (the image's, and `inspect`'s with a recording trace): the mean of
+/// the lit marks of the pixel's samples, the count of lit samples over their number (with a
+/// power-of-two count, exactly the sum of its terms).
+#[inline(always)]
+fn resolve(marks: &[u8], t: &mut impl Trace) -> f32 {
+    let c: u32 = marks.iter().map(|&l| l as u32).sum();
+    t.step(|| {
+        Step::new("resolve", "the pixel's lit samples over its samples")
+            .int("lit samples", c)
+            .int("samples", marks.len())
+    });
+    c as f32 / marks.len() as f32
+}
+
 impl ShadowTechnique for Izb {
     fn name(&self) -> &'static str {
         "izb"
@@ -1328,8 +1342,7 @@ impl ShadowTechnique for Izb {
                     if o == NO_OBJECT {
                         continue;
                     }
-                    let c: u32 = lit[i..i + k].iter().map(|&l| l as u32).sum();
-                    *px = c as f32 / k as f32;
+                    *px = resolve(&lit[i..i + k], &mut NoTrace);
                     i += k;
                 }
             })
@@ -1408,13 +1421,23 @@ impl ShadowTechnique for Izb {
             }
             steps.push(st);
         }
-        let v = if frame.point(x, y).is_some() {
-            lit_sum / k as f32
-        } else {
-            f32::NAN
-        };
-        steps.push(inspect::result(v));
-        steps
+        if frame.point(x, y).is_none() || self.lit.is_empty() {
+            steps.push(inspect::result(f32::NAN));
+            return steps;
+        }
+        // The image's marks of the pixel's samples: the row's first sample, then k per
+        // covered pixel before this one.
+        let y0 = y as usize * frame.width() as usize;
+        let before = frame.gbuffer.object.data()[y0..y0 + x as usize]
+            .iter()
+            .filter(|&&o| o != NO_OBJECT)
+            .count();
+        let first = self.row_start[y as usize] as usize + before * k;
+        let mut t = Steps(steps);
+        let v = resolve(&self.lit[first..first + k], &mut t);
+        debug_assert_eq!(v, lit_sum / k as f32);
+        t.0.push(inspect::result(v));
+        t.0
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -298,11 +298,13 @@ impl LightMaps {
     }
 
     /// The maps of the last pass, one per light view (six for cube maps), with their views.
+    #[inline(always)]
     pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
         &self.maps
     }
 
     /// Whether the pass has not run (or found no view).
+    #[inline(always)]
     pub fn is_empty(&self) -> bool {
         self.maps.is_empty()
     }
@@ -314,6 +316,7 @@ impl LightMaps {
     }
 
     /// With [`Layer::Id`]: view `i`'s object ids (+1; 0 where empty).
+    #[inline(always)]
     pub fn ids(&self, i: usize) -> Option<&Surface<f32>> {
         self.ids.get(i)
     }

@@ -143,6 +143,7 @@ impl MapLookup {
     }
 
     /// The setup.
+    #[inline(always)]
     pub fn setup(&self) -> &Setup {
         &self.setup
     }
@@ -162,6 +163,7 @@ impl MapLookup {
     }
 
     /// The maps of the last pass.
+    #[inline(always)]
     pub fn light_maps(&self) -> &LightMaps {
         &self.maps
     }
@@ -527,11 +529,13 @@ impl MapLookup {
     }
 
     /// The plane-residual chains of the last run's maps (with `hierarchy` and a wide filter).
+    #[inline(always)]
     pub fn planes(&self, face: usize) -> Option<&PlaneChain> {
         self.planes.get(face)
     }
 
     /// The min/max chains of the last run's maps (with [`Setup::min_max`]).
+    #[inline(always)]
     pub fn min_max(&self, face: usize) -> Option<&MinMax> {
         self.minmax.get(face)
     }

@@ -25,7 +25,7 @@
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::Mesh;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::homogeneous_position;
 use crate::shadow::timing::Passes;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -222,6 +222,20 @@ impl Planar {
     }
 }
 
+impl Planar {
+    /// The per-pixel resolve of the passes (the image's, and `inspect`'s with a recording
+    /// trace): the shadow buffer's value, the product of the darkening at the pixel.
+    #[inline(always)]
+    fn resolve(&self, shadow: f32, t: &mut impl Trace) -> f32 {
+        t.step(|| {
+            Step::new("shadow buffer", "the product of the darkening at this pixel (1: none)")
+                .num("value", shadow)
+                .num("darkness", self.opts.darkness)
+        });
+        shadow
+    }
+}
+
 impl ShadowTechnique for Planar {
     fn name(&self) -> &'static str {
         "planar"
@@ -359,7 +373,13 @@ impl ShadowTechnique for Planar {
             .points()
             .iter()
             .zip(shadow.data())
-            .map(|(pt, &s)| if pt.is_some() { s } else { f32::NAN })
+            .map(|(pt, &s)| {
+                if pt.is_some() {
+                    self.resolve(s, &mut NoTrace)
+                } else {
+                    f32::NAN
+                }
+            })
             .collect();
         self.shadow = Some(shadow);
         passes.end("stencil passes");
@@ -397,14 +417,10 @@ impl ShadowTechnique for Planar {
                 .flag("darkened", self.opts.stencil && left == 0),
             );
         }
-        steps.push(
-            Step::new("shadow buffer", "the product of the darkening at this pixel (1: none)")
-                .num("value", shadow.at(x, y))
-                .num("darkness", self.opts.darkness),
-        );
-        let v = shadow.at(x, y);
-        steps.push(inspect::result(v));
-        steps
+        let mut t = Steps(steps);
+        let v = self.resolve(shadow.at(x, y), &mut t);
+        t.0.push(inspect::result(v));
+        t.0
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

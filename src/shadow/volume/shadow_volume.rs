@@ -26,7 +26,7 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::LightKind;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::timing::Passes;
@@ -155,6 +155,22 @@ pub fn zpass_is_safe(frame: &Frame) -> bool {
         .any(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
 }
 
+/// The per-pixel resolve of the stencil pass (the image's, and `inspect`'s with a recording
+/// trace): lit where the count is 0.
+#[inline(always)]
+fn resolve(count: u8, t: &mut impl Trace) -> f32 {
+    t.step(|| {
+        Step::new("stencil", "the count after the pass (wrapping 8-bit); 0 is lit")
+            .int("stencil", count)
+            .int("as signed", count as i8)
+    });
+    if count == 0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
 impl ShadowTechnique for ShadowVolume {
     fn name(&self) -> &'static str {
         "shadow-volume"
@@ -251,10 +267,8 @@ impl ShadowTechnique for ShadowVolume {
             .map(|(pt, &s)| {
                 if pt.is_none() {
                     f32::NAN
-                } else if s == 0 {
-                    1.0
                 } else {
-                    0.0
+                    resolve(s, &mut NoTrace)
                 }
             })
             .collect();
@@ -300,14 +314,10 @@ impl ShadowTechnique for ShadowVolume {
             .int("count", inside.len())
             .text("objects", inside.join(", ")),
         );
-        let count = stencil.at(x, y);
-        steps.push(
-            Step::new("stencil", "the count after the pass (wrapping 8-bit); 0 is lit")
-                .int("stencil", count)
-                .int("as signed", count as i8),
-        );
-        steps.push(inspect::result(if count == 0 { 1.0 } else { 0.0 }));
-        steps
+        let mut t = Steps(steps);
+        let v = resolve(stencil.at(x, y), &mut t);
+        t.0.push(inspect::result(v));
+        t.0
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -30,7 +30,7 @@
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -262,18 +262,52 @@ impl Avsm {
         })
     }
 
-    /// The curve of the texel the point `p` falls in, with its view and texel.
-    fn curve_at(&self, frame: &Frame, p: Vec3) -> Option<(usize, Vec2, f32, Curve<'_>)> {
-        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
+    /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
+    /// recording trace): the curve of the texel the point falls in, read at its depth, every
+    /// step reported to `t`.
+    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
+            t.step(|| Step::new("outside", "the point is outside the light's map: lit"));
+            return Vec3::ONE;
+        };
         let store = &self.maps[at.view].0;
         let s = store.width();
         let (tx, ty) = at.texel(s, s);
-        Some((
-            at.view,
-            Vec2::new(tx as f32, ty as f32),
-            at.depth,
-            Curve(store.pixel(tx, ty)),
-        ))
+        let (z, c) = (at.depth, Curve(store.pixel(tx, ty)));
+        t.step(|| {
+            Step::new(
+                "light-space position",
+                "the texel whose curve the point reads, and its depth there",
+            )
+            .int("view", at.view)
+            .vec2("texel", Vec2::new(tx as f32, ty as f32))
+            .num("depth", z)
+        });
+        t.step(|| {
+            let mut st = Step::new(
+                "curve",
+                "the texel's nodes (depth: transmittance behind it, per channel), after streaming compression",
+            )
+            .int("nodes", c.nodes().len())
+            .int("fragments inserted", c.inserted())
+            .int("nodes removed", c.removed());
+            for (i, n) in c.nodes().iter().enumerate() {
+                st = st
+                    .num(&format!("node {i} depth"), n.depth)
+                    .vec3(&format!("node {i} T"), n.t);
+            }
+            st
+        });
+        let v = c.at(z.clamp(0.0, 1.0));
+        t.step(|| {
+            Step::new(
+                "lookup",
+                "the transmittance of the last node in front of the point (1 if none)",
+            )
+            .int("nodes in front", c.nodes().partition_point(|n| n.depth < z))
+            .vec3("transmittance", v)
+        });
+        v
     }
 }
 
@@ -352,10 +386,7 @@ impl ShadowTechnique for Avsm {
         // Lookup: each receiver's depth against its texel's curve.
         let this = &*self;
         let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| match this.curve_at(frame, s.position) {
-            Some((_, _, z, c)) => c.at(z.clamp(0.0, 1.0)),
-            None => Vec3::ONE,
-        });
+        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
@@ -366,45 +397,7 @@ impl ShadowTechnique for Avsm {
         if self.maps.is_empty() {
             return Vec::new();
         }
-        let mut steps = Vec::new();
-        let Some((f, texel, z, c)) = self.curve_at(frame, s.position) else {
-            steps.push(Step::new("outside", "the point is outside the light's map: lit"));
-            steps.push(inspect::result(1.0));
-            return steps;
-        };
-        steps.push(
-            Step::new(
-                "light-space position",
-                "the texel whose curve the point reads, and its depth there",
-            )
-            .int("view", f)
-            .vec2("texel", texel)
-            .num("depth", z),
-        );
-        let mut st = Step::new(
-            "curve",
-            "the texel's nodes (depth: transmittance behind it, per channel), after streaming compression",
-        )
-        .int("nodes", c.nodes().len())
-        .int("fragments inserted", c.inserted())
-        .int("nodes removed", c.removed());
-        for (i, n) in c.nodes().iter().enumerate() {
-            st = st
-                .num(&format!("node {i} depth"), n.depth)
-                .vec3(&format!("node {i} T"), n.t);
-        }
-        steps.push(st);
-        let t = c.at(z.clamp(0.0, 1.0));
-        steps.push(
-            Step::new(
-                "lookup",
-                "the transmittance of the last node in front of the point (1 if none)",
-            )
-            .int("nodes in front", c.nodes().partition_point(|n| n.depth < z))
-            .vec3("transmittance", t),
-        );
-        steps.push(inspect::result(super::value(self.coloured, t)));
-        steps
+        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -31,7 +31,7 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -335,19 +335,65 @@ impl DeepShadowMap {
         }
     }
 
-    /// The filtered transmittance of a lookup.
-    fn transmittance(&self, l: &Lookup) -> Vec3 {
-        match l.frac {
-            None => self.at(l.view, l.texels[0], l.depth),
+    /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
+    /// recording trace): each texel's function at the point's depth, filtered; every step
+    /// reported to `t`.
+    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+        let Some(l) = self.taps(frame, p) else {
+            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+            return Vec3::ONE;
+        };
+        let n = if l.frac.is_some() { 4 } else { 1 };
+        let mut at = [Vec3::ONE; 4];
+        for (k, &texel) in l.texels.iter().enumerate().take(n) {
+            at[k] = self.at(l.view, texel, l.depth);
+            t.step(|| {
+                let (tx, ty) = texel;
+                let v = self.function(l.view, tx, ty);
+                let mut st = Step::new(
+                    "function",
+                    "a texel's compressed transmittance function (depth, transmittance per channel)",
+                )
+                .int("view", l.view)
+                .vec2("texel", Vec2::new(tx as f32, ty as f32))
+                .int("vertices", v.len());
+                // The vertices of the first texel (the others' are listed by their own pixels).
+                if k == 0 {
+                    for (i, p) in v.iter().enumerate().take(32) {
+                        st = st
+                            .num(&format!("vertex {i} depth"), p.depth)
+                            .vec3(&format!("vertex {i} T"), p.t);
+                    }
+                }
+                st.vec3("T at the depth", at[k])
+            });
+        }
+        let v = match l.frac {
+            None => at[0],
             Some(fr) => {
-                let [a, b, c, d] = l.texels.map(|t| self.at(l.view, t, l.depth));
+                let [a, b, c, d] = at;
                 // The order of operations of the sampler's pcf2x2, so that opaque casters give
                 // its result bit for bit.
                 let top = a + (b - a) * fr.x;
                 let bottom = c + (d - c) * fr.x;
                 top + (bottom - top) * fr.y
             }
-        }
+        };
+        t.step(|| {
+            let mut lookup = Step::new(
+                "lookup",
+                match l.frac {
+                    None => "binary search of the depth in the nearest texel's function, linear interpolation between the two vertices",
+                    Some(_) => "each texel's function at the depth (binary search, linear interpolation), the four weighted bilinearly",
+                },
+            )
+            .num("depth", l.depth);
+            if let Some(fr) = l.frac {
+                lookup = lookup.vec2("bilinear fraction", fr);
+            }
+            lookup.vec3("transmittance", v)
+        });
+        v
     }
 
     fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
@@ -470,10 +516,7 @@ impl ShadowTechnique for DeepShadowMap {
         passes.end("light pass and compression");
         let this = &*self;
         let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| {
-            this.taps(frame, s.position)
-                .map_or(Vec3::ONE, |l| this.transmittance(&l))
-        });
+        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
@@ -484,48 +527,7 @@ impl ShadowTechnique for DeepShadowMap {
         if self.maps.is_empty() {
             return Vec::new();
         }
-        let Some(l) = self.taps(frame, s.position) else {
-            return vec![
-                Step::new("outside", "the point is outside the light's maps: lit"),
-                inspect::result(1.0),
-            ];
-        };
-        let mut steps = Vec::new();
-        let taps = if l.frac.is_some() { 4 } else { 1 };
-        for (k, &(tx, ty)) in l.texels.iter().enumerate().take(taps) {
-            let v = self.function(l.view, tx, ty);
-            let mut st = Step::new(
-                "function",
-                "a texel's compressed transmittance function (depth, transmittance per channel)",
-            )
-            .int("view", l.view)
-            .vec2("texel", Vec2::new(tx as f32, ty as f32))
-            .int("vertices", v.len());
-            // The vertices of the first texel (the others' are listed by their own pixels).
-            if k == 0 {
-                for (i, p) in v.iter().enumerate().take(32) {
-                    st = st
-                        .num(&format!("vertex {i} depth"), p.depth)
-                        .vec3(&format!("vertex {i} T"), p.t);
-                }
-            }
-            steps.push(st.vec3("T at the depth", self.at(l.view, (tx, ty), l.depth)));
-        }
-        let t = self.transmittance(&l);
-        let mut lookup = Step::new(
-            "lookup",
-            match l.frac {
-                None => "binary search of the depth in the nearest texel's function, linear interpolation between the two vertices",
-                Some(_) => "each texel's function at the depth (binary search, linear interpolation), the four weighted bilinearly",
-            },
-        )
-        .num("depth", l.depth);
-        if let Some(fr) = l.frac {
-            lookup = lookup.vec2("bilinear fraction", fr);
-        }
-        steps.push(lookup.vec3("transmittance", t));
-        steps.push(inspect::result(super::value(self.coloured, t)));
-        steps
+        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

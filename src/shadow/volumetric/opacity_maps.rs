@@ -26,7 +26,7 @@
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -147,10 +147,6 @@ pub struct OpacityMaps {
     times: Vec<(&'static str, f64)>,
 }
 
-/// What a lookup found (for `inspect`): view, texel, depth, opaque depth, first boundary,
-/// slice, sigma at its two boundaries, result.
-type Found = (usize, Vec2, f32, f32, f32, usize, Vec3, Vec3, Vec3);
-
 impl OpacityMaps {
     /// Opacity maps with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<OpacityMaps, String> {
@@ -165,21 +161,38 @@ impl OpacityMaps {
         })
     }
 
-    fn lookup(&self, frame: &Frame, p: Vec3) -> Option<Found> {
-        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
-        let (f, m) = (at.view, &self.maps[at.view]);
+    /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
+    /// recording trace), every step reported to `t`.
+    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
+            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+            return Vec3::ONE;
+        };
+        let m = &self.maps[at.view];
         let s = m.opaque.width();
         let (tx, ty) = at.texel(s, s);
         let z = at.depth.clamp(0.0, 1.0);
         let od = m.opaque.at(tx, ty);
+        t.step(|| {
+            Step::new(
+                "light-space position",
+                "the texel the maps are read at, and the point's depth",
+            )
+            .int("view", at.view)
+            .vec2("texel", Vec2::new(tx as f32, ty as f32))
+            .num("depth", z)
+            .num("opaque depth", od)
+            .flag("behind an opaque caster", z > od)
+        });
+        if z > od {
+            return Vec3::ZERO;
+        }
         let start = m.start.at(tx, ty);
         let k = m.slices.len();
         // Sigma at boundary j: the sum of slices before j.
         let sigma = |j: usize| -> Vec3 { m.slices[..j.min(k)].iter().map(|sl| sl.at(tx, ty).truncate()).sum() };
         let x = (z - start) / self.step;
-        let (j, lo, hi, v) = if z > od {
-            (0, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO)
-        } else if x <= 0.0 {
+        let (j, lo, hi, v) = if x <= 0.0 {
             (0, Vec3::ZERO, Vec3::ZERO, Vec3::ONE)
         } else {
             let j = (x.floor() as usize).min(k);
@@ -188,7 +201,20 @@ impl OpacityMaps {
             let s = lo + (hi - lo) * frac;
             (j, lo, hi, Vec3::new((-s.x).exp(), (-s.y).exp(), (-s.z).exp()))
         };
-        Some((f, Vec2::new(tx as f32, ty as f32), z, od, start, j, lo, hi, v))
+        t.step(|| {
+            Step::new(
+                "slices",
+                "the slice the depth falls in; sigma (optical depth) at its two boundaries, interpolated linearly",
+            )
+            .text("layout", self.opts.layout.as_str())
+            .num("first boundary", start)
+            .num("slice thickness", self.step)
+            .int("slice", j)
+            .vec3("sigma before", lo)
+            .vec3("sigma after", hi)
+        });
+        t.step(|| Step::new("transmittance", "exp(-sigma) per channel").vec3("T", v));
+        v
     }
 }
 
@@ -295,9 +321,7 @@ impl ShadowTechnique for OpacityMaps {
         passes.end("light pass");
         let this = &*self;
         let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| {
-            this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.8)
-        });
+        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
@@ -308,36 +332,7 @@ impl ShadowTechnique for OpacityMaps {
         if self.maps.is_empty() {
             return Vec::new();
         }
-        let Some((f, texel, z, od, start, j, lo, hi, v)) = self.lookup(frame, s.position) else {
-            return vec![
-                Step::new("outside", "the point is outside the light's maps: lit"),
-                inspect::result(1.0),
-            ];
-        };
-        let value = super::value(self.coloured, v);
-        vec![
-            Step::new(
-                "light-space position",
-                "the texel the maps are read at, and the point's depth",
-            )
-            .int("view", f)
-            .vec2("texel", texel)
-            .num("depth", z)
-            .num("opaque depth", od)
-            .flag("behind an opaque caster", z > od),
-            Step::new(
-                "slices",
-                "the slice the depth falls in; sigma (optical depth) at its two boundaries, interpolated linearly",
-            )
-            .text("layout", self.opts.layout.as_str())
-            .num("first boundary", start)
-            .num("slice thickness", self.step)
-            .int("slice", j)
-            .vec3("sigma before", lo)
-            .vec3("sigma after", hi),
-            Step::new("transmittance", "exp(-sigma) per channel").vec3("T", v),
-            inspect::result(value),
-        ]
+        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

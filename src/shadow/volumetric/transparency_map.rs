@@ -17,7 +17,7 @@
 
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, Step};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -111,23 +111,52 @@ impl TransparencyMap {
         })
     }
 
-    /// The lookup at world point `p`: (view, uv, depth, opaque depth, transparent depth,
-    /// colour, result).
-    fn lookup(&self, frame: &Frame, p: Vec3) -> Option<(usize, Vec2, f32, f32, f32, Vec3, Vec3)> {
-        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
-        let (f, m) = (at.view, &self.maps[at.view]);
+    /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
+    /// recording trace): both maps read at the point's texel, every step reported to `t`.
+    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
+            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+            return Vec3::ONE;
+        };
+        let m = &self.maps[at.view];
         let s = m.opaque.width();
         let (tx, ty) = at.texel(s, s);
         let z = at.depth.clamp(0.0, 1.0);
         let (od, td, c) = (m.opaque.at(tx, ty), m.depth.at(tx, ty), m.colour.at(tx, ty).truncate());
-        let v = if z > od {
-            Vec3::ZERO
-        } else if z > td {
+        t.step(|| {
+            Step::new(
+                "light-space position",
+                "the texel both maps are read at, and the point's depth",
+            )
+            .int("view", at.view)
+            .vec2("texel", Vec2::new(tx as f32, ty as f32))
+            .num("depth", z)
+        });
+        t.step(|| {
+            Step::new(
+                "opaque map",
+                "the nearest opaque caster's depth (with polygon offset): shadowed if the point is behind it",
+            )
+            .num("stored depth", od)
+            .flag("behind it", z > od)
+        });
+        if z > od {
+            return Vec3::ZERO;
+        }
+        t.step(|| {
+            Step::new(
+                "transparent map",
+                "the nearest transparent caster's depth and colour: behind it, the point takes the colour (one layer only)",
+            )
+            .num("stored depth", td)
+            .vec3("stored colour", c)
+            .flag("behind it", z > td)
+        });
+        if z > td {
             c
         } else {
             Vec3::ONE
-        };
-        Some((f, Vec2::new(tx as f32, ty as f32), z, od, td, c, v))
+        }
     }
 }
 
@@ -196,9 +225,7 @@ impl ShadowTechnique for TransparencyMap {
         passes.end("light pass");
         let this = &*self;
         let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| {
-            this.lookup(frame, s.position).map_or(Vec3::ONE, |l| l.6)
-        });
+        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
@@ -209,33 +236,7 @@ impl ShadowTechnique for TransparencyMap {
         if self.maps.is_empty() {
             return Vec::new();
         }
-        let Some((f, texel, z, od, td, c, v)) = self.lookup(frame, s.position) else {
-            return vec![
-                Step::new("outside", "the point is outside the light's maps: lit"),
-                inspect::result(1.0),
-            ];
-        };
-        let value = super::value(self.coloured, v);
-        vec![
-            Step::new("light-space position", "the texel both maps are read at, and the point's depth")
-                .int("view", f)
-                .vec2("texel", texel)
-                .num("depth", z),
-            Step::new(
-                "opaque map",
-                "the nearest opaque caster's depth (with polygon offset): shadowed if the point is behind it",
-            )
-            .num("stored depth", od)
-            .flag("behind it", z > od),
-            Step::new(
-                "transparent map",
-                "the nearest transparent caster's depth and colour: behind it, the point takes the colour (one layer only)",
-            )
-            .num("stored depth", td)
-            .vec3("stored colour", c)
-            .flag("behind it", z > td),
-            inspect::result(value),
-        ]
+        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {
