@@ -13,6 +13,7 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// The normal-offset lookup point (Holbert 2011): `s` moved along `normal` by `k` texels of
 /// `view` at `s`, times the sine of the angle between the normal and the light direction.
+#[inline(always)]
 pub fn normal_offset(view: &LightView, light: &Light, s: &SamplePoint, k: f32) -> Vec3 {
     if k <= 0.0 {
         return s.position;

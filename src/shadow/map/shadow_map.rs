@@ -283,6 +283,7 @@ impl ShadowMap {
     /// prepared alone, then the wide filters (disks, and flat grids and tents of one size) of
     /// the pixels that look up the same view run on four lanes, with the one-pixel operations
     /// per lane, so every value and count is the one-pixel lookup's.
+    #[inline(always)]
     fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
         let mut out = [f32::NAN; 4];
         let mut count = 0u64;
