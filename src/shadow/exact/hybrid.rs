@@ -16,9 +16,9 @@
 
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
-use crate::shadow::exact::izb::{self, Izb};
+use crate::shadow::exact::irregular::{self, IrregularZBuffer};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::map::pcss::{self, Pcss};
+use crate::shadow::map::soft::{self, SoftShadows};
 use crate::shadow::pixels::per_pixel_map;
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -27,7 +27,7 @@ use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Techniqu
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// PCSS's options (its map, bias, light width, taps). Default: PCSS's defaults.
-    pub pcss: pcss::Options,
+    pub pcss: soft::Options,
     /// The IZB's grid side in texels. Default: 512.
     pub grid: u32,
     /// Penumbra width, in camera pixels at the point, below which the IZB's hard shadow is
@@ -40,7 +40,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            pcss: pcss::Options::default(),
+            pcss: soft::Options::default(),
             grid: 512,
             from: 1.0,
             to: 4.0,
@@ -102,8 +102,8 @@ pub fn info() -> TechniqueInfo {
 /// The hybrid (see the module docs).
 pub struct Hybrid {
     opts: Options,
-    pcss: Pcss,
-    izb: Izb,
+    pcss: SoftShadows,
+    izb: IrregularZBuffer,
     /// Last run: the blend weight of PCSS per pixel.
     weight: Vec<f32>,
     times: Vec<(&'static str, f64)>,
@@ -119,15 +119,14 @@ impl Hybrid {
                 opts.to, opts.from
             ));
         }
-        let mut pcss = Pcss::new(opts.pcss.clone()).map_err(|e| e.replace("'pcss'", "'hybrid'"))?;
+        let mut pcss = SoftShadows::new(opts.pcss.clone());
         pcss.keep_penumbra(true);
         Ok(Hybrid {
             pcss,
-            izb: Izb::new(izb::Options {
+            izb: IrregularZBuffer::new(irregular::Options {
                 size: opts.grid,
                 ..Default::default()
-            })
-            .map_err(|e| e.replace("'izb'", "'hybrid'"))?,
+            }),
             opts,
             weight: Vec::new(),
             times: Vec::new(),
@@ -197,13 +196,10 @@ impl ShadowTechnique for Hybrid {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
         let mut passes = Passes::start();
-        let Visibility::Scalar(soft) = self.pcss.visibility(p, frame)? else {
-            return Err("technique 'hybrid': PCSS returned colour".into());
-        };
+        // Each part's own passes are timed as one.
+        let soft = self.pcss.run(p, frame, &mut Passes::start())?;
         passes.end("pcss");
-        let Visibility::Scalar(hard) = self.izb.visibility(p, frame)? else {
-            return Err("technique 'hybrid': the IZB returned colour".into());
-        };
+        let hard = self.izb.run(p, frame, &mut Passes::start())?;
         passes.end("izb");
         let this = &*self;
         // The penumbra widths PCSS kept from its lookup pass: its blocker searches are not

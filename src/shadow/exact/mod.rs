@@ -3,4 +3,5 @@
 //! and its [`hybrid`] with PCSS (Story and Wyman 2016).
 
 pub mod hybrid;
+pub mod irregular;
 pub mod izb;

@@ -15,3 +15,4 @@ pub mod multi_sample;
 pub mod pcss;
 pub mod planes;
 pub mod shadow_map;
+pub mod soft;

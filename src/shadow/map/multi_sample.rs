@@ -26,7 +26,8 @@ use crate::shadow::inspect::{self, NoTrace, Step};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::timing::Passes;
-use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
+use crate::shadow::volume::shadow_volume::Mode;
+use crate::shadow::volume::stencil::StencilVolumes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 
@@ -149,7 +150,8 @@ pub struct MultiSample {
     opts: Options,
     /// With `method=maps`: the sample's cube map and its lookups.
     lookup: MapLookup,
-    volume: ShadowVolume,
+    /// With `method=volumes`: the sample's stencil pass.
+    volume: StencilVolumes,
     points: Vec<Vec3>,
     taps: f64,
     times: Vec<(&'static str, f64)>,
@@ -161,7 +163,7 @@ impl MultiSample {
         declaration().check(&opts)?;
         Ok(MultiSample {
             lookup: MapLookup::new(Self::setup(&opts)),
-            volume: ShadowVolume::new(shadow_volume::Options::default())?,
+            volume: StencilVolumes::new(Mode::Auto),
             opts,
             points: Vec::new(),
             taps: 0.0,
@@ -208,12 +210,7 @@ impl MultiSample {
                 Ok((v, taps))
             }
             Method::Volumes => {
-                let Visibility::Scalar(v) = self.volume.visibility(p, frame)? else {
-                    return Err("technique 'multi-sample': a sample's hard shadow was not scalar".into());
-                };
-                for (name, ms) in self.volume.timings() {
-                    passes.add(name, ms);
-                }
+                let v = self.volume.run(p, frame, passes)?;
                 Ok((v, 0))
             }
         }
@@ -291,9 +288,9 @@ impl ShadowTechnique for MultiSample {
                         .light_pass(&p, &sampled)
                         .map(|()| Self::hard(&lookup, &sampled, self.opts.pcf, x as usize, y as usize).0)
                 }
-                Method::Volumes => ShadowVolume::new(Default::default())
-                    .and_then(|mut t| t.visibility(&p, &sampled))
-                    .map(|v| v.value(i)),
+                Method::Volumes => StencilVolumes::new(Mode::Auto)
+                    .run(&p, &sampled, &mut Passes::start())
+                    .map(|v| v[i]),
             }
             .unwrap_or(f32::NAN);
             sum += v;
