@@ -19,6 +19,7 @@ pub mod light;
 pub mod map;
 pub mod options;
 pub mod overview;
+pub mod pass;
 pub mod penumbra;
 pub mod pixels;
 pub mod planar;

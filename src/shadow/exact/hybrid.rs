@@ -19,6 +19,7 @@ use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::irregular::{self, IrregularZBuffer};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::map::soft::{self, SoftShadows};
+use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_map;
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};

@@ -74,6 +74,7 @@ use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::pass::Pass;
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette::Adjacency;
 use crate::shadow::Stage;
@@ -1230,10 +1231,8 @@ fn resolve(marks: &[u8], t: &mut impl Trace) -> f32 {
     c as f32 / marks.len() as f32
 }
 
-impl IrregularZBuffer {
-    /// The passes on `frame`: visibility per pixel (NaN where no geometry), timed into
-    /// `passes` (sample insertion, occluder pass, resolve).
-    pub fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
+impl Pass for IrregularZBuffer {
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
         // The samples and their lists (at most 88 bytes a sample: its position, record, key
         // and sort entry, the store's node and its index, its result), checked against the
         // memory budget before any is made.
@@ -1296,8 +1295,7 @@ impl IrregularZBuffer {
         Ok(out)
     }
 
-    /// What the last run did at pixel `(x, y)`, ending with the image's value there.
-    pub fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let i = (y * frame.width() + x) as usize;
         let mut steps = vec![Step::new(
             "grid",
@@ -1385,8 +1383,7 @@ impl IrregularZBuffer {
         t.0
     }
 
-    /// Work counters of the last run.
-    pub fn counters(&self) -> Vec<(&'static str, f64)> {
+    fn counters(&self) -> Vec<(&'static str, f64)> {
         let (nonempty, max, tests) = self.list_stats();
         let inserted = self.inserted;
         let bytes: usize = self.views.iter().map(|v| v.store.bytes()).sum();
@@ -1407,8 +1404,7 @@ impl IrregularZBuffer {
         ]
     }
 
-    /// The last run's buffers for `dump`.
-    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
         let mut v = Vec::new();
         for i in 0..self.views.len() {
             let len = self.lengths(i);
@@ -1566,9 +1562,8 @@ mod tests {
             let mut t = IrregularZBuffer::new(Options {
                 samples: crate::shadow::options::OptionValue::parse(k).unwrap(),
                 ..Default::default()
-            })
-            .unwrap();
-            t.visibility(&p, &f).unwrap();
+            });
+            t.run(&p, &f, &mut Passes::start()).unwrap();
             assert!(t.total > 2 * MIN_CHUNK, "{scene}: too few samples to test chunks");
             let size = t.opts.size;
             let samples = camera_samples(&f, t.opts.samples);

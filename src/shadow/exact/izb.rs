@@ -7,10 +7,9 @@ use super::irregular::IrregularZBuffer;
 pub use super::irregular::{
     camera_samples, camera_samples_grid, CameraSample, OccluderRaster, Options, SamplesPerPixel,
 };
-use crate::frame::Frame;
-use crate::pipeline::{Pipeline, MAX_DIMENSION};
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
+use crate::pipeline::MAX_DIMENSION;
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -63,21 +62,14 @@ pub fn info() -> TechniqueInfo {
     }
 }
 
-/// The irregular z-buffer (see the module docs).
-pub struct Izb {
-    /// The samples, lists and results.
-    pass: IrregularZBuffer,
-    times: Vec<(&'static str, f64)>,
-}
+/// The irregular z-buffer (see the module docs): the shared pass as a technique.
+pub type Izb = PassTechnique<IrregularZBuffer>;
 
 impl Izb {
     /// An irregular z-buffer with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Izb, String> {
         declaration().check(&opts)?;
-        Ok(Izb {
-            pass: IrregularZBuffer::new(opts),
-            times: Vec::new(),
-        })
+        Ok(PassTechnique::with("izb", IrregularZBuffer::new(opts)))
     }
 
     /// The options.
@@ -89,34 +81,5 @@ impl Izb {
     /// order of [`camera_samples`].
     pub fn sample_visibility(&self) -> Vec<f32> {
         self.pass.sample_visibility()
-    }
-}
-
-impl ShadowTechnique for Izb {
-    fn name(&self) -> &'static str {
-        "izb"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let mut passes = Passes::start();
-        let out = self.pass.run(p, frame, &mut passes)?;
-        self.times = passes.finish();
-        Ok(Visibility::Scalar(out))
-    }
-
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        self.pass.inspect(frame, x, y)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
-    }
-
-    fn counters(&self) -> Vec<(&'static str, f64)> {
-        self.pass.counters()
-    }
-
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        self.pass.stages(p, frame)
     }
 }

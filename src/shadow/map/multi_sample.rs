@@ -24,10 +24,10 @@ use crate::reference::concentric_disk;
 use crate::scene::{AreaShape, Light, LightKind};
 use crate::shadow::inspect::{self, NoTrace, Step};
 use crate::shadow::light::{Layer, MapOptions};
+use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::timing::Passes;
-use crate::shadow::volume::shadow_volume::Mode;
-use crate::shadow::volume::stencil::StencilVolumes;
+use crate::shadow::volume::stencil::{Mode, StencilVolumes};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use glam::{Vec2, Vec3};
 

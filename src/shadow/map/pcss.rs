@@ -10,10 +10,8 @@
 use super::kernel::MAX_TAPS;
 use super::soft::SoftShadows;
 pub use super::soft::{Disk, Options};
-use crate::frame::Frame;
-use crate::pipeline::Pipeline;
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -65,50 +63,14 @@ pub fn info() -> TechniqueInfo {
     }
 }
 
-/// Percentage-closer soft shadows (see the module docs).
-pub struct Pcss {
-    /// The maps, the search and the filter.
-    pub(crate) pass: SoftShadows,
-    times: Vec<(&'static str, f64)>,
-}
+/// Percentage-closer soft shadows (see the module docs): the shared pass as a technique.
+pub type Pcss = PassTechnique<SoftShadows>;
 
 impl Pcss {
     /// PCSS with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Pcss, String> {
         declaration().check(&opts)?;
-        Ok(Pcss {
-            pass: SoftShadows::new(opts),
-            times: Vec::new(),
-        })
-    }
-}
-
-impl ShadowTechnique for Pcss {
-    fn name(&self) -> &'static str {
-        "pcss"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let mut passes = Passes::start();
-        let out = self.pass.run(p, frame, &mut passes)?;
-        self.times = passes.finish();
-        Ok(Visibility::Scalar(out))
-    }
-
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        self.pass.inspect(frame, x, y)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
-    }
-
-    fn counters(&self) -> Vec<(&'static str, f64)> {
-        self.pass.counters()
-    }
-
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        self.pass.stages(p, frame)
+        Ok(PassTechnique::with("pcss", SoftShadows::new(opts)))
     }
 }
 

@@ -54,6 +54,7 @@ use crate::pipeline::Pipeline;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels, world};
 use crate::shadow::light::{DepthToDistance, Layer, MapOptions};
+use crate::shadow::pass::Pass;
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::Stage;
@@ -525,10 +526,8 @@ thread_local! {
     static SEARCH: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-impl SoftShadows {
-    /// The passes on `frame`: visibility per pixel (NaN where no geometry), timed into
-    /// `passes` (light pass, lookup pass).
-    pub fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
+impl Pass for SoftShadows {
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
         self.lookup.light_pass(p, frame)?;
         self.width = light_width(frame, self.opts.light, self.opts.angle);
         self.nearest = self.lookup.light_maps().nearest_casters(p);
@@ -550,8 +549,7 @@ impl SoftShadows {
         Ok(out)
     }
 
-    /// What the last run did at pixel `(x, y)`, ending with the image's value there.
-    pub fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut t = Steps::default();
         if self.lookup.maps().is_empty() {
             return t.0;
@@ -568,8 +566,7 @@ impl SoftShadows {
         t.0
     }
 
-    /// Work counters of the last run.
-    pub fn counters(&self) -> Vec<(&'static str, f64)> {
+    fn counters(&self) -> Vec<(&'static str, f64)> {
         vec![
             ("map texels", self.lookup.texels() as f64),
             // Search taps (raw depth reads) plus filter taps (2x2 comparisons); one per
@@ -579,8 +576,7 @@ impl SoftShadows {
         ]
     }
 
-    /// The last run's buffers for `dump`.
-    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
         let mut v = self.lookup.stages(p, frame)?;
         if self.lookup.maps().is_empty() || self.width <= 0.0 {
             return Ok(v);

@@ -22,30 +22,10 @@
 //! reports it per frame, and camera paths chart it.
 
 pub use super::stencil::zpass_is_safe;
+pub use super::stencil::Mode;
 use super::stencil::StencilVolumes;
-use crate::choice_enum;
-use crate::frame::Frame;
-use crate::pipeline::Pipeline;
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
-
-choice_enum! {
-    /// How the stencil counts volumes.
-    pub enum Mode {
-        /// z-pass unless a caster may put the near plane in shadow, z-fail otherwise.
-        Auto = "auto",
-        /// Capped z-fail with the pipeline's depth clamp (Carmack's reverse).
-        Zfail = "zfail",
-        /// Capped z-fail with an infinite far plane projection and its own depth pre-pass.
-        ZfailInfinite = "zfail-infinite",
-        /// z-pass (Heidmann), the stencil starting at the eye's count.
-        Zpass = "zpass",
-        /// z-pass starting at 0 (wrong whenever the eye is inside a volume).
-        ZpassNaive = "zpass-naive",
-        /// z-fail without depth clamp (wrong where the far plane cuts a volume).
-        ZfailNoclamp = "zfail-noclamp",
-    }
-}
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
 
 /// Options of stencil shadow volumes.
 #[derive(Clone, Debug, PartialEq)]
@@ -85,58 +65,18 @@ pub fn info() -> TechniqueInfo {
     }
 }
 
-/// Stencil shadow volumes (see the module docs).
-pub struct ShadowVolume {
-    /// The stencil pass and what it found.
-    pass: StencilVolumes,
-    times: Vec<(&'static str, f64)>,
-}
+/// Stencil shadow volumes (see the module docs): the shared pass as a technique.
+pub type ShadowVolume = PassTechnique<StencilVolumes>;
 
 impl ShadowVolume {
     /// Shadow volumes with `opts`.
     pub fn new(opts: Options) -> Result<ShadowVolume, String> {
         declaration().check(&opts)?;
-        Ok(ShadowVolume {
-            pass: StencilVolumes::new(opts.mode),
-            times: Vec::new(),
-        })
+        Ok(PassTechnique::with("shadow-volume", StencilVolumes::new(opts.mode)))
     }
 
     /// Whether the last run counted z-pass (auto mode chooses).
     pub fn chose_zpass(&self) -> bool {
         self.pass.chose_zpass()
-    }
-}
-
-impl ShadowTechnique for ShadowVolume {
-    fn name(&self) -> &'static str {
-        "shadow-volume"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
-        let mut passes = Passes::start();
-        let out = self.pass.run(p, frame, &mut passes)?;
-        self.times = passes.finish();
-        Ok(Visibility::Scalar(out))
-    }
-
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        self.pass.inspect(frame, x, y)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
-    }
-
-    fn notes(&self) -> Vec<String> {
-        self.pass.notes()
-    }
-
-    fn counters(&self) -> Vec<(&'static str, f64)> {
-        self.pass.counters()
-    }
-
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
-        self.pass.stages(p, frame)
     }
 }

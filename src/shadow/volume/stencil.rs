@@ -5,7 +5,6 @@
 //! stencil with wrapping increments (z-pass from the eye's count, or z-fail with depth clamp
 //! or an infinite far plane, per [`Mode`]). Count 0: lit.
 
-use super::shadow_volume::Mode;
 use super::silhouette::{self, Volume};
 use crate::frame::Frame;
 use crate::pipeline::*;
@@ -13,9 +12,28 @@ use crate::scene::LightKind;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
+use crate::shadow::pass::Pass;
 use crate::shadow::timing::Passes;
 use crate::shadow::Stage;
 use glam::{Mat4, Vec3, Vec4};
+
+crate::choice_enum! {
+    /// How the stencil counts volumes.
+    pub enum Mode {
+        /// z-pass unless a caster may put the near plane in shadow, z-fail otherwise.
+        Auto = "auto",
+        /// Capped z-fail with the pipeline's depth clamp (Carmack's reverse).
+        Zfail = "zfail",
+        /// Capped z-fail with an infinite far plane projection and its own depth pre-pass.
+        ZfailInfinite = "zfail-infinite",
+        /// z-pass (Heidmann), the stencil starting at the eye's count.
+        Zpass = "zpass",
+        /// z-pass starting at 0 (wrong whenever the eye is inside a volume).
+        ZpassNaive = "zpass-naive",
+        /// z-fail without depth clamp (wrong where the far plane cuts a volume).
+        ZfailNoclamp = "zfail-noclamp",
+    }
+}
 
 /// The stencil shadow-volume pass: the volumes of a frame's casters counted in the stencil
 /// (see the module docs), with what `inspect`, `dump` and the counters report of it.
@@ -48,10 +66,10 @@ impl StencilVolumes {
     pub fn chose_zpass(&self) -> bool {
         self.chose_zpass
     }
+}
 
-    /// The pass on `frame`: visibility per pixel (NaN where no geometry), its passes timed
-    /// into `passes` (silhouettes, eye count, stencil pass).
-    pub fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
+impl Pass for StencilVolumes {
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
         let light = homogeneous_position(&frame.light);
         (self.volumes, self.irregular) = silhouette::scene_volumes(p, frame, light);
         passes.end("silhouettes");
@@ -151,8 +169,7 @@ impl StencilVolumes {
         Ok(out)
     }
 
-    /// What the last run did at pixel `(x, y)`, ending with the image's value there.
-    pub fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let mut steps = Vec::new();
         let Some(stencil) = &self.stencil else { return steps };
         let Some(s) = frame.point(x, y) else { return steps };
@@ -194,16 +211,14 @@ impl StencilVolumes {
         t.0
     }
 
-    /// Input warnings of the last run (meshes that are not closed).
-    pub fn notes(&self) -> Vec<String> {
+    fn notes(&self) -> Vec<String> {
         self.irregular
             .iter()
             .map(|(name, what)| format!("object '{name}': {what}; its volume uses every triangle, turned to the light"))
             .collect()
     }
 
-    /// Work counters of the last run.
-    pub fn counters(&self) -> Vec<(&'static str, f64)> {
+    fn counters(&self) -> Vec<(&'static str, f64)> {
         let sum = |f: fn(&Volume) -> usize| self.volumes.iter().map(f).sum::<usize>() as f64;
         vec![
             ("stencil fragments", self.fill as f64),
@@ -214,8 +229,7 @@ impl StencilVolumes {
         ]
     }
 
-    /// The last run's buffers for `dump`.
-    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
         let Some(stencil) = &self.stencil else {
             return Ok(Vec::new());
         };

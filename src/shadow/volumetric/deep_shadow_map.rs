@@ -27,11 +27,12 @@
 //! Known failure: resolution; one function per texel, so thin occluders alias as in a shadow
 //! map (softened, not removed, by the bilinear filter).
 
+use super::PointLookup;
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, NoTrace, Step, Trace};
+use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -335,43 +336,27 @@ impl DeepShadowMap {
         }
     }
 
+    fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
+        let m = &self.maps[f];
+        let i = (ty * m.size + tx) as usize;
+        &m.vertices[m.offsets[i] as usize..m.offsets[i + 1] as usize]
+    }
+}
+
+impl PointLookup for DeepShadowMap {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): each texel's function at the point's depth, filtered; every step
     /// reported to `t`.
-    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+    fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
         let Some(l) = self.taps(frame, p) else {
             t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
             return Vec3::ONE;
         };
-        let n = if l.frac.is_some() { 4 } else { 1 };
-        let mut at = [Vec3::ONE; 4];
-        for (k, &texel) in l.texels.iter().enumerate().take(n) {
-            at[k] = self.at(l.view, texel, l.depth);
-            t.step(|| {
-                let (tx, ty) = texel;
-                let v = self.function(l.view, tx, ty);
-                let mut st = Step::new(
-                    "function",
-                    "a texel's compressed transmittance function (depth, transmittance per channel)",
-                )
-                .int("view", l.view)
-                .vec2("texel", Vec2::new(tx as f32, ty as f32))
-                .int("vertices", v.len());
-                // The vertices of the first texel (the others' are listed by their own pixels).
-                if k == 0 {
-                    for (i, p) in v.iter().enumerate().take(32) {
-                        st = st
-                            .num(&format!("vertex {i} depth"), p.depth)
-                            .vec3(&format!("vertex {i} T"), p.t);
-                    }
-                }
-                st.vec3("T at the depth", at[k])
-            });
-        }
+        // The value as the lookup pass computes it; the trace reads each texel again.
         let v = match l.frac {
-            None => at[0],
+            None => self.at(l.view, l.texels[0], l.depth),
             Some(fr) => {
-                let [a, b, c, d] = at;
+                let [a, b, c, d] = l.texels.map(|t| self.at(l.view, t, l.depth));
                 // The order of operations of the sampler's pcf2x2, so that opaque casters give
                 // its result bit for bit.
                 let top = a + (b - a) * fr.x;
@@ -379,6 +364,28 @@ impl DeepShadowMap {
                 top + (bottom - top) * fr.y
             }
         };
+        let n = if l.frac.is_some() { 4 } else { 1 };
+        for (k, &(tx, ty)) in l.texels.iter().enumerate().take(n) {
+            t.step(|| {
+                let f = self.function(l.view, tx, ty);
+                let mut st = Step::new(
+                    "function",
+                    "a texel's compressed transmittance function (depth, transmittance per channel)",
+                )
+                .int("view", l.view)
+                .vec2("texel", Vec2::new(tx as f32, ty as f32))
+                .int("vertices", f.len());
+                // The vertices of the first texel (the others' are listed by their own pixels).
+                if k == 0 {
+                    for (i, p) in f.iter().enumerate().take(32) {
+                        st = st
+                            .num(&format!("vertex {i} depth"), p.depth)
+                            .vec3(&format!("vertex {i} T"), p.t);
+                    }
+                }
+                st.vec3("T at the depth", self.at(l.view, (tx, ty), l.depth))
+            });
+        }
         t.step(|| {
             let mut lookup = Step::new(
                 "lookup",
@@ -394,12 +401,6 @@ impl DeepShadowMap {
             lookup.vec3("transmittance", v)
         });
         v
-    }
-
-    fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
-        let m = &self.maps[f];
-        let i = (ty * m.size + tx) as usize;
-        &m.vertices[m.offsets[i] as usize..m.offsets[i + 1] as usize]
     }
 }
 
@@ -514,20 +515,14 @@ impl ShadowTechnique for DeepShadowMap {
             });
         }
         passes.end("light pass and compression");
-        let this = &*self;
-        let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
+        let out = super::lookup_pass(p, frame, self.coloured, &*self);
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let Some(s) = frame.point(x, y) else { return Vec::new() };
-        if self.maps.is_empty() {
-            return Vec::new();
-        }
-        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
+        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

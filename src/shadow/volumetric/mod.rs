@@ -15,6 +15,7 @@ use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::Field;
 use crate::visibility::{Visibility, LUMINANCE};
 use glam::Vec3;
@@ -44,6 +45,29 @@ pub fn resolve(p: &Pipeline, frame: &Frame, coloured: bool, f: impl Fn(&SamplePo
         Visibility::Rgb(rgb)
     } else {
         Visibility::Scalar(rgb.iter().map(|c| c.x).collect())
+    }
+}
+
+/// A volumetric technique's per-pixel contract: the transmittance at a world point, every
+/// step reported to a trace. The lookup pass runs it with [`NoTrace`] ([`lookup_pass`]),
+/// `inspect` with a recording trace ([`explain_point`]), so the two cannot disagree.
+pub trait PointLookup: Sync {
+    /// Transmittance at world point `p` (1: lit), per channel.
+    fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3;
+}
+
+/// The lookup pass of a volumetric technique: `l`'s transmittance at each covered pixel's
+/// point ([`resolve`]).
+pub fn lookup_pass(p: &Pipeline, frame: &Frame, coloured: bool, l: &impl PointLookup) -> Visibility {
+    resolve(p, frame, coloured, |s| l.transmittance(frame, s.position, &mut NoTrace))
+}
+
+/// `inspect` of a volumetric technique at pixel `(x, y)`: `l`'s steps at the pixel's point and
+/// its [`value`]; nothing where no geometry is, or before the first run (`ran` false).
+pub fn explain_point(frame: &Frame, x: u32, y: u32, coloured: bool, ran: bool, l: &impl PointLookup) -> Vec<Step> {
+    match frame.point(x, y) {
+        Some(s) if ran => inspect::explain(|t| value(coloured, l.transmittance(frame, s.position, t))),
+        _ => Vec::new(),
     }
 }
 

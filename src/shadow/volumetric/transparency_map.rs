@@ -15,9 +15,10 @@
 //! Both maps come from the shared light pass ([`crate::shadow::light`]); the colour map is a
 //! colour target drawn with a depth test, so its colour is the nearest transparent surface's.
 
+use super::PointLookup;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, NoTrace, Step, Trace};
+use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -110,10 +111,12 @@ impl TransparencyMap {
             times: Vec::new(),
         })
     }
+}
 
+impl PointLookup for TransparencyMap {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): both maps read at the point's texel, every step reported to `t`.
-    fn lookup(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
+    fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
         let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
             t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
             return Vec3::ONE;
@@ -223,20 +226,14 @@ impl ShadowTechnique for TransparencyMap {
             });
         }
         passes.end("light pass");
-        let this = &*self;
-        let coloured = self.coloured;
-        let out = super::resolve(p, frame, coloured, |s| this.lookup(frame, s.position, &mut NoTrace));
+        let out = super::lookup_pass(p, frame, self.coloured, &*self);
         passes.end("lookup pass");
         self.times = passes.finish();
         Ok(out)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let Some(s) = frame.point(x, y) else { return Vec::new() };
-        if self.maps.is_empty() {
-            return Vec::new();
-        }
-        inspect::explain(|t| super::value(self.coloured, self.lookup(frame, s.position, t)))
+        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -1,0 +1,87 @@
+//! Techniques that are one shared pass. The irregular z-buffer, PCSS and stencil shadow
+//! volumes live in their families' shared modules ([`super::exact::irregular`],
+//! [`super::map::soft`], [`super::volume::stencil`]), because composite techniques hold them
+//! too (the hybrid holds the first two, the multi-sample light the third); their technique
+//! files keep only the options, the declaration and the registry entry, and the technique is
+//! a [`PassTechnique`] of the pass.
+
+use crate::frame::Frame;
+use crate::pipeline::Pipeline;
+use crate::shadow::timing::Passes;
+use crate::shadow::{ShadowTechnique, Stage, Step, Visibility};
+
+/// A shared pass that a technique can be: what [`ShadowTechnique`] asks, less the name and
+/// the timing.
+pub trait Pass: Send {
+    /// Visibility per pixel of `frame` (NaN where no geometry), each pass timed into `passes`.
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String>;
+    /// What the last run did at pixel `(x, y)`, ending with the image's value there.
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step>;
+    /// The last run's buffers for `dump`.
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String>;
+    /// Work counters of the last run. Default: none.
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+    /// Input warnings of the last run. Default: none.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// The technique `name` that is the pass `P`.
+pub struct PassTechnique<P> {
+    name: &'static str,
+    /// The pass.
+    pub(crate) pass: P,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl<P> PassTechnique<P> {
+    /// The technique `name` running `pass`.
+    pub fn with(name: &'static str, pass: P) -> PassTechnique<P> {
+        PassTechnique {
+            name,
+            pass,
+            times: Vec::new(),
+        }
+    }
+
+    /// The pass.
+    pub fn pass(&self) -> &P {
+        &self.pass
+    }
+}
+
+impl<P: Pass> ShadowTechnique for PassTechnique<P> {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+        let mut passes = Passes::start();
+        let out = self.pass.run(p, frame, &mut passes)?;
+        self.times = passes.finish();
+        Ok(Visibility::Scalar(out))
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        self.pass.inspect(frame, x, y)
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+        self.pass.stages(p, frame)
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.times.clone()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        self.pass.counters()
+    }
+
+    fn notes(&self) -> Vec<String> {
+        self.pass.notes()
+    }
+}
