@@ -554,7 +554,7 @@ impl MapLookup {
     }
 }
 
-/// A lookup prepared up to its filter ([`ShadowMap::prepare`]).
+/// A lookup prepared up to its filter ([`MapLookup::prepare`]).
 pub enum Prepared {
     /// Decided without filtering: the value and the taps it took.
     Done(f32, u64),

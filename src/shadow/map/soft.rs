@@ -12,7 +12,7 @@
 //!    with those filters) read the raw depths; a tap nearer than the reference is a blocker.
 //! 2. **Penumbra estimate.** No blocker: lit; every tap a blocker: umbra (the classic early
 //!    outs). Otherwise the blockers' distances from the light, unprojected from the map's
-//!    depth ([`LightView::distance`]), are averaged to `d_o`, and RTR eq. 7.6 gives the
+//!    depth ([`crate::shadow::light::LightView::distance`]), are averaged to `d_o`, and RTR eq. 7.6 gives the
 //!    penumbra width at the receiver, `w_penumbra = w_light (d_r - d_o) / d_o` (directional:
 //!    `(d_r - d_o) 2 tan(angle / 2)`), taken to texels at the receiver's distance.
 //! 3. **Filtering.** A PCF disk of `taps` hardware 2x2 comparisons that wide
