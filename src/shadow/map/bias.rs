@@ -199,8 +199,8 @@ mod tests {
     fn four_lane_receiver_planes_equal_one_pixel_ones() {
         let p = Pipeline::new(2).unwrap();
         let bits = |(g, b): (Option<Vec2>, f32)| (g.map(|g| [g.x.to_bits(), g.y.to_bits()]), b.to_bits());
-        for light in crate::shadow::map::pcss::tests::LIGHTS {
-            let scene = crate::shadow::map::pcss::tests::scene(light);
+        for light in crate::shadow::map::lookup::testing::LIGHTS {
+            let scene = crate::shadow::map::lookup::testing::scene(light);
             let f = crate::frame::frame(&p, &scene, 0, 0).unwrap();
             let (w, h) = (f.width() as usize, f.height() as usize);
             let (pts, objs) = (f.points(), f.gbuffer.object.data());

@@ -481,7 +481,7 @@ mod tests {
             &[("angle", "3"), ("receiver", "false"), ("kernel", "3")],
             &[("light", "0")],
         ];
-        crate::shadow::map::pcss::tests::assert_lookups(
+        crate::shadow::map::lookup::testing::assert_lookups(
             &sets,
             |pairs| Chs::new(declaration().parse(pairs).unwrap()).unwrap(),
             |t, f, x, y| t.lookup(f, x, y, &mut NoTrace),

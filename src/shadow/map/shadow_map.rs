@@ -467,7 +467,7 @@ mod tests {
 
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
-        use crate::shadow::map::pcss::tests::assert_lookups;
+        use crate::shadow::map::lookup::testing::assert_lookups;
         // The hierarchy's sets take the row pass (mixed pixels queued into full lane groups).
         let sets: [&[(&str, &str)]; 11] = [
             &[("filter", "grid"), ("kernel", "5")],
