@@ -267,6 +267,504 @@ impl Ctx<'_> {
             self.line(span.start)
         ))
     }
+
+    /// The `[camera]` section, or the glTF's first perspective camera without one.
+    fn camera(&self, raw: &RawScene, gltf: Option<&super::gltf::GltfScene>) -> Result<Camera, String> {
+        let (cs, c) = match (&raw.camera, gltf) {
+            (Some(c), _) => (c.span(), c.get_ref().clone()),
+            (None, Some(g)) => match g.camera {
+                Some(gc) => (
+                    raw.gltf.as_ref().map_or(0..0, |g| g.span()),
+                    RawCamera {
+                        position: gc.position.to_array(),
+                        target: gc.target.to_array(),
+                        up: Some(gc.up.to_array()),
+                        fov: Some(gc.fov_deg),
+                        near: Some(gc.near),
+                        far: gc.far.or(Some(gc.near * 1e4)),
+                        resolution: g.scene_camera(None).map(|c| [c.width, c.height]),
+                    },
+                ),
+                None => {
+                    return Err(format!(
+                        "{}: the scene has no [camera] and its glTF file has no perspective camera",
+                        self.path.display()
+                    ))
+                }
+            },
+            (None, None) => return Err(format!("{}: the scene has no [camera]", self.path.display())),
+        };
+        let cam = "[camera]";
+        let (position, target, up) = match check_view(c.position, c.target, c.up) {
+            Ok(v) => v,
+            Err((field, msg)) => return self.err(cs, cam, field, msg),
+        };
+        let fov = c.fov.unwrap_or(45.0);
+        if !(fov > 0.0 && fov < 180.0) {
+            return self.err(cs, cam, "fov", format!("{fov} is outside (0, 180) degrees"));
+        }
+        let (near, far) = (c.near.unwrap_or(0.1), c.far.unwrap_or(100.0));
+        if !(near > 0.0 && near.is_finite()) {
+            return self.err(cs, cam, "near", format!("{near} must be positive"));
+        }
+        if !(far > near && far.is_finite()) {
+            return self.err(cs, cam, "far", format!("{far} must be finite and beyond near ({near})"));
+        }
+        let [width, height] = c.resolution.unwrap_or([640, 360]);
+        if width == 0 || height == 0 || width > MAX_RESOLUTION || height > MAX_RESOLUTION {
+            return self.err(
+                cs,
+                cam,
+                "resolution",
+                format!("{width}x{height} (each side must be 1..={MAX_RESOLUTION})"),
+            );
+        }
+        let camera = Camera {
+            position,
+            target,
+            up,
+            fov_deg: fov,
+            near,
+            far,
+            width,
+            height,
+        };
+        Ok(camera)
+    }
+
+    /// The `[[material]]`s after the built-in one.
+    fn materials(&self, raw: &RawScene) -> Result<Vec<Material>, String> {
+        let mut materials = vec![Material::default()];
+        for (i, m) in raw.materials.iter().enumerate() {
+            let (s, m) = (m.span(), m.get_ref());
+            let what = format!("[[material]] #{} '{}'", i + 1, m.name);
+            let albedo = finite3(m.albedo.unwrap_or([0.8, 0.8, 0.8]))
+                .filter(|a| a.min_element() >= 0.0 && a.max_element() <= 1.0);
+            let Some(albedo) = albedo else {
+                return self.err(s, &what, "albedo", "each channel must be in [0, 1]");
+            };
+            let opacity = m.opacity.unwrap_or(1.0);
+            if !(0.0..=1.0).contains(&opacity) {
+                return self.err(s, &what, "opacity", format!("{opacity} is outside [0, 1]"));
+            }
+            let transmittance = match m.transmittance {
+                None => None,
+                Some(t) => match finite3(t).filter(|t| t.min_element() >= 0.0 && t.max_element() <= 1.0) {
+                    Some(t) => Some(t),
+                    None => return self.err(s, &what, "transmittance", "each channel must be in [0, 1]"),
+                },
+            };
+            // (The built-in material at index 0 has no name users can clash with.)
+            if materials[1..].iter().any(|x| x.name == m.name) {
+                return self.err(s, &what, "name", "used by an earlier material");
+            }
+            materials.push(Material {
+                name: m.name.clone(),
+                albedo,
+                opacity,
+                transmittance,
+                two_sided: m.two_sided.unwrap_or(false),
+            });
+        }
+        Ok(materials)
+    }
+
+    /// The `[[object]]`s (meshes under `dir`), counting their triangles into `triangles`
+    /// against `budget`.
+    fn objects(
+        &self,
+        raw: &RawScene,
+        materials: &[Material],
+        dir: &Path,
+        (triangles, budget): (&mut u64, u64),
+    ) -> Result<Vec<Object>, String> {
+        let mut objects: Vec<Object> = Vec::new();
+        for (i, o) in raw.objects.iter().enumerate() {
+            let (s, o) = (o.span(), o.get_ref());
+            let what = format!("[[object]] #{} ({})", i + 1, o.mesh);
+            let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, String> {
+                let v = v.unwrap_or(default);
+                if v.is_finite() && v > 0.0 && v < 1e6 {
+                    Ok(v)
+                } else {
+                    self.err(s.clone(), &what, field, format!("{v} must be positive and below 1e6"))
+                }
+            };
+            let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, String> {
+                let v = match &o.size {
+                    None => default.to_vec(),
+                    Some(NumOrVec::Num(x)) => vec![*x; n],
+                    Some(NumOrVec::Vec(v)) if v.len() == n => v.clone(),
+                    Some(NumOrVec::Vec(v)) => {
+                        return self.err(s.clone(), &what, "size", format!("needs {n} numbers, got {}", v.len()))
+                    }
+                };
+                if v.iter().all(|x| x.is_finite() && *x > 0.0 && *x < 1e6) {
+                    Ok(v)
+                } else {
+                    self.err(s.clone(), &what, "size", "every entry must be positive and below 1e6")
+                }
+            };
+            let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, String> {
+                let v = v.unwrap_or(default);
+                if (1..=max).contains(&v) {
+                    Ok(v)
+                } else {
+                    self.err(s.clone(), &what, field, format!("{v} is outside 1..={max}"))
+                }
+            };
+            // The scene-wide triangle budget, from the parameters, before anything is tessellated
+            // (each parameter clamped to its own limit, which `count` checks below).
+            let param = |v: Option<u32>, default: u32, max: u32| v.unwrap_or(default).min(max) as u64;
+            let estimate = match o.mesh.as_str() {
+                "plane" => 2 * param(o.subdivisions, 1, 1024).pow(2),
+                "box" => 12,
+                "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
+                "cylinder" => 4 * param(o.segments, 32, 4096),
+                "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
+                "pleated" => {
+                    let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
+                    2 * n * (n / 4).max(1)
+                }
+                _ => 0,
+            };
+            *triangles += estimate;
+            if *triangles > budget {
+                return self.err(
+                    s,
+                    &what,
+                    "mesh",
+                    format!(
+                        "about {estimate} triangles here make {triangles} in the scene, beyond its budget of {budget} (lower stacks, slices, segments or subdivisions, or raise the budget with PENUMBRA_MAX_TRIANGLES)"
+                    ),
+                );
+            }
+            let mesh = match o.mesh.as_str() {
+                "plane" => {
+                    let sz = size_vec(2, &[10.0, 10.0])?;
+                    mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
+                }
+                "box" => {
+                    let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
+                    mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
+                }
+                "sphere" => mesh::sphere(
+                    num(o.radius, "radius", 0.5)?,
+                    count(o.stacks, "stacks", 24, 2048)?,
+                    count(o.slices, "slices", 48, 4096)?,
+                ),
+                "cylinder" => mesh::cylinder(
+                    num(o.radius, "radius", 0.5)?,
+                    num(o.height, "height", 1.0)?,
+                    count(o.segments, "segments", 32, 4096)?,
+                ),
+                "heightfield" => {
+                    let sz = size_vec(2, &[20.0, 20.0])?;
+                    let amp = o.amplitude.unwrap_or(1.0);
+                    if !(amp.is_finite() && amp.abs() < 1e6) {
+                        return self.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
+                    }
+                    mesh::heightfield(
+                        Vec2::new(sz[0], sz[1]),
+                        count(o.subdivisions, "subdivisions", 64, 1024)?,
+                        amp,
+                        o.seed.unwrap_or(1),
+                    )
+                }
+                "pleated" => {
+                    let sz = size_vec(2, &[4.0, 2.0])?;
+                    let amp = o.amplitude.unwrap_or(0.2);
+                    if !(amp.is_finite() && amp.abs() < 1e6) {
+                        return self.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
+                    }
+                    let pleats = count(o.pleats, "pleats", 6, 1024)?;
+                    mesh::pleated(
+                        Vec2::new(sz[0], sz[1]),
+                        count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
+                        amp,
+                        pleats,
+                    )
+                }
+                p if p.to_ascii_lowercase().ends_with(".obj") => {
+                    let full: PathBuf = dir.join(p);
+                    mesh::load_obj(&full).or_else(|e| self.err(s.clone(), &what, "mesh", e))?
+                }
+                p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
+                    let full: PathBuf = dir.join(p);
+                    super::gltf::load(&full)
+                        .map(|g| g.merged())
+                        .or_else(|e| self.err(s.clone(), &what, "mesh", e))?
+                }
+                other => {
+                    return self.err(
+                        s,
+                        &what,
+                        "mesh",
+                        format!(
+                            "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated, or a .obj, .gltf or .glb path)"
+                        ),
+                    )
+                }
+            };
+            let t = finite3(o.translate.unwrap_or([0.0; 3]))
+                .map_or_else(|| self.err(s.clone(), &what, "translate", "not finite"), Ok)?;
+            let r = finite3(o.rotate.unwrap_or([0.0; 3]))
+                .map_or_else(|| self.err(s.clone(), &what, "rotate", "not finite"), Ok)?;
+            let sc = match &o.scale {
+                None => Vec3::ONE,
+                Some(NumOrVec::Num(x)) => Vec3::splat(*x),
+                Some(NumOrVec::Vec(v)) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
+                Some(NumOrVec::Vec(_)) => return self.err(s, &what, "scale", "needs 1 or 3 numbers"),
+            };
+            if !sc.is_finite() || sc.abs().min_element() < 1e-6 {
+                return self.err(s, &what, "scale", "must be finite and non-zero");
+            }
+            let rot = Quat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
+            let m = Mat4::from_scale_rotation_translation(sc, rot, t);
+            let material = match &o.material {
+                None => 0,
+                Some(name) => match materials[1..].iter().position(|m| &m.name == name) {
+                    Some(k) => k + 1,
+                    None => return self.err(s, &what, "material", format!("no material named '{name}'")),
+                },
+            };
+            let name = o.name.clone().unwrap_or_else(|| format!("object{}", i + 1));
+            if let Some(j) = objects.iter().position(|x| x.name == name) {
+                return self.err(
+                    s,
+                    &what,
+                    "name",
+                    format!("'{name}' is also object #{}'s name (options such as receiver= and occluders= pick objects by name)", j + 1),
+                );
+            }
+            if estimate == 0 {
+                // Files: their real count.
+                *triangles += mesh.triangles() as u64;
+                if *triangles > budget {
+                    return self.err(
+                        s,
+                        &what,
+                        "mesh",
+                        format!("{} triangles make {triangles} in the scene, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)", mesh.triangles()),
+                    );
+                }
+            }
+            let mesh = mesh.transformed(m);
+            if let Some(p) = mesh
+                .positions
+                .iter()
+                .find(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
+            {
+                let field = if t.abs().max_element() > MAX_COORDINATE {
+                    "translate"
+                } else {
+                    "scale"
+                };
+                return self.err(
+                    s,
+                    &what,
+                    field,
+                    format!("a vertex lands at {p} after the transform, beyond ±{MAX_COORDINATE:e} (the largest coordinate a scene may use)"),
+                );
+            }
+            objects.push(Object { name, mesh, material });
+        }
+        Ok(objects)
+    }
+
+    /// The glTF's materials and objects after the file's own (names made unique), counting
+    /// its triangles into `triangles` against `budget`; its lights.
+    fn add_gltf(
+        &self,
+        raw: &RawScene,
+        g: super::gltf::GltfScene,
+        (materials, objects): (&mut Vec<Material>, &mut Vec<Object>),
+        (triangles, budget): (&mut u64, u64),
+    ) -> Result<Vec<Light>, String> {
+        {
+            let base = materials.len();
+            for mut m in g.materials {
+                while materials.iter().any(|x| x.name == m.name) {
+                    m.name = format!("gltf:{}", m.name);
+                }
+                materials.push(m);
+            }
+            let gs = raw.gltf.as_ref().map_or(0..0, |g| g.span());
+            for o in g.objects {
+                *triangles += o.mesh.triangles() as u64;
+                if *triangles > budget {
+                    return self.err(
+                        gs,
+                        "top level",
+                        "gltf",
+                        format!("{triangles} triangles in the scene with the glTF's, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)"),
+                    );
+                }
+                if let Some(p) = o.mesh.positions.iter().find(|p| p.abs().max_element() > MAX_COORDINATE) {
+                    return self.err(
+                        gs,
+                        "top level",
+                        "gltf",
+                        format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
+                    );
+                }
+                let mut name = o.name;
+                let mut k = 2;
+                while objects.iter().any(|x| x.name == name) {
+                    name = format!("{name}#{k}");
+                    k += 1;
+                }
+                objects.push(Object {
+                    name,
+                    mesh: o.mesh,
+                    material: base + o.material,
+                });
+            }
+            Ok(g.lights)
+        }
+    }
+
+    /// The `[[light]]`s (a light without a direction faces the centre of `objects`), or
+    /// `gltf_lights` without any.
+    fn lights(&self, raw: &RawScene, objects: &[Object], gltf_lights: Vec<Light>) -> Result<Vec<Light>, String> {
+        let center = objects
+            .iter()
+            .filter_map(|o| o.mesh.bounds())
+            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+            .map_or(Vec3::ZERO, |(a, b)| (a + b) * 0.5);
+        let mut lights = Vec::new();
+        for (i, l) in raw.lights.iter().enumerate() {
+            let (s, l) = (l.span(), l.get_ref());
+            let what = format!("[[light]] #{} ({})", i + 1, l.kind);
+            let pos = match l.position {
+                Some(p) => Some(point3(p).or_else(|e| self.err(s.clone(), &what, "position", e))?),
+                None => None,
+            };
+            let directional = l.kind == "directional";
+            // Lights that shine the same way everywhere need not face anywhere.
+            let omni = matches!(l.kind.as_str(), "point" | "sphere");
+            if pos.is_none()
+                && !directional
+                && ["spot", "point", "disk", "sphere", "rectangle"].contains(&l.kind.as_str())
+            {
+                return self.err(s, &what, "position", format!("a {} light needs a position", l.kind));
+            }
+            let dir = match (l.direction, l.target, pos) {
+                (Some(d), _, _) => match finite3(d).and_then(unit3) {
+                    Some(d) => d,
+                    None => return self.err(s, &what, "direction", "zero or not finite"),
+                },
+                (None, Some(t), Some(p)) => {
+                    let t = point3(t).or_else(|e| self.err(s.clone(), &what, "target", e))?;
+                    match unit3(t - p).filter(|_| (t - p).length() > 1e-6) {
+                        Some(d) => d,
+                        None => return self.err(s, &what, "target", "equals the position"),
+                    }
+                }
+                (None, None, Some(p)) => match unit3(center - p).filter(|_| (center - p).length() > 1e-6) {
+                    Some(d) => d,
+                    None if omni => Vec3::NEG_Y,
+                    None => {
+                        return self.err(
+                            s,
+                            &what,
+                            "direction",
+                            "missing, and the light sits at the centre of the scene's bounds, so it faces nowhere (give direction or target)",
+                        )
+                    }
+                },
+                (None, _, None) => {
+                    return self.err(s, &what, "direction", "missing (a directional light needs direction = [x, y, z])")
+                }
+            };
+            let radius = |default: f32| -> Result<f32, String> {
+                let r = l.radius.unwrap_or(default);
+                if r.is_finite() && r > 0.0 {
+                    Ok(r)
+                } else {
+                    self.err(s.clone(), &what, "radius", format!("{r} must be positive"))
+                }
+            };
+            let kind = match l.kind.as_str() {
+                "directional" => LightKind::Directional,
+                "spot" => {
+                    let a = l.angle.unwrap_or(60.0);
+                    if !(a > 0.0 && a < 180.0) {
+                        return self.err(s, &what, "angle", format!("{a} is outside (0, 180) degrees"));
+                    }
+                    LightKind::Spot { angle_deg: a }
+                }
+                "point" => LightKind::Point,
+                "disk" => LightKind::Area(AreaShape::Disk { radius: radius(0.25)? }),
+                "sphere" => LightKind::Area(AreaShape::Sphere { radius: radius(0.25)? }),
+                "rectangle" => {
+                    let [w, h] = l.size.unwrap_or([0.5, 0.5]);
+                    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
+                        return self.err(s, &what, "size", "both sides must be positive");
+                    }
+                    LightKind::Area(AreaShape::Rectangle { width: w, height: h })
+                }
+                other => {
+                    return self.err(
+                        s,
+                        &what,
+                        "type",
+                        format!("unknown light type '{other}' (directional, spot, point, disk, sphere, rectangle)"),
+                    )
+                }
+            };
+            let position = match (kind, pos) {
+                (_, Some(p)) => p,
+                (LightKind::Directional, None) => center - dir * 100.0,
+                (_, None) => return self.err(s, &what, "position", "a positional light needs a position"),
+            };
+            let intensity = l.intensity.unwrap_or(1.0);
+            if !(intensity.is_finite() && intensity >= 0.0) {
+                return self.err(
+                    s,
+                    &what,
+                    "intensity",
+                    format!("{intensity} must be finite and non-negative"),
+                );
+            }
+            lights.push(Light {
+                kind,
+                position,
+                direction: dir,
+                intensity,
+            });
+        }
+        if lights.is_empty() {
+            lights = gltf_lights;
+        }
+        Ok(lights)
+    }
+
+    /// The `[[camera_path]]` keyframes, checked as `camera` is.
+    fn camera_path(&self, raw: &RawScene, camera: &Camera) -> Result<Vec<Keyframe>, String> {
+        if raw.camera_path.len() > MAX_KEYFRAMES {
+            let s = raw.camera_path[MAX_KEYFRAMES].span();
+            return self.err(
+                s,
+                &format!("[[camera_path]] #{}", MAX_KEYFRAMES + 1),
+                "position",
+                format!(
+                    "a camera path has at most {MAX_KEYFRAMES} keyframes (this one has {})",
+                    raw.camera_path.len()
+                ),
+            );
+        }
+        let mut camera_path = Vec::new();
+        for (i, k) in raw.camera_path.iter().enumerate() {
+            let (s, k) = (k.span(), k.get_ref());
+            let what = format!("[[camera_path]] #{}", i + 1);
+            // Checked as [camera] is (with its up), so that no frame of the path is blank.
+            let (position, target, _) = check_view(k.position, k.target, Some(camera.up.to_array()))
+                .or_else(|(field, msg)| self.err(s, &what, field, msg))?;
+            camera_path.push(Keyframe { position, target });
+        }
+        Ok(camera_path)
+    }
 }
 
 /// The key whose value starts at or contains `offset` (`translate` in `translate = [0, "x"]`):
@@ -392,477 +890,22 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
             Some(super::gltf::load(&dir.join(g.get_ref())).or_else(|e| ctx.err(g.span(), "top level", "gltf", e))?)
         }
     };
-
-    // Camera.
-    let (cs, c) = match (&raw.camera, &gltf) {
-        (Some(c), _) => (c.span(), c.get_ref().clone()),
-        (None, Some(g)) => match g.camera {
-            Some(gc) => (
-                raw.gltf.as_ref().map_or(0..0, |g| g.span()),
-                RawCamera {
-                    position: gc.position.to_array(),
-                    target: gc.target.to_array(),
-                    up: Some(gc.up.to_array()),
-                    fov: Some(gc.fov_deg),
-                    near: Some(gc.near),
-                    far: gc.far.or(Some(gc.near * 1e4)),
-                    resolution: g.scene_camera(None).map(|c| [c.width, c.height]),
-                },
-            ),
-            None => {
-                return Err(format!(
-                    "{}: the scene has no [camera] and its glTF file has no perspective camera",
-                    path.display()
-                ))
-            }
-        },
-        (None, None) => return Err(format!("{}: the scene has no [camera]", path.display())),
+    let camera = ctx.camera(&raw, gltf.as_ref())?;
+    let mut materials = ctx.materials(&raw)?;
+    let (mut triangles, budget) = (0u64, triangle_budget());
+    let mut objects = ctx.objects(&raw, &materials, dir, (&mut triangles, budget))?;
+    let gltf_lights = match gltf {
+        Some(g) => ctx.add_gltf(&raw, g, (&mut materials, &mut objects), (&mut triangles, budget))?,
+        None => Vec::new(),
     };
-    let cam = "[camera]";
-    let (position, target, up) = match check_view(c.position, c.target, c.up) {
-        Ok(v) => v,
-        Err((field, msg)) => return ctx.err(cs, cam, field, msg),
-    };
-    let fov = c.fov.unwrap_or(45.0);
-    if !(fov > 0.0 && fov < 180.0) {
-        return ctx.err(cs, cam, "fov", format!("{fov} is outside (0, 180) degrees"));
-    }
-    let (near, far) = (c.near.unwrap_or(0.1), c.far.unwrap_or(100.0));
-    if !(near > 0.0 && near.is_finite()) {
-        return ctx.err(cs, cam, "near", format!("{near} must be positive"));
-    }
-    if !(far > near && far.is_finite()) {
-        return ctx.err(cs, cam, "far", format!("{far} must be finite and beyond near ({near})"));
-    }
-    let [width, height] = c.resolution.unwrap_or([640, 360]);
-    if width == 0 || height == 0 || width > MAX_RESOLUTION || height > MAX_RESOLUTION {
-        return ctx.err(
-            cs,
-            cam,
-            "resolution",
-            format!("{width}x{height} (each side must be 1..={MAX_RESOLUTION})"),
-        );
-    }
-    let camera = Camera {
-        position,
-        target,
-        up,
-        fov_deg: fov,
-        near,
-        far,
-        width,
-        height,
-    };
-
-    // Materials.
-    let mut materials = vec![Material::default()];
-    for (i, m) in raw.materials.iter().enumerate() {
-        let (s, m) = (m.span(), m.get_ref());
-        let what = format!("[[material]] #{} '{}'", i + 1, m.name);
-        let albedo =
-            finite3(m.albedo.unwrap_or([0.8, 0.8, 0.8])).filter(|a| a.min_element() >= 0.0 && a.max_element() <= 1.0);
-        let Some(albedo) = albedo else {
-            return ctx.err(s, &what, "albedo", "each channel must be in [0, 1]");
-        };
-        let opacity = m.opacity.unwrap_or(1.0);
-        if !(0.0..=1.0).contains(&opacity) {
-            return ctx.err(s, &what, "opacity", format!("{opacity} is outside [0, 1]"));
-        }
-        let transmittance = match m.transmittance {
-            None => None,
-            Some(t) => match finite3(t).filter(|t| t.min_element() >= 0.0 && t.max_element() <= 1.0) {
-                Some(t) => Some(t),
-                None => return ctx.err(s, &what, "transmittance", "each channel must be in [0, 1]"),
-            },
-        };
-        // (The built-in material at index 0 has no name users can clash with.)
-        if materials[1..].iter().any(|x| x.name == m.name) {
-            return ctx.err(s, &what, "name", "used by an earlier material");
-        }
-        materials.push(Material {
-            name: m.name.clone(),
-            albedo,
-            opacity,
-            transmittance,
-            two_sided: m.two_sided.unwrap_or(false),
-        });
-    }
-
-    // Objects.
-    let mut objects: Vec<Object> = Vec::new();
-    let budget = triangle_budget();
-    let mut triangles = 0u64;
-    for (i, o) in raw.objects.iter().enumerate() {
-        let (s, o) = (o.span(), o.get_ref());
-        let what = format!("[[object]] #{} ({})", i + 1, o.mesh);
-        let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, String> {
-            let v = v.unwrap_or(default);
-            if v.is_finite() && v > 0.0 && v < 1e6 {
-                Ok(v)
-            } else {
-                ctx.err(s.clone(), &what, field, format!("{v} must be positive and below 1e6"))
-            }
-        };
-        let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, String> {
-            let v = match &o.size {
-                None => default.to_vec(),
-                Some(NumOrVec::Num(x)) => vec![*x; n],
-                Some(NumOrVec::Vec(v)) if v.len() == n => v.clone(),
-                Some(NumOrVec::Vec(v)) => {
-                    return ctx.err(s.clone(), &what, "size", format!("needs {n} numbers, got {}", v.len()))
-                }
-            };
-            if v.iter().all(|x| x.is_finite() && *x > 0.0 && *x < 1e6) {
-                Ok(v)
-            } else {
-                ctx.err(s.clone(), &what, "size", "every entry must be positive and below 1e6")
-            }
-        };
-        let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, String> {
-            let v = v.unwrap_or(default);
-            if (1..=max).contains(&v) {
-                Ok(v)
-            } else {
-                ctx.err(s.clone(), &what, field, format!("{v} is outside 1..={max}"))
-            }
-        };
-        // The scene-wide triangle budget, from the parameters, before anything is tessellated
-        // (each parameter clamped to its own limit, which `count` checks below).
-        let param = |v: Option<u32>, default: u32, max: u32| v.unwrap_or(default).min(max) as u64;
-        let estimate = match o.mesh.as_str() {
-            "plane" => 2 * param(o.subdivisions, 1, 1024).pow(2),
-            "box" => 12,
-            "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
-            "cylinder" => 4 * param(o.segments, 32, 4096),
-            "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
-            "pleated" => {
-                let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
-                2 * n * (n / 4).max(1)
-            }
-            _ => 0,
-        };
-        triangles += estimate;
-        if triangles > budget {
-            return ctx.err(
-                s,
-                &what,
-                "mesh",
-                format!(
-                    "about {estimate} triangles here make {triangles} in the scene, beyond its budget of {budget} (lower stacks, slices, segments or subdivisions, or raise the budget with PENUMBRA_MAX_TRIANGLES)"
-                ),
-            );
-        }
-        let mesh = match o.mesh.as_str() {
-            "plane" => {
-                let sz = size_vec(2, &[10.0, 10.0])?;
-                mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
-            }
-            "box" => {
-                let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
-                mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
-            }
-            "sphere" => mesh::sphere(
-                num(o.radius, "radius", 0.5)?,
-                count(o.stacks, "stacks", 24, 2048)?,
-                count(o.slices, "slices", 48, 4096)?,
-            ),
-            "cylinder" => mesh::cylinder(
-                num(o.radius, "radius", 0.5)?,
-                num(o.height, "height", 1.0)?,
-                count(o.segments, "segments", 32, 4096)?,
-            ),
-            "heightfield" => {
-                let sz = size_vec(2, &[20.0, 20.0])?;
-                let amp = o.amplitude.unwrap_or(1.0);
-                if !(amp.is_finite() && amp.abs() < 1e6) {
-                    return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                }
-                mesh::heightfield(
-                    Vec2::new(sz[0], sz[1]),
-                    count(o.subdivisions, "subdivisions", 64, 1024)?,
-                    amp,
-                    o.seed.unwrap_or(1),
-                )
-            }
-            "pleated" => {
-                let sz = size_vec(2, &[4.0, 2.0])?;
-                let amp = o.amplitude.unwrap_or(0.2);
-                if !(amp.is_finite() && amp.abs() < 1e6) {
-                    return ctx.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                }
-                let pleats = count(o.pleats, "pleats", 6, 1024)?;
-                mesh::pleated(
-                    Vec2::new(sz[0], sz[1]),
-                    count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
-                    amp,
-                    pleats,
-                )
-            }
-            p if p.to_ascii_lowercase().ends_with(".obj") => {
-                let full: PathBuf = dir.join(p);
-                mesh::load_obj(&full).or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
-            }
-            p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
-                let full: PathBuf = dir.join(p);
-                super::gltf::load(&full)
-                    .map(|g| g.merged())
-                    .or_else(|e| ctx.err(s.clone(), &what, "mesh", e))?
-            }
-            other => {
-                return ctx.err(
-                    s,
-                    &what,
-                    "mesh",
-                    format!(
-                        "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated, or a .obj, .gltf or .glb path)"
-                    ),
-                )
-            }
-        };
-        let t = finite3(o.translate.unwrap_or([0.0; 3]))
-            .map_or_else(|| ctx.err(s.clone(), &what, "translate", "not finite"), Ok)?;
-        let r = finite3(o.rotate.unwrap_or([0.0; 3]))
-            .map_or_else(|| ctx.err(s.clone(), &what, "rotate", "not finite"), Ok)?;
-        let sc = match &o.scale {
-            None => Vec3::ONE,
-            Some(NumOrVec::Num(x)) => Vec3::splat(*x),
-            Some(NumOrVec::Vec(v)) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
-            Some(NumOrVec::Vec(_)) => return ctx.err(s, &what, "scale", "needs 1 or 3 numbers"),
-        };
-        if !sc.is_finite() || sc.abs().min_element() < 1e-6 {
-            return ctx.err(s, &what, "scale", "must be finite and non-zero");
-        }
-        let rot = Quat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
-        let m = Mat4::from_scale_rotation_translation(sc, rot, t);
-        let material = match &o.material {
-            None => 0,
-            Some(name) => match materials[1..].iter().position(|m| &m.name == name) {
-                Some(k) => k + 1,
-                None => return ctx.err(s, &what, "material", format!("no material named '{name}'")),
-            },
-        };
-        let name = o.name.clone().unwrap_or_else(|| format!("object{}", i + 1));
-        if let Some(j) = objects.iter().position(|x| x.name == name) {
-            return ctx.err(
-                s,
-                &what,
-                "name",
-                format!("'{name}' is also object #{}'s name (options such as receiver= and occluders= pick objects by name)", j + 1),
-            );
-        }
-        if estimate == 0 {
-            // Files: their real count.
-            triangles += mesh.triangles() as u64;
-            if triangles > budget {
-                return ctx.err(
-                    s,
-                    &what,
-                    "mesh",
-                    format!("{} triangles make {triangles} in the scene, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)", mesh.triangles()),
-                );
-            }
-        }
-        let mesh = mesh.transformed(m);
-        if let Some(p) = mesh
-            .positions
-            .iter()
-            .find(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
-        {
-            let field = if t.abs().max_element() > MAX_COORDINATE {
-                "translate"
-            } else {
-                "scale"
-            };
-            return ctx.err(
-                s,
-                &what,
-                field,
-                format!("a vertex lands at {p} after the transform, beyond ±{MAX_COORDINATE:e} (the largest coordinate a scene may use)"),
-            );
-        }
-        objects.push(Object { name, mesh, material });
-    }
-
-    // The glTF's objects and materials, after the file's own.
-    let mut gltf_lights = Vec::new();
-    if let Some(g) = gltf {
-        let base = materials.len();
-        for mut m in g.materials {
-            while materials.iter().any(|x| x.name == m.name) {
-                m.name = format!("gltf:{}", m.name);
-            }
-            materials.push(m);
-        }
-        let gs = raw.gltf.as_ref().map_or(0..0, |g| g.span());
-        for o in g.objects {
-            triangles += o.mesh.triangles() as u64;
-            if triangles > budget {
-                return ctx.err(
-                    gs,
-                    "top level",
-                    "gltf",
-                    format!("{triangles} triangles in the scene with the glTF's, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)"),
-                );
-            }
-            if let Some(p) = o.mesh.positions.iter().find(|p| p.abs().max_element() > MAX_COORDINATE) {
-                return ctx.err(
-                    gs,
-                    "top level",
-                    "gltf",
-                    format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
-                );
-            }
-            let mut name = o.name;
-            let mut k = 2;
-            while objects.iter().any(|x| x.name == name) {
-                name = format!("{name}#{k}");
-                k += 1;
-            }
-            objects.push(Object {
-                name,
-                mesh: o.mesh,
-                material: base + o.material,
-            });
-        }
-        gltf_lights = g.lights;
-    }
-
-    // Lights.
-    let center = objects
-        .iter()
-        .filter_map(|o| o.mesh.bounds())
-        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
-        .map_or(Vec3::ZERO, |(a, b)| (a + b) * 0.5);
-    let mut lights = Vec::new();
-    for (i, l) in raw.lights.iter().enumerate() {
-        let (s, l) = (l.span(), l.get_ref());
-        let what = format!("[[light]] #{} ({})", i + 1, l.kind);
-        let pos = match l.position {
-            Some(p) => Some(point3(p).or_else(|e| ctx.err(s.clone(), &what, "position", e))?),
-            None => None,
-        };
-        let directional = l.kind == "directional";
-        // Lights that shine the same way everywhere need not face anywhere.
-        let omni = matches!(l.kind.as_str(), "point" | "sphere");
-        if pos.is_none() && !directional && ["spot", "point", "disk", "sphere", "rectangle"].contains(&l.kind.as_str())
-        {
-            return ctx.err(s, &what, "position", format!("a {} light needs a position", l.kind));
-        }
-        let dir = match (l.direction, l.target, pos) {
-            (Some(d), _, _) => match finite3(d).and_then(unit3) {
-                Some(d) => d,
-                None => return ctx.err(s, &what, "direction", "zero or not finite"),
-            },
-            (None, Some(t), Some(p)) => {
-                let t = point3(t).or_else(|e| ctx.err(s.clone(), &what, "target", e))?;
-                match unit3(t - p).filter(|_| (t - p).length() > 1e-6) {
-                    Some(d) => d,
-                    None => return ctx.err(s, &what, "target", "equals the position"),
-                }
-            }
-            (None, None, Some(p)) => match unit3(center - p).filter(|_| (center - p).length() > 1e-6) {
-                Some(d) => d,
-                None if omni => Vec3::NEG_Y,
-                None => {
-                    return ctx.err(
-                        s,
-                        &what,
-                        "direction",
-                        "missing, and the light sits at the centre of the scene's bounds, so it faces nowhere (give direction or target)",
-                    )
-                }
-            },
-            (None, _, None) => {
-                return ctx.err(s, &what, "direction", "missing (a directional light needs direction = [x, y, z])")
-            }
-        };
-        let radius = |default: f32| -> Result<f32, String> {
-            let r = l.radius.unwrap_or(default);
-            if r.is_finite() && r > 0.0 {
-                Ok(r)
-            } else {
-                ctx.err(s.clone(), &what, "radius", format!("{r} must be positive"))
-            }
-        };
-        let kind = match l.kind.as_str() {
-            "directional" => LightKind::Directional,
-            "spot" => {
-                let a = l.angle.unwrap_or(60.0);
-                if !(a > 0.0 && a < 180.0) {
-                    return ctx.err(s, &what, "angle", format!("{a} is outside (0, 180) degrees"));
-                }
-                LightKind::Spot { angle_deg: a }
-            }
-            "point" => LightKind::Point,
-            "disk" => LightKind::Area(AreaShape::Disk { radius: radius(0.25)? }),
-            "sphere" => LightKind::Area(AreaShape::Sphere { radius: radius(0.25)? }),
-            "rectangle" => {
-                let [w, h] = l.size.unwrap_or([0.5, 0.5]);
-                if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
-                    return ctx.err(s, &what, "size", "both sides must be positive");
-                }
-                LightKind::Area(AreaShape::Rectangle { width: w, height: h })
-            }
-            other => {
-                return ctx.err(
-                    s,
-                    &what,
-                    "type",
-                    format!("unknown light type '{other}' (directional, spot, point, disk, sphere, rectangle)"),
-                )
-            }
-        };
-        let position = match (kind, pos) {
-            (_, Some(p)) => p,
-            (LightKind::Directional, None) => center - dir * 100.0,
-            (_, None) => return ctx.err(s, &what, "position", "a positional light needs a position"),
-        };
-        let intensity = l.intensity.unwrap_or(1.0);
-        if !(intensity.is_finite() && intensity >= 0.0) {
-            return ctx.err(
-                s,
-                &what,
-                "intensity",
-                format!("{intensity} must be finite and non-negative"),
-            );
-        }
-        lights.push(Light {
-            kind,
-            position,
-            direction: dir,
-            intensity,
-        });
-    }
-    if lights.is_empty() {
-        lights = gltf_lights;
-    }
+    let lights = ctx.lights(&raw, &objects, gltf_lights)?;
     if lights.is_empty() {
         return Err(format!("{}: the scene has no [[light]]", path.display()));
     }
     if objects.is_empty() {
         return Err(format!("{}: the scene has no [[object]]", path.display()));
     }
-    if raw.camera_path.len() > MAX_KEYFRAMES {
-        let s = raw.camera_path[MAX_KEYFRAMES].span();
-        return ctx.err(
-            s,
-            &format!("[[camera_path]] #{}", MAX_KEYFRAMES + 1),
-            "position",
-            format!(
-                "a camera path has at most {MAX_KEYFRAMES} keyframes (this one has {})",
-                raw.camera_path.len()
-            ),
-        );
-    }
-    let mut camera_path = Vec::new();
-    for (i, k) in raw.camera_path.iter().enumerate() {
-        let (s, k) = (k.span(), k.get_ref());
-        let what = format!("[[camera_path]] #{}", i + 1);
-        // Checked as [camera] is (with its up), so that no frame of the path is blank.
-        let (position, target, _) = check_view(k.position, k.target, Some(camera.up.to_array()))
-            .or_else(|(field, msg)| ctx.err(s, &what, field, msg))?;
-        camera_path.push(Keyframe { position, target });
-    }
+    let camera_path = ctx.camera_path(&raw, &camera)?;
     let name = path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
