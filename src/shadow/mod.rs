@@ -12,6 +12,13 @@
 //! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, deep shadow
 //! maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
+//!
+//! Under every technique: [`light`] owns the light side (the map pass, [`light::locate`] with
+//! its one edge rule, the soft-shadow geometry); [`map::lookup`] is the per-pixel half of the
+//! depth-map techniques (bias, comparisons, kernels); [`inspect`] and [`timing`] give every
+//! technique one per-pixel contract (the image and `inspect` from one function) and one way
+//! to time its passes; [`pass`] makes a shared pass (PCSS, the irregular z-buffer, the
+//! stencil volumes) a technique, so that no technique holds another.
 
 pub mod exact;
 pub mod inspect;
