@@ -14,6 +14,7 @@ use penumbra::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
 use penumbra::shadow::pixels::per_pixel_counted;
 use penumbra::shadow::timing::Passes;
 use penumbra::shadow::{Declaration, ShadowTechnique, Stage, Step, Visibility};
+use penumbra::Error;
 use penumbra::{frame, metrics, scene};
 use std::path::Path;
 
@@ -45,7 +46,7 @@ pub struct SoftEdge {
 
 impl SoftEdge {
     /// The technique with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<SoftEdge, String> {
+    pub fn new(opts: Options) -> Result<SoftEdge, Error> {
         declaration().check(&opts)?;
         Ok(SoftEdge {
             lookup: MapLookup::new(Setup {
@@ -75,7 +76,7 @@ impl ShadowTechnique for SoftEdge {
         "soft-edge"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         passes.end("light pass");
@@ -86,7 +87,7 @@ impl ShadowTechnique for SoftEdge {
         Ok(Visibility::Scalar(out))
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.lookup.stages(p, frame)
     }
 
@@ -103,11 +104,11 @@ impl ShadowTechnique for SoftEdge {
     }
 }
 
-fn main() -> Result<(), String> {
+fn main() -> Result<(), Error> {
     let args: Vec<String> = std::env::args().collect();
     let scene_path = args.get(1).map_or("fixtures/scenes/contact.toml", String::as_str);
     let scene = scene::file::load(Path::new(scene_path))?;
-    let p = Pipeline::new(0).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(0)?;
     let f = frame::frame(&p, &scene, 0, 0)?;
 
     // `--set`-style settings go through the same declaration as the library constructor.
@@ -136,6 +137,9 @@ fn main() -> Result<(), String> {
     match steps.last().and_then(|s| s.values.first()) {
         Some((_, inspect::Value::Num(n))) if (*n as f32).to_bits() == v.value(i).to_bits() => Ok(()),
         _ if f.point(x, y).is_none() => Ok(()),
-        other => Err(format!("inspect's result {other:?} is not the image's {}", v.value(i))),
+        other => Err(Error::input(format!(
+            "inspect's result {other:?} is not the image's {}",
+            v.value(i)
+        ))),
     }
 }

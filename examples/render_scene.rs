@@ -5,10 +5,11 @@
 
 use penumbra::pipeline::Pipeline;
 use penumbra::reference::{Reference, ReferenceOptions};
+use penumbra::Error;
 use penumbra::{frame, image_io, metrics, scene, shadow};
 use std::path::Path;
 
-fn main() -> Result<(), String> {
+fn main() -> Result<(), Error> {
     let args: Vec<String> = std::env::args().collect();
     let scene_path = args.get(1).map_or("fixtures/scenes/contact.toml", String::as_str);
     let technique = args.get(2).map_or("shadow-map", String::as_str);
@@ -16,7 +17,7 @@ fn main() -> Result<(), String> {
 
     // Scene -> camera G-buffer (the frame) -> the technique's visibility -> shaded image.
     let scene = scene::file::load(Path::new(scene_path))?;
-    let p = Pipeline::new(0).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(0)?;
     let f = frame::frame(&p, &scene, 0, 0)?;
     let mut t = shadow::create(technique, &[])?;
     let v = t.visibility(&p, &f)?;

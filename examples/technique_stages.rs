@@ -5,17 +5,18 @@
 
 use penumbra::pipeline::Pipeline;
 use penumbra::shadow::Stage;
+use penumbra::Error;
 use penumbra::{frame, image_io, report, scene, shadow};
 use std::path::Path;
 
-fn main() -> Result<(), String> {
+fn main() -> Result<(), Error> {
     let args: Vec<String> = std::env::args().collect();
     let scene_path = args.get(1).map_or("fixtures/scenes/wires.toml", String::as_str);
     let technique = args.get(2).map_or("izb", String::as_str);
     let out = Path::new(args.get(3).map_or("out/stages", String::as_str));
 
     let scene = scene::file::load(Path::new(scene_path))?;
-    let p = Pipeline::new(0).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(0)?;
     let f = frame::frame(&p, &scene, 0, 0)?;
     let mut t = shadow::create(technique, &[])?;
     t.visibility(&p, &f)?;

@@ -12,6 +12,7 @@ use crate::hash::{hash_f32, hash_rgba8};
 use crate::pipeline::sampler::CompareSampler;
 use crate::pipeline::*;
 pub use crate::scene::spheres::{sphere_tessellation, spheres_as_scene, spheres_scene, BenchMesh, BenchVertex};
+use crate::Error;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use std::time::Instant;
 
@@ -432,19 +433,7 @@ impl FragmentProgram<Vec4> for VaryingColor {
     }
 }
 
-/// Median of a list of times.
-pub fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
+pub use crate::metrics::median_of as median;
 
 /// Draws the random-triangle workload ([`random_triangles`]) as `bench raster` and the
 /// criterion benches time it: colour + depth when `color` is given (per-vertex colour), else
@@ -486,12 +475,12 @@ pub fn draw_random(
 /// `meta`'s `floats_per_vertex` says), `dir/indices.u32` (little-endian, three per triangle)
 /// and `dir/workload.json` (`meta`, a JSON object that names the layout, targets and
 /// matrices).
-pub fn export_workload(dir: &std::path::Path, vertices: &[f32], indices: &[u32], meta: &str) -> Result<(), String> {
+pub fn export_workload(dir: &std::path::Path, vertices: &[f32], indices: &[u32], meta: &str) -> Result<(), Error> {
     let write = |name: &str, bytes: &[u8]| {
         let path = dir.join(name);
-        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+        std::fs::write(&path, bytes).map_err(|e| Error::input(format!("{}: {e}", path.display())))
     };
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::input(format!("{}: {e}", dir.display())))?;
     write(
         "vertices.f32",
         &vertices.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>(),
@@ -512,7 +501,7 @@ pub fn export_frame(
     mode: FrameMode,
     map: u32,
     (width, height): (u32, u32),
-) -> Result<(), String> {
+) -> Result<(), Error> {
     let verts: Vec<f32> = mesh
         .vertices
         .iter()
@@ -547,7 +536,7 @@ pub fn export_raster(
     indices: &[u32],
     color: bool,
     (width, height): (u32, u32),
-) -> Result<(), String> {
+) -> Result<(), Error> {
     let floats: Vec<f32> = verts
         .iter()
         .flat_map(|(p, c)| [p.to_array(), c.to_array()].concat())

@@ -11,6 +11,7 @@ use crate::pipeline::*;
 use crate::reference::SamplePoint;
 use crate::scene::{Camera, Light, Scene};
 use crate::visibility::Visibility;
+use crate::Error;
 use glam::{Vec3, Vec4};
 
 /// Marks "no object" in [`GBuffer::object`].
@@ -201,25 +202,25 @@ pub const FRAME_BYTES_PER_PIXEL: u64 = 140;
 
 /// Builds the frame of camera-path index `index` (0 and no path: the scene camera) for light
 /// `light`.
-pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> Result<Frame<'a>, String> {
+pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> Result<Frame<'a>, Error> {
     let l = *scene.lights.get(light).ok_or_else(|| {
-        format!(
+        Error::input(format!(
             "scene '{}' has no light #{light} (it has {})",
             scene.name,
             scene.lights.len()
-        )
+        ))
     })?;
     let camera = scene.camera_at(index);
     // A frame and what a run keeps of it (G-buffer, sample points, the technique's visibility
     // and the reference, masks, the shaded image, the previous frame's for flicker) take
     // about FRAME_BYTES_PER_PIXEL: checked against the memory budget before any is built.
     crate::pipeline::check_room(camera.width, camera.height, FRAME_BYTES_PER_PIXEL as usize, 1).map_err(|e| {
-        format!(
-            "a {}x{} frame ({FRAME_BYTES_PER_PIXEL} bytes per pixel: G-buffer, sample points, visibility and reference): {e}",
+        Error::from(e).within(&format!(
+            "a {}x{} frame ({FRAME_BYTES_PER_PIXEL} bytes per pixel: G-buffer, sample points, visibility and reference)",
             camera.width, camera.height
-        )
+        ))
     })?;
-    let gbuffer = gbuffer(p, scene, &camera).map_err(|e| e.to_string())?;
+    let gbuffer = gbuffer(p, scene, &camera)?;
     let points = gbuffer
         .object
         .data()

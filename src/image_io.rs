@@ -2,18 +2,19 @@
 //! (visibility, depth, stages) that other tools read back.
 
 use crate::pipeline::{Rgba8, Surface};
+use crate::Error;
 use std::path::Path;
 
 /// Writes an RGBA8 surface as a PNG (row 0 at the top). Creates the parent folder.
-pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), String> {
+pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), Error> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder {}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))?;
         }
     }
     let bytes: Vec<u8> = s.data().iter().flat_map(|p| p.iter().copied()).collect();
     image::save_buffer(path, &bytes, s.width(), s.height(), image::ColorType::Rgba8)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+        .map_err(|e| Error::io(path, "cannot write", e))
 }
 
 /// A grey-scale view of a float surface mapped from `[lo, hi]` to black..white.
@@ -27,7 +28,7 @@ pub fn grey(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
 
 /// Writes a float image of `channels` (1 or 3) interleaved channels as PFM (rows bottom-up, as
 /// the format requires; little-endian).
-pub fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), String> {
+pub fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), Error> {
     check_float_image(path, w, h, channels, data)?;
     let mut bytes = format!("{}\n{w} {h}\n-1.0\n", if channels == 3 { "PF" } else { "Pf" }).into_bytes();
     for y in (0..h as usize).rev() {
@@ -35,16 +36,16 @@ pub fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    std::fs::write(path, bytes).map_err(|e| Error::io(path, "cannot write", e))
 }
 
 /// Writes a float image of `channels` (1: channel `Y`; 3: `R`, `G`, `B`) interleaved channels
 /// as OpenEXR (32-bit float samples, row 0 at the top, no compression loss).
-pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), String> {
+pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), Error> {
     use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
     check_float_image(path, w, h, channels, data)?;
     let (wu, hu) = (w as usize, h as usize);
-    let err = |e: exr::error::Error| format!("cannot write {}: {e}", path.display());
+    let err = |e: exr::error::Error| Error::io(path, "cannot write", e);
     if channels == 3 {
         exr::prelude::write_rgb_file(path, wu, hu, |x, y| {
             let i = (y * wu + x) * 3;
@@ -59,13 +60,13 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
     }
 }
 
-fn check_float_image(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), String> {
+fn check_float_image(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), Error> {
     if !(channels == 1 || channels == 3) || data.len() != w as usize * h as usize * channels || w == 0 || h == 0 {
-        return Err(format!(
+        return Err(Error::input(format!(
             "cannot write {}: {} values are not a {w}x{h} image of {channels} channels (1 or 3)",
             path.display(),
             data.len()
-        ));
+        )));
     }
     Ok(())
 }

@@ -33,7 +33,7 @@
 //! # A scene, a technique and its error
 //!
 //! ```
-//! # fn main() -> Result<(), String> {
+//! # fn main() -> Result<(), penumbra::Error> {
 //! use penumbra::pipeline::Pipeline;
 //! use penumbra::reference::{Reference, ReferenceOptions};
 //! use penumbra::{frame, metrics, scene, shadow};
@@ -43,7 +43,7 @@
 //!             [[object]]\nmesh = \"plane\"\nsize = 4\n\
 //!             [[object]]\nmesh = \"box\"\ntranslate = [0, 0.5, 0]\n";
 //! let s = scene::file::parse(text, std::path::Path::new("box.toml"))?;
-//! let p = Pipeline::new(2).map_err(|e| e.to_string())?;
+//! let p = Pipeline::new(2)?;
 //! let f = frame::frame(&p, &s, 0, 0)?; // the camera's G-buffer for light 0, frame 0
 //! let mut t = shadow::create("shadow-volume", &[])?; // or "pcss", "izb", with ("key", "value") options
 //! let v = t.visibility(&p, &f)?;
@@ -77,16 +77,57 @@
 //! Runnable programs are in `examples/`: `render_scene`, `draw_triangles`, `technique_stages`.
 #![warn(missing_docs)]
 
+#[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod alloc;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod bench;
+pub mod error;
 pub mod frame;
 pub mod hash;
+#[cfg(feature = "images")]
 pub mod image_io;
 pub mod metrics;
 pub mod pipeline;
 pub mod reference;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod report;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod run;
 pub mod scene;
 pub mod shadow;
 pub mod visibility;
+
+pub use error::{Error, Resource};
+pub use frame::Frame;
+pub use pipeline::{Pipeline, PipelineError};
+pub use reference::{Reference, ReferenceOptions};
+pub use scene::Scene;
+pub use shadow::{create, registry, ShadowTechnique};
+pub use visibility::Visibility;
+
+/// Every technique's type, and its module with its `Options`, under one name: build one in
+/// code with `techniques::ShadowMap::new(techniques::shadow_map::Options { .. })`, or by name
+/// with [`create`].
+pub mod techniques {
+    pub use crate::reference::ReferenceOptions;
+    pub use crate::shadow::exact::hybrid::{self, Hybrid};
+    pub use crate::shadow::exact::izb::{self, Izb};
+    pub use crate::shadow::map::chs::{self, Chs};
+    pub use crate::shadow::map::multi_sample::{self, MultiSample};
+    pub use crate::shadow::map::pcss::{self, Pcss};
+    pub use crate::shadow::map::shadow_map::{self, ShadowMap};
+    pub use crate::shadow::penumbra::pvm::{self, Pvm};
+    pub use crate::shadow::penumbra::pvmf::{self, Pvmf};
+    pub use crate::shadow::planar::cookie::{self, Cookie};
+    pub use crate::shadow::planar::projected::{self, Planar};
+    pub use crate::shadow::reference::{self as reference_technique, RefTechnique};
+    pub use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
+    pub use crate::shadow::volumetric::avsm::{self, Avsm};
+    pub use crate::shadow::volumetric::deep_shadow_map::{self, DeepShadowMap};
+    pub use crate::shadow::volumetric::opacity_maps::{self, OpacityMaps};
+    pub use crate::shadow::volumetric::transparency_map::{self, TransparencyMap};
+}

@@ -242,7 +242,21 @@ impl Flicker {
 
 /// Median of timings (seconds), the value reported after warm-up runs.
 pub fn median(mut v: Vec<f64>) -> f64 {
-    crate::bench::median(&mut v)
+    median_of(&mut v)
+}
+
+/// Median of a list of values, sorted in place (0 for none).
+pub fn median_of(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@ use crate::reference::{Reference, ReferenceOptions};
 use crate::scene::{Scene, SceneClass};
 use crate::shadow::{self, Family};
 use crate::visibility::Visibility;
+use crate::Error;
 use std::borrow::Cow;
 use std::time::Instant;
 
@@ -58,7 +59,7 @@ pub trait ReferenceCache {
     /// The cached image of `pixels` pixels under `key`, if any.
     fn get(&self, key: u64, pixels: usize) -> Option<Visibility>;
     /// Stores an image under `key`.
-    fn put(&self, key: u64, v: &Visibility) -> Result<(), String>;
+    fn put(&self, key: u64, v: &Visibility) -> Result<(), Error>;
 }
 
 /// Reference visibility of a frame, from `cache` when it has it (`None`: no caching).
@@ -68,7 +69,7 @@ pub fn reference(
     frame: &Frame,
     key: u64,
     cache: Option<&dyn ReferenceCache>,
-) -> Result<(Visibility, f64, u64), String> {
+) -> Result<(Visibility, f64, u64), Error> {
     let n = (frame.width() * frame.height()) as usize;
     if let Some(v) = cache.and_then(|c| c.get(key, n)) {
         return Ok((v, 0.0, 0));
@@ -167,7 +168,7 @@ pub fn time_technique(
     t: &mut dyn shadow::ShadowTechnique,
     warm_up: bool,
     reps: usize,
-) -> Result<(Visibility, f64), String> {
+) -> Result<(Visibility, f64), Error> {
     if warm_up {
         t.visibility(p, frame)?;
     }
@@ -179,13 +180,13 @@ pub fn time_technique(
         times.push(t0.elapsed().as_secs_f64() * 1e3);
     }
     if v.len() != (frame.width() * frame.height()) as usize {
-        return Err(format!(
+        return Err(Error::input(format!(
             "technique '{}' returned {} values for a {}x{} frame",
             t.name(),
             v.len(),
             frame.width(),
             frame.height()
-        ));
+        )));
     }
     Ok((v, metrics::median(times)))
 }
@@ -271,7 +272,7 @@ impl<'a> Prepared<'a> {
         scene: &'a Scene,
         scene_text: &str,
         cache: Option<&'a dyn ReferenceCache>,
-    ) -> Result<Prepared<'a>, String> {
+    ) -> Result<Prepared<'a>, Error> {
         Self::new_with_progress(p, scene, scene_text, cache, &|_, _, _| {})
     }
 
@@ -282,7 +283,7 @@ impl<'a> Prepared<'a> {
         scene_text: &str,
         cache: Option<&'a dyn ReferenceCache>,
         progress: Progress,
-    ) -> Result<Prepared<'a>, String> {
+    ) -> Result<Prepared<'a>, Error> {
         let count = scene.camera_path.len().max(1);
         let pixels = scene.camera.width as u64 * scene.camera.height as u64 * count as u64;
         let keep = pixels <= KEPT_FRAME_PIXELS;
@@ -323,7 +324,7 @@ pub fn render(
     sets: &[(String, String)],
     reps: usize,
     cache: Option<&dyn ReferenceCache>,
-) -> Result<RenderOutput, String> {
+) -> Result<RenderOutput, Error> {
     let prepared = Prepared::new(p, scene, scene_text, cache)?;
     render_prepared(p, &prepared, name, sets, reps)
 }
@@ -336,7 +337,7 @@ pub fn render_prepared(
     name: &str,
     sets: &[(String, String)],
     reps: usize,
-) -> Result<RenderOutput, String> {
+) -> Result<RenderOutput, Error> {
     render_prepared_with_progress(p, prepared, name, sets, reps, &|_, _, _| {})
 }
 
@@ -348,7 +349,7 @@ pub fn render_prepared_with_progress(
     sets: &[(String, String)],
     reps: usize,
     progress: Progress,
-) -> Result<RenderOutput, String> {
+) -> Result<RenderOutput, Error> {
     let scene = prepared.scene;
     let mut first = None;
     let mut pass_times = Vec::new();

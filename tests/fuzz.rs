@@ -69,7 +69,7 @@ fn check_parse(text: &str) -> Option<Scene> {
             Some(s)
         }
         Err(e) => {
-            assert!(e.starts_with("fuzz.toml"), "error without the file: {e}");
+            assert!(e.to_string().starts_with("fuzz.toml"), "error without the file: {e}");
             None
         }
     }
@@ -162,7 +162,10 @@ fn option_case(technique: usize, key: &str, value: &str) {
     };
     match shadow::create(t.name, &[(key.clone(), value.to_string())]) {
         Ok(_) => {}
-        Err(e) => assert!(e.contains(t.name) || e.contains(&key), "{}: {key}={value}: {e}", t.name),
+        Err(e) => {
+            let e = e.to_string();
+            assert!(e.contains(t.name) || e.contains(&key), "{}: {key}={value}: {e}", t.name)
+        }
     }
 }
 
@@ -179,7 +182,7 @@ fn obj_case(bytes: &[u8]) {
             assert!(m.positions.iter().all(|p| p.is_finite()));
             assert!(m.indices.iter().all(|&i| (i as usize) < m.positions.len()) && m.indices.len() % 3 == 0);
         }
-        Err(e) => assert!(e.contains(&p.display().to_string()), "{e}"),
+        Err(e) => assert!(e.to_string().contains(&p.display().to_string()), "{e}"),
     }
     let _ = std::fs::remove_file(&p);
 }

@@ -35,7 +35,10 @@ fn surfaces_count_while_they_live_and_past_the_budget_are_refused() {
     // A small budget: refused before allocating, nothing counted; sets checked as a whole.
     set_memory_limit(base + 10_000);
     let e = Surface::new(100, 100, 0.0f32).unwrap_err().to_string();
-    assert!(e.contains("100x100") && e.contains("--max-memory"), "{e}");
+    assert!(
+        e.contains("100x100") && e.contains("raise the memory limit") && !e.contains("--"),
+        "{e}"
+    );
     assert_eq!(live_surface_bytes(), base);
     let ok = Surface::new(40, 40, 0.0f32).unwrap(); // 6400 bytes
     assert!(

@@ -1555,7 +1555,8 @@ fn raster_ordered_draws_without_other_targets_and_reject_bad_ones() {
             &prog,
             &mut store,
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.to_string().contains("pixel store"), "{e}");
     // Bad stores.
     assert!(PixelStore::fixed(0, 4, 1, 0u8).is_err());
@@ -1604,11 +1605,13 @@ fn a_store_rebuilt_row_by_row_equals_the_indexed_one() {
     // Starts that decrease, or pass the row's values, and wrong row totals are errors.
     let e = store
         .rebuild_rows(w, h, &rows, 0, |_, starts, _| starts[0] = 1)
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.to_string().contains("starts decrease"), "{e}");
     let e = store
         .rebuild_rows(w, h, &rows, 0, |_, starts, v| starts.fill(v.len() as u32 + 1))
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.to_string().contains("row 0"), "{e}");
     assert!(store.rebuild_rows(w, h, &rows[1..], 0, |_, _, _| {}).is_err());
 }

@@ -116,6 +116,28 @@ fn sharded_and_merged_sweep_equals_one_run() {
         assert_eq!(a, b);
     }
     assert_eq!(files(&whole), files(&merged));
+    // The summaries: one row per technique (the README's), and one per setting.
+    let table_rows = |name: &str| -> Vec<String> {
+        std::fs::read_to_string(whole.join(name))
+            .unwrap()
+            .lines()
+            .skip(2)
+            .map(|l| l.split('|').nth(1).unwrap().trim().to_string())
+            .collect()
+    };
+    let (one, all) = (table_rows("summary.md"), table_rows("summary_all.md"));
+    let names: Vec<&str> = techniques.split(',').collect();
+    assert_eq!(one.len(), names.len(), "{one:?}");
+    for (row, name) in one.iter().zip(&names) {
+        // Its defaults: shadow-map's sweep runs them as `size=2048`, after other sizes.
+        let want = if *name == "shadow-map" {
+            "shadow-map [size=2048]".to_string()
+        } else {
+            name.to_string()
+        };
+        assert_eq!(row, &want);
+    }
+    assert!(all.len() > one.len() && one.iter().all(|r| all.contains(r)), "{all:?}");
     // Missing and doubled shards are errors that say so.
     let merge = |dirs: &[&str]| {
         let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
@@ -333,16 +355,23 @@ fn bad_gltf_files_name_the_file_and_what_is_wrong() {
     for (name, body, want) in cases {
         let p = dir.join(name);
         std::fs::write(&p, body).unwrap();
-        let e = penumbra::scene::file::load(&p).err().unwrap_or_default();
+        let e = penumbra::scene::file::load(&p)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains(name) && e.contains(want), "{name}: {e}");
         let (ok, text) = cli(&["render", p.to_str().unwrap(), "--technique", "shadow-map"]);
         assert!(!ok && text.contains(want), "{text}");
     }
-    let e = penumbra::scene::file::load(&dir.join("missing.glb")).unwrap_err();
+    let e = penumbra::scene::file::load(&dir.join("missing.glb"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("missing.glb"), "{e}");
     // Through a scene file, the error names the scene's line and field too.
     std::fs::write(dir.join("s.toml"), "# s\ngltf = \"index.gltf\"\n").unwrap();
-    let e = penumbra::scene::file::load(&dir.join("s.toml")).unwrap_err();
+    let e = penumbra::scene::file::load(&dir.join("s.toml"))
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("s.toml:2") && e.contains("`gltf`") && e.contains("index 9"),
         "{e}"

@@ -110,13 +110,30 @@ fn hard_techniques_miss_the_penumbra_and_translucency() {
 fn registry_rejects_unknown_names_and_bad_values() {
     let bad = |name: &str, sets: &[(&str, &str)]| {
         let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        shadow::create(name, &sets).err().expect("must be an error")
+        shadow::create(name, &sets).err().expect("must be an error").to_string()
     };
     assert!(bad("shadow-mop", &[]).contains("unknown technique 'shadow-mop' (known: reference, shadow-map"));
-    assert!(bad("shadow-map", &[("sise", "1")]).contains("has no option 'sise' (options: size, format"));
+    assert!(bad("shadow-map", &[("sise", "1")]).contains("option sise=1 is unknown (options: size, format"));
     assert!(bad("shadow-map", &[("size", "big")]).contains("size=big is not a number (an integer is expected)"));
     assert!(bad("shadow-map", &[("size", "0")]).contains("outside [16, 16384]"));
     assert!(bad("shadow-map", &[("filter", "gauss")]).contains("not one of none, pcf2"));
+    // Callers match on what went wrong: the technique and the key are fields.
+    let sets = [("size".to_string(), "0".to_string())];
+    match shadow::create("pcss", &sets).err() {
+        Some(penumbra::Error::Option {
+            technique, key, value, ..
+        }) => {
+            assert_eq!(
+                (technique.as_deref(), key.as_str(), value.as_str()),
+                (Some("pcss"), "size", "0")
+            )
+        }
+        e => panic!("not an option error: {e:?}"),
+    }
+    assert!(matches!(
+        shadow::create("nope", &[]),
+        Err(penumbra::Error::Technique { .. })
+    ));
     assert!(shadow::parse_sets(&["size".into()]).is_err());
     for t in shadow::registry() {
         assert!(!t.sweep.is_empty(), "{} declares sweep sets", t.name);
@@ -159,7 +176,7 @@ fn cli_reports_bad_input_with_what_and_where() {
         |flag: &str, value: &str| -> Vec<String> { vec!["render".into(), good.clone(), flag.into(), value.into()] };
     let cases: Vec<(Vec<String>, &str)> = vec![
         (render("--technique", "nope"), "unknown technique 'nope'"),
-        (render("--set", "sise=3"), "has no option 'sise'"),
+        (render("--set", "sise=3"), "option sise=3 is unknown"),
         (render("--set", "size=-4"), "size=-4"),
         (render("--set", "size"), "is not key=value"),
         // Regression: clap called `-1` an unexpected argument, and `size=-1` "not a number".
@@ -605,9 +622,12 @@ fn planar_casters_beyond_the_light_cast_nothing() {
     let p = Pipeline::new(1).unwrap();
     let s = load(Path::new("fixtures/scenes/planar.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    for (r, what) in [("nothing", "no object 'nothing'"), ("post", "not planar")] {
+    for (r, what) in [
+        ("nothing", "option receiver=nothing names no object of the scene"),
+        ("post", "not planar"),
+    ] {
         let mut t = shadow::create("planar", &[("receiver".into(), r.into())]).unwrap();
-        let e = t.visibility(&p, &f).err().unwrap();
+        let e = t.visibility(&p, &f).err().unwrap().to_string();
         assert!(e.contains(what), "{e}");
     }
 }
@@ -642,8 +662,11 @@ fn cookies_cannot_self_shadow_and_shadow_backwards() {
     let s = load(Path::new("fixtures/scenes/cookie.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let mut t = shadow::create("cookie", &[("occluders".into(), "upper, nope".into())]).unwrap();
-    let e = t.visibility(&p, &f).err().unwrap();
-    assert!(e.contains("'nope'") && e.contains("shelf"), "{e}");
+    let e = t.visibility(&p, &f).err().unwrap().to_string();
+    assert!(
+        e.contains("occluders=nope names no object") && e.contains("shelf"),
+        "{e}"
+    );
 }
 
 /// `bench frame --export` and `bench raster --export` write the workload another renderer
@@ -1008,7 +1031,10 @@ fn izb_with_sub_pixel_samples_is_exact_at_its_samples_and_anti_aliases_edges() {
 fn izb_input_errors_and_a_light_no_sample_faces() {
     let bad = |sets: &[(&str, &str)]| {
         let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        shadow::create("izb", &sets).err().expect("must be an error")
+        shadow::create("izb", &sets)
+            .err()
+            .expect("must be an error")
+            .to_string()
     };
     assert!(bad(&[("size", "0")]).contains("outside [16, 16384]"));
     assert!(bad(&[("size", "99999")]).contains("outside [16, 16384]"));
@@ -1019,7 +1045,14 @@ fn izb_input_errors_and_a_light_no_sample_faces() {
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let mut t = shadow::create("izb", &[("capacity".into(), "1000".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap();
-    assert!(e.contains("exceed the lists' capacity of 1000"), "{e}");
+    assert!(
+        matches!(e, penumbra::Error::Budget { resource: penumbra::Resource::Entries, limit: 1000, needed, .. } if needed > 1000),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string().contains("the lists' samples") && e.to_string().contains("option capacity"),
+        "{e}"
+    );
     // A sun below the ground: no sample faces it, everything is dark, nothing is inserted.
     let text = "[camera]\nposition = [0, 3, 6]\ntarget = [0, 0, 0]\nresolution = [64, 48]\n\n[[light]]\ntype = \"directional\"\ndirection = [0.2, 1, 0.1]\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\n";
     let s = penumbra::scene::file::parse(text, Path::new("below.toml")).unwrap();
@@ -1146,7 +1179,10 @@ fn avsm_without_transparent_casters_is_the_shadow_map() {
 #[test]
 fn avsm_rejects_bad_node_counts_and_is_identical_for_any_thread_count() {
     for n in ["0", "65"] {
-        let e = shadow::create("avsm", &[("nodes".into(), n.into())]).err().unwrap();
+        let e = shadow::create("avsm", &[("nodes".into(), n.into())])
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("outside [1, 64]"), "{e}");
     }
     let one = visibility_of("smoke", "avsm", &[("nodes", "4")], 1).hash();
@@ -1273,7 +1309,8 @@ fn opacity_maps_band_between_slices_and_deep_opacity_maps_need_fewer() {
     for n in ["0", "65"] {
         let err = shadow::create("opacity-maps", &[("slices".into(), n.into())])
             .err()
-            .unwrap();
+            .unwrap()
+            .to_string();
         assert!(err.contains("outside [1, 64]"), "{err}");
     }
 }
@@ -1336,7 +1373,11 @@ fn deep_shadow_maps_match_the_transmittance_and_bound_avsm() {
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), "1000".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap();
-    assert!(e.contains("more than capacity=1000") && e.contains("needs"), "{e}");
+    assert!(
+        matches!(e, penumbra::Error::Budget { resource: penumbra::Resource::Entries, limit: 1000, needed, .. } if needed > 1000),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("(option capacity): "), "{e}");
     // The number the error names is enough, and one fewer is not: the pool never holds more
     // than its stated capacity.
     let needed: String = e
@@ -1459,7 +1500,8 @@ fn bad_kernel_options_are_errors() {
             &[("filter".into(), "poisson".into()), (k.into(), v.into())],
         )
         .err()
-        .unwrap();
+        .unwrap()
+        .to_string();
         assert!(e.contains(says), "{k}={v}: {e}");
     }
     let e = shadow::create(
@@ -1471,7 +1513,8 @@ fn bad_kernel_options_are_errors() {
         ],
     )
     .err()
-    .unwrap();
+    .unwrap()
+    .to_string();
     assert!(e.contains("wider than the map"), "{e}");
 }
 
@@ -1693,7 +1736,7 @@ fn bad_soft_shadow_options_are_errors() {
         ("multi-sample", "samples", "0", "outside [1, 1024]"),
         ("multi-sample", "method", "rays", "not one of maps, volumes"),
     ] {
-        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap();
+        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap().to_string();
         assert!(e.contains(says) && e.contains(t), "{t} {k}={v}: {e}");
     }
 }
@@ -1735,7 +1778,10 @@ fn chs_matches_the_area_light_better_than_pcss_and_is_the_hard_map_without_a_wid
         hash("shadow-map", &[("filter", "pcf2"), ("receiver", "true")])
     );
     for (k, v) in [("kernel", "0"), ("kernel", "16"), ("light", "-1")] {
-        let e = shadow::create("chs", &[(k.into(), v.into())]).err().unwrap();
+        let e = shadow::create("chs", &[(k.into(), v.into())])
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("technique 'chs'") && e.contains("outside"), "{k}={v}: {e}");
     }
 }
@@ -1785,7 +1831,8 @@ fn hybrid_is_exact_near_contact_and_leaks_nowhere() {
     assert!(leak > 3.0 && fixed < 0.05, "pcss {leak} %, hybrid {fixed} %");
     let e = shadow::create("hybrid", &[("from".into(), "5".into()), ("to".into(), "2".into())])
         .err()
-        .unwrap();
+        .unwrap()
+        .to_string();
     assert!(e.contains("below from"), "{e}");
 }
 
@@ -1984,7 +2031,7 @@ fn bad_penumbra_volume_options_are_errors() {
         ("pvmf", "layer", "id", "stores no depth"),
         ("pvmf", "ids", "bone", "not one of object, group, none"),
     ] {
-        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap();
+        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap().to_string();
         assert!(e.contains(says) && e.contains(t), "{t} {k}={v}: {e}");
     }
 }

@@ -3,6 +3,7 @@
 //! line.
 
 use super::{FrameArgs, RasterArgs, RaysArgs, TechniqueArgs};
+use crate::error::CliError;
 use penumbra::bench::*;
 use penumbra::hash::{hash_f32, hash_rgba8};
 use penumbra::image_io::{grey, write_png};
@@ -14,25 +15,26 @@ use std::time::Instant;
 /// seconds and a few GB.
 const MAX_BENCH_TRIANGLES: usize = 10_000_000;
 
-fn check_triangles(t: usize) -> Result<(), String> {
+fn check_triangles(t: usize) -> Result<(), CliError> {
     if !(2..=MAX_BENCH_TRIANGLES).contains(&t) {
         return Err(format!(
             "--triangles {t} is out of range (2..={MAX_BENCH_TRIANGLES}: larger meshes take more than a few GB)"
-        ));
+        )
+        .into());
     }
     Ok(())
 }
 
-pub fn frame(a: FrameArgs) -> Result<(), String> {
+pub fn frame(a: FrameArgs) -> Result<(), CliError> {
     check_triangles(a.triangles)?;
-    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(a.common.threads)?;
     let mesh = spheres_scene(a.triangles);
     let setup = FrameSetup {
         shading: a.shading,
         camera_cull: a.cull,
         ..frame_setup(&mesh, a.width, a.height)
     };
-    let mut t = FrameTargets::new(a.map, a.width, a.height).map_err(|e| e.to_string())?;
+    let mut t = FrameTargets::new(a.map, a.width, a.height)?;
     if let Some(dir) = &a.export {
         export_frame(dir, &mesh, &setup, a.mode, a.map, (a.width, a.height))?;
         println!("wrote the workload into {}", dir.display());
@@ -49,7 +51,7 @@ pub fn frame(a: FrameArgs) -> Result<(), String> {
         p.threads()
     );
     for _ in 0..2 {
-        render_frame(&p, &mesh, &setup, a.mode, &mut t).map_err(|e| e.to_string())?;
+        render_frame(&p, &mesh, &setup, a.mode, &mut t)?;
     }
     let mut depth = Vec::new();
     let mut main = Vec::new();
@@ -58,7 +60,7 @@ pub fn frame(a: FrameArgs) -> Result<(), String> {
     let (mut depth_st, mut main_st) = (StageTimes::default(), StageTimes::default());
     for _ in 0..a.common.reps.max(1) {
         let t0 = Instant::now();
-        last = render_frame(&p, &mesh, &setup, a.mode, &mut t).map_err(|e| e.to_string())?;
+        last = render_frame(&p, &mesh, &setup, a.mode, &mut t)?;
         frame.push(t0.elapsed().as_secs_f64() * 1e3);
         depth.push(last.ms_depth);
         main.push(last.ms_main);
@@ -117,7 +119,7 @@ pub fn frame(a: FrameArgs) -> Result<(), String> {
     Ok(())
 }
 
-pub fn raster(a: RasterArgs) -> Result<(), String> {
+pub fn raster(a: RasterArgs) -> Result<(), CliError> {
     check_triangles(a.triangles)?;
     // A triangle covers at most the 1920x1080 target; the total fill is bounded too, so that
     // one repetition takes seconds, not hours.
@@ -125,7 +127,8 @@ pub fn raster(a: RasterArgs) -> Result<(), String> {
         return Err(format!(
             "--area {} is out of range (0, 2.1e6]: the target has 2,073,600 pixels",
             a.area
-        ));
+        )
+        .into());
     }
     if a.area as f64 * a.triangles as f64 > 2e10 {
         return Err(format!(
@@ -133,29 +136,29 @@ pub fn raster(a: RasterArgs) -> Result<(), String> {
             a.triangles,
             a.area,
             a.area as f64 * a.triangles as f64
-        ));
+        ).into());
     }
     let color_mode = match a.mode.as_str() {
         "color" => true,
         "depth" => false,
-        m => return Err(format!("unknown raster mode '{m}' (expected depth or color)")),
+        m => return Err(format!("unknown raster mode '{m}' (expected depth or color)").into()),
     };
-    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(a.common.threads)?;
     let (w, h) = (1920, 1080);
     let (verts, idx) = random_triangles(a.triangles, a.area, w, h, 1);
     if let Some(dir) = &a.export {
         export_raster(dir, &verts, &idx, color_mode, (w, h))?;
         println!("wrote the workload into {}", dir.display());
     }
-    let mut color = Surface::new(w, h, [0u8; 4]).map_err(|e| e.to_string())?;
-    let mut depth = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+    let mut color = Surface::new(w, h, [0u8; 4])?;
+    let mut depth = Surface::new(w, h, 1.0f32)?;
     let state = RenderState {
         shading: a.shading,
         ..Default::default()
     };
-    let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, String> {
+    let run = |color: &mut Surface<Rgba8>, depth: &mut Surface<f32>| -> Result<DrawStats, CliError> {
         // The clears ride along with the draw (load-op clears, tile by tile, still timed).
-        draw_random(&p, color_mode.then_some(color), depth, &state, &verts, &idx).map_err(|e| e.to_string())
+        draw_random(&p, color_mode.then_some(color), depth, &state, &verts, &idx).map_err(CliError::from)
     };
     for _ in 0..2 {
         run(&mut color, &mut depth)?;
@@ -225,7 +228,7 @@ fn export_rays(
     rays: &[(glam::Vec3, glam::Vec3, f32)],
     traced: usize,
     occluded: u64,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let io = |what: &str, e: std::io::Error| format!("{}: {what}: {e}", dir.display());
     std::fs::create_dir_all(dir).map_err(|e| io("cannot create", e))?;
     let mut tri = Vec::with_capacity(scene.triangles() * 36);
@@ -254,19 +257,20 @@ fn export_rays(
             rays.len()
         ),
     )
-    .map_err(|e| io("rays.txt", e))
+    .map_err(|e| io("rays.txt", e).into())
 }
 
-pub fn rays(a: RaysArgs) -> Result<(), String> {
+pub fn rays(a: RaysArgs) -> Result<(), CliError> {
     use penumbra::reference::{offset_origin, Reference};
     check_triangles(a.triangles)?;
     if !(1000..=100_000_000).contains(&a.rays) {
         return Err(format!(
             "--rays {} is out of range (1000..=100000000: about 10 s per repetition on two cores at the top)",
             a.rays
-        ));
+        )
+        .into());
     }
-    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(a.common.threads)?;
     let scene = spheres_as_scene(a.triangles);
     // The build runs on the benchmark's threads (it is parallel, and the tree is the same for
     // any count); the median of three.
@@ -297,7 +301,7 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
             })
             .collect()
     } else {
-        let gb = penumbra::frame::gbuffer(&p, &scene, &scene.camera).map_err(|e| e.to_string())?;
+        let gb = penumbra::frame::gbuffer(&p, &scene, &scene.camera)?;
         gb.position
             .data()
             .iter()
@@ -360,7 +364,7 @@ pub fn rays(a: RaysArgs) -> Result<(), String> {
 }
 
 /// `WIDTHxHEIGHT`, each side in 1..=MAX_RESOLUTION.
-fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+fn parse_resolution(s: &str) -> Result<(u32, u32), CliError> {
     let max = penumbra::scene::file::MAX_RESOLUTION;
     let bad = || format!("--resolution '{s}': expected WIDTHxHEIGHT, each side in 1..={max}");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
@@ -368,12 +372,12 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     Ok((side(w).ok_or_else(bad)?, side(h).ok_or_else(bad)?))
 }
 
-pub fn technique(a: TechniqueArgs) -> Result<(), String> {
+pub fn technique(a: TechniqueArgs) -> Result<(), CliError> {
     check_triangles(a.triangles)?;
     let sets = penumbra::shadow::parse_sets(&a.sets)?;
     let mut t = penumbra::shadow::create(&a.technique, &sets)?;
     let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
-    let p = Pipeline::new(a.common.threads).map_err(|e| e.to_string())?;
+    let p = Pipeline::new(a.common.threads)?;
     let mut scene = match &a.scene {
         Some(path) => super::scene::load(path)?.0,
         None => spheres_as_scene(a.triangles),
@@ -384,7 +388,7 @@ pub fn technique(a: TechniqueArgs) -> Result<(), String> {
     }
     if let Some(radius) = a.disk {
         if !(radius.is_finite() && radius > 0.0 && radius < 1e6) {
-            return Err(format!("--disk {radius}: the radius must be in (0, 1e6)"));
+            return Err(format!("--disk {radius}: the radius must be in (0, 1e6)").into());
         }
         let light = scene.lights.first_mut().ok_or("the scene has no light to replace")?;
         light.kind = penumbra::scene::LightKind::Area(penumbra::scene::AreaShape::Disk { radius });

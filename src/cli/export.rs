@@ -1,6 +1,7 @@
 //! `penumbra export` (a scene in world space for other renderers) and `penumbra list`.
 
 use super::scene::{load, FIXTURES};
+use crate::error::CliError;
 use glam::Vec3;
 use penumbra::scene::{AreaShape, Light, LightKind};
 use penumbra::shadow;
@@ -66,7 +67,7 @@ const SAMPLING: &str = "Visibility of a shading point is the transmittance along
 /// opacity `d`, transmittance colour `Tf`, two-sidedness as a comment and in the JSON) and a
 /// JSON of the camera, its path, structured lights and the reference's light-sample
 /// convention, so that another renderer can reproduce the ground truth.
-pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
+pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
     let (s, _) = load(scene)?;
     // Non-finite geometry would make files other tools cannot read (and that say nothing).
     for o in &s.objects {
@@ -75,7 +76,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
                 "{}: object '{}' has a vertex at {p} after its transform: not finite, so not exported (lower its scale or translate)",
                 scene.display(),
                 o.name
-            ));
+            ).into());
         }
     }
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
@@ -160,7 +161,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), String> {
 }
 
 /// `penumbra list`.
-pub fn list() -> Result<(), String> {
+pub fn list() -> Result<(), CliError> {
     println!("techniques:");
     for t in shadow::registry() {
         println!("  {:<12} {}", t.name, t.summary);

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod bench;
+mod error;
 mod export;
 mod scene;
 mod sweep;

@@ -1,6 +1,7 @@
 //! The scene commands of the CLI: render, dump, inspect, reference. (Only the CLI and the
 //! report know about files on disk beyond scene loading and image writing.)
 
+use crate::error::CliError;
 use penumbra::frame;
 use penumbra::image_io::{write_exr, write_pfm, write_png};
 use penumbra::pipeline::{Pipeline, Rgba8, Surface};
@@ -14,12 +15,12 @@ use std::path::Path;
 /// The built-in scenes folder.
 pub const FIXTURES: &str = "fixtures/scenes";
 
-pub fn load(path: &Path) -> Result<(Scene, String), String> {
-    file::load_with_text(path)
+pub fn load(path: &Path) -> Result<(Scene, String), CliError> {
+    Ok(file::load_with_text(path)?)
 }
 
-pub fn pipeline(threads: usize) -> Result<Pipeline, String> {
-    Pipeline::new(threads).map_err(|e| e.to_string())
+pub fn pipeline(threads: usize) -> Result<Pipeline, CliError> {
+    Pipeline::new(threads).map_err(CliError::from)
 }
 
 pub fn cache(out: &Path) -> DirCache {
@@ -34,7 +35,7 @@ pub fn render(
     threads: usize,
     reps: usize,
     out: &Path,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let sets = shadow::parse_sets(sets)?;
     shadow::create(technique, &sets)?;
     let (s, text) = load(scene)?;
@@ -153,17 +154,17 @@ fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
 }
 
 /// Writes a visibility image as OpenEXR (one channel, or RGB transmittance).
-fn write_visibility_exr(path: &Path, v: &penumbra::visibility::Visibility, w: u32, h: u32) -> Result<(), String> {
-    write_exr(path, w, h, if v.is_rgb() { 3 } else { 1 }, &v.to_flat())
+fn write_visibility_exr(path: &Path, v: &penumbra::visibility::Visibility, w: u32, h: u32) -> Result<(), CliError> {
+    Ok(write_exr(path, w, h, if v.is_rgb() { 3 } else { 1 }, &v.to_flat())?)
 }
 
 /// The float formats `dump` writes every float buffer in: PFM (simple, any tool) and OpenEXR
 /// (what image tools open).
-type FloatWriter = fn(&Path, u32, u32, usize, &[f32]) -> Result<(), String>;
+type FloatWriter = fn(&Path, u32, u32, usize, &[f32]) -> Result<(), penumbra::Error>;
 const FLOAT_FORMATS: [(&str, FloatWriter); 2] = [("pfm", write_pfm), ("exr", write_exr)];
 
 /// `penumbra dump`.
-pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out: &Path) -> Result<(), String> {
+pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out: &Path) -> Result<(), CliError> {
     let sets = shadow::parse_sets(sets)?;
     let mut t = shadow::create(technique, &sets)?;
     let (s, _) = load(scene)?;
@@ -230,7 +231,7 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
 }
 
 /// `penumbra reference`.
-pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), String> {
+pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), CliError> {
     let (s, text) = load(scene)?;
     let p = pipeline(threads)?;
     let f = frame::frame(&p, &s, 0, 0)?;
@@ -257,7 +258,7 @@ pub fn reference(scene: &Path, threads: usize, out: &Path) -> Result<(), String>
 }
 
 /// Parses `X,Y`.
-pub fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+pub fn parse_pixel(s: &str) -> Result<(u32, u32), CliError> {
     let bad = || format!("--pixel '{s}' is not X,Y (two whole numbers, e.g. 120,80)");
     let (x, y) = s.split_once(',').ok_or_else(bad)?;
     Ok((
@@ -275,7 +276,7 @@ pub fn inspect(
     pixel: &str,
     threads: usize,
     json: bool,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let sets = shadow::parse_sets(sets)?;
     let mut t = shadow::create(technique, &sets)?;
     let (x, y) = parse_pixel(pixel)?;
@@ -288,7 +289,8 @@ pub fn inspect(
             f.width(),
             f.height(),
             s.name
-        ));
+        )
+        .into());
     }
     let v = t.visibility(&p, &f)?;
     let i = (y * f.width() + x) as usize;

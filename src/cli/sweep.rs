@@ -4,6 +4,7 @@
 //! combines into what one run would have written.
 
 use super::scene::{load, pipeline, FIXTURES};
+use crate::error::CliError;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use penumbra::report::files::{read_sweep_data, write_sweep, write_sweep_data, Manifest};
 use penumbra::report::{self, DirCache, SceneInfo};
@@ -62,7 +63,7 @@ fn progress(total: usize) -> ProgressBar {
 }
 
 /// `penumbra sweep`.
-pub fn sweep(o: SweepOpts) -> Result<(), String> {
+pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
     let mut scenes = o.scenes.clone();
     if scenes.is_empty() {
         let rd = std::fs::read_dir(FIXTURES).map_err(|e| {
@@ -84,7 +85,8 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
                 return Err(format!(
                     "unknown technique '{w}' (known: {})",
                     reg.iter().map(|t| t.name).collect::<Vec<_>>().join(", ")
-                ));
+                )
+                .into());
             }
         }
         want
@@ -109,7 +111,8 @@ pub fn sweep(o: SweepOpts) -> Result<(), String> {
                 scenes[j].display(),
                 scenes[i].display(),
                 s.name
-            ));
+            )
+            .into());
         }
     }
     let total = loaded.len() * jobs.len();
@@ -188,7 +191,7 @@ fn print_outputs(out: &Path) {
 /// `penumbra sweep --merge DIR...`: the shards' rows in run order, their images, and every
 /// chart and report page, as one unsharded run writes them. Errors name the folder that is
 /// missing, inconsistent or duplicated.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     if dirs.is_empty() {
         return Err("--merge needs the shards' output folders".into());
     }
@@ -202,7 +205,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
                     "{} and {} are shards of different sweeps (their scenes or technique settings differ)",
                     fd.display(),
                     d.display()
-                ));
+                )
+                .into());
             }
         } else {
             manifest = Some((m, d));
@@ -226,10 +230,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
     all.sort_by_key(|r| r.index);
     for w in all.windows(2) {
         if w[0].index == w[1].index {
-            return Err(format!(
-                "run {} is in two shards (a folder was given twice?)",
-                w[0].index
-            ));
+            return Err(format!("run {} is in two shards (a folder was given twice?)", w[0].index).into());
         }
     }
     let missing: Vec<usize> = (0..m.runs())
@@ -241,7 +242,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
             missing.len(),
             m.runs(),
             missing[0]
-        ));
+        )
+        .into());
     }
     m.shard = "0/1".into();
     write_sweep(out, &all, &m)?;

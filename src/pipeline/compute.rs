@@ -261,6 +261,61 @@ pub fn separable_blur<T: Filterable + Default>(
     Surface::from_vec(s.width(), s.height(), out)
 }
 
+/// Writes to distinct elements of a slice from many threads: the scatter of a parallel
+/// counting sort, where a prefix sum has given every element exactly one writer.
+///
+/// Safety argument: a `Scatter` borrows its slice mutably for its whole life, so nothing
+/// else reads or writes the slice meanwhile. Its methods are `unsafe` with one contract:
+/// while the `Scatter` lives, no two calls touch the same element unless both are reads. With
+/// that, threads sharing the `Scatter` touch disjoint elements, exactly as if each held a
+/// `&mut` to its own elements, so the writes are race-free. Every index is checked against the
+/// slice's length (an out-of-range index panics instead of writing outside the slice), and
+/// `T: Copy` means no element is dropped by an overwrite.
+pub struct Scatter<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _slice: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: writes go to distinct elements (the contract of `write` and `read`), so sharing the
+// pointer between threads is like handing each thread its own elements; `T: Send` because
+// values written by one thread may be read by the thread that owns the slice afterwards.
+unsafe impl<T: Send> Sync for Scatter<'_, T> {}
+
+impl<'a, T: Copy> Scatter<'a, T> {
+    /// A scatter into `s` (borrowed mutably while the scatter lives).
+    pub fn new(s: &'a mut [T]) -> Self {
+        Scatter {
+            ptr: s.as_mut_ptr(),
+            len: s.len(),
+            _slice: std::marker::PhantomData,
+        }
+    }
+
+    /// Writes element `i` (checked against the length).
+    ///
+    /// # Safety
+    /// No other call may touch element `i` while this `Scatter` lives, except reads that
+    /// happen after this write on the same thread.
+    #[inline(always)]
+    pub unsafe fn write(&self, i: usize, v: T) {
+        assert!(i < self.len, "scatter index {i} beyond {}", self.len);
+        // SAFETY: in bounds (checked), and the caller guarantees no concurrent access to `i`.
+        unsafe { self.ptr.add(i).write(v) }
+    }
+
+    /// Reads element `i` (checked against the length).
+    ///
+    /// # Safety
+    /// No other thread may write element `i` while this `Scatter` lives.
+    #[inline(always)]
+    pub unsafe fn read(&self, i: usize) -> T {
+        assert!(i < self.len, "scatter index {i} beyond {}", self.len);
+        // SAFETY: in bounds (checked), and the caller guarantees no concurrent write to `i`.
+        unsafe { self.ptr.add(i).read() }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -328,5 +383,67 @@ mod tests {
         let c = Surface::new(9, 9, 2.0f32).unwrap();
         let b = separable_blur(&p, &c, &gaussian_weights(3)).unwrap();
         assert!(b.data().iter().all(|v| (v - 2.0).abs() < 1e-5));
+    }
+
+    #[test]
+    fn scatter_places_a_parallel_counting_sort_like_the_serial_one() {
+        // Keys of 1000 items into 7 buckets, items cut into chunks: each chunk counts its
+        // items per bucket, a prefix sum over (bucket, chunk) gives every chunk its own run in
+        // each bucket, and the chunks scatter in parallel. The result is the stable serial
+        // sort, for any thread count.
+        let keys: Vec<usize> = (0..1000u64).map(|i| ((i * 2654435761) % 7) as usize).collect();
+        let mut serial: Vec<u32> = (0..1000u32).collect();
+        serial.sort_by_key(|&i| keys[i as usize]);
+        let chunk = 64;
+        let counts: Vec<[u32; 7]> = keys
+            .chunks(chunk)
+            .map(|c| {
+                let mut h = [0u32; 7];
+                c.iter().for_each(|&k| h[k] += 1);
+                h
+            })
+            .collect();
+        let mut starts = vec![[0u32; 7]; counts.len()];
+        let mut at = 0;
+        for b in 0..7 {
+            for (c, h) in counts.iter().enumerate() {
+                starts[c][b] = at;
+                at += h[b];
+            }
+        }
+        for threads in [1, 2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut out = vec![u32::MAX; keys.len()];
+            let mut cursors = starts.clone();
+            {
+                let s = Scatter::new(&mut out);
+                pool.install(|| {
+                    keys.par_chunks(chunk)
+                        .zip(cursors.par_iter_mut())
+                        .enumerate()
+                        .for_each(|(c, (ks, cur))| {
+                            for (j, &k) in ks.iter().enumerate() {
+                                // SAFETY: the prefix sum gives each (bucket, chunk) run its own
+                                // positions, and this chunk alone advances its cursors.
+                                unsafe { s.write(cur[k] as usize, (c * chunk + j) as u32) };
+                                cur[k] += 1;
+                            }
+                        })
+                });
+                // Every element written once: reading back on this thread is allowed.
+                // SAFETY: no other thread touches the slice now.
+                assert_eq!(unsafe { s.read(0) }, serial[0]);
+            }
+            assert_eq!(out, serial, "{threads} threads");
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "scatter index 3 beyond 3")]
+    fn scatter_refuses_an_index_outside_its_slice() {
+        let mut v = [0u8; 3];
+        let s = Scatter::new(&mut v);
+        // SAFETY: one thread, one write (the index is out of range: it must panic, not write).
+        unsafe { s.write(3, 1) };
     }
 }

@@ -184,7 +184,7 @@ impl fmt::Display for PipelineError {
                 let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
                 write!(
                     f,
-                    "{width}x{height} buffers of {:.0} MiB would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the limit with --max-memory)",
+                    "{width}x{height} buffers of {:.0} MiB would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the memory limit)",
                     mib(*bytes),
                     mib(live + bytes),
                     mib(*limit)

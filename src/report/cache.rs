@@ -3,6 +3,7 @@
 
 use crate::run::ReferenceCache;
 use crate::visibility::Visibility;
+use crate::Error;
 use std::path::PathBuf;
 
 /// A folder of cached reference images.
@@ -27,11 +28,10 @@ impl ReferenceCache for DirCache {
         Visibility::from_flat(pixels, data)
     }
 
-    fn put(&self, key: u64, v: &Visibility) -> Result<(), String> {
-        std::fs::create_dir_all(&self.0)
-            .map_err(|e| format!("cannot create cache folder {}: {e}", self.0.display()))?;
+    fn put(&self, key: u64, v: &Visibility) -> Result<(), Error> {
+        std::fs::create_dir_all(&self.0).map_err(|e| Error::io(&self.0, "cannot create cache folder", e))?;
         let f = self.file(key);
         let bytes: Vec<u8> = v.to_flat().iter().flat_map(|x| x.to_le_bytes()).collect();
-        std::fs::write(&f, bytes).map_err(|e| format!("cannot write {}: {e}", f.display()))
+        std::fs::write(&f, bytes).map_err(|e| Error::io(&f, "cannot write", e))
     }
 }

@@ -6,6 +6,7 @@ use crate::metrics::Errors;
 use crate::run::{PathFrame, RunResult};
 use crate::scene::SceneClass;
 use crate::shadow::Family;
+use crate::Error;
 use serde::{Deserialize, Serialize};
 
 /// One row of `results.csv`.
@@ -97,15 +98,15 @@ pub fn csv(results: &[RunResult]) -> String {
 }
 
 /// Reads a CSV that [`csv()`] wrote back into results; errors name `source` and the line.
-pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, String> {
+pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
     let mut r = ::csv::Reader::from_reader(text.as_bytes());
     let mut out = Vec::new();
     for row in r.deserialize::<Row>() {
         let row = row.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
-            format!("{source}:{line}: not a row of penumbra's results.csv: {e}")
+            Error::input(format!("{source}:{line}: not a row of penumbra's results.csv: {e}"))
         })?;
-        let at = |what: String| format!("{source}: run {}: {what}", row.run);
+        let at = |what: String| Error::input(format!("{source}: run {}: {what}", row.run));
         out.push(RunResult {
             index: row.run,
             class: SceneClass::from_key(&row.class)
@@ -213,7 +214,9 @@ mod tests {
 
     #[test]
     fn bad_rows_name_the_file_and_line() {
-        let e = read_csv("run,scene\nx,y\n", "shard0/results.csv").unwrap_err();
+        let e = read_csv("run,scene\nx,y\n", "shard0/results.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("shard0/results.csv:"), "{e}");
     }
 }

@@ -5,6 +5,7 @@ use super::{chart, csv, file_safe, images, markdown, SceneInfo};
 use crate::image_io::write_png;
 use crate::run::{RenderOutput, RunResult};
 use crate::scene::SceneClass;
+use crate::Error;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -22,9 +23,9 @@ pub struct Manifest {
     pub scenes: Vec<SceneInfo>,
 }
 
-fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result<(), String> {
+fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result<(), Error> {
     let path = dir.join(name);
-    std::fs::write(&path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    std::fs::write(&path, body).map_err(|e| Error::io(&path, "cannot write", e))?;
     files.push(path);
     Ok(())
 }
@@ -37,38 +38,41 @@ impl Manifest {
 }
 
 /// Writes a sweep's data (`results.csv`, `sweep.json`): what a shard writes and a merge reads.
-pub fn write_sweep_data(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+pub fn write_sweep_data(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, Error> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))?;
     let mut files = Vec::new();
     write(dir, "results.csv", &csv::csv(results), &mut files)?;
-    let json = serde_json::to_string_pretty(manifest).map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(manifest).map_err(|e| Error::input(e.to_string()))?;
     write(dir, "sweep.json", &json, &mut files)?;
     Ok(files)
 }
 
 /// Reads what [`write_sweep_data`] wrote in `dir`.
-pub fn read_sweep_data(dir: &Path) -> Result<(Vec<RunResult>, Manifest), String> {
-    let read = |name: &str| -> Result<(String, String), String> {
+pub fn read_sweep_data(dir: &Path) -> Result<(Vec<RunResult>, Manifest), Error> {
+    let read = |name: &str| -> Result<(String, String), Error> {
         let path = dir.join(name);
         let shown = path.display().to_string();
         std::fs::read_to_string(&path).map(|t| (t, shown.clone())).map_err(|e| {
-            format!(
-                "{shown}: cannot read: {e} (is {} a sweep's output folder?)",
-                dir.display()
+            Error::io(
+                &path,
+                "cannot read",
+                format!("{e} (is {} a sweep's output folder?)", dir.display()),
             )
         })
     };
     let (text, shown) = read("results.csv")?;
     let results = csv::read_csv(&text, &shown)?;
     let (text, shown) = read("sweep.json")?;
-    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| format!("{shown}:{}: {e}", e.line()))?;
+    let manifest: Manifest =
+        serde_json::from_str(&text).map_err(|e| Error::input(format!("{shown}:{}: {e}", e.line())))?;
     Ok((results, manifest))
 }
 
 /// Writes everything a sweep shows from its results: the data ([`write_sweep_data`]), one
-/// chart per scene class and per scene, `summary.md` (the README's technique table),
+/// chart per scene class and per scene, `summary.md` (the README's technique table: one row
+/// per technique), `summary_all.md` (every setting: docs/techniques.md's table),
 /// `report.md` and `report.html`. Images are the runs' own ([`write_run`], in `images/`).
-pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, String> {
+pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, Error> {
     let mut files = write_sweep_data(dir, results, manifest)?;
     for c in SceneClass::ALL {
         let rs: Vec<RunResult> = results.iter().filter(|r| r.class == c).cloned().collect();
@@ -78,7 +82,7 @@ pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Re
         }
     }
     let charts = dir.join("charts");
-    std::fs::create_dir_all(&charts).map_err(|e| format!("cannot create {}: {e}", charts.display()))?;
+    std::fs::create_dir_all(&charts).map_err(|e| Error::io(&charts, "cannot create folder", e))?;
     for s in &manifest.scenes {
         let rs: Vec<RunResult> = results.iter().filter(|r| r.scene == s.name).cloned().collect();
         let svg = chart::class_chart_svg(&format!("{}: time vs {}", s.name, s.class.metric()), s.class, &rs);
@@ -96,7 +100,18 @@ pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Re
         .collect();
     let md = markdown::report_markdown(results, &scene_list, &|r| Some(thumb(r)), &path_chart);
     write(dir, "report.md", &md, &mut files)?;
-    write(dir, "summary.md", &markdown::summary_markdown(results), &mut files)?;
+    write(
+        dir,
+        "summary.md",
+        &markdown::summary_markdown(results, markdown::Rows::PerTechnique),
+        &mut files,
+    )?;
+    write(
+        dir,
+        "summary_all.md",
+        &markdown::summary_markdown(results, markdown::Rows::PerSetting),
+        &mut files,
+    )?;
     let images = |r: &RunResult| {
         let s = stem(&r.scene, &r.label());
         Some(["_visibility", "_reference", "_error"].map(|k| format!("images/{s}{k}.png")))
@@ -112,7 +127,7 @@ pub fn stem(scene: &str, label: &str) -> String {
 }
 
 /// Writes the images of `r` (and its path's CSV and chart) into `dir`; returns the files.
-pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, String> {
+pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, Error> {
     let stem = stem(&r.result.scene, &r.result.label());
     let f = &r.first;
     let (w, h) = (f.width, f.height);
@@ -137,7 +152,7 @@ pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, String> {
             ("_path.svg", chart::path_chart_svg(&title, &r.path)),
         ] {
             let file = dir.join(format!("{stem}{suffix}"));
-            std::fs::write(&file, body).map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+            std::fs::write(&file, body).map_err(|e| Error::io(&file, "cannot write", e))?;
             files.push(file);
         }
     }

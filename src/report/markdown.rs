@@ -25,16 +25,50 @@ pub fn md(text: &str) -> String {
     out
 }
 
-/// One row per technique and settings across all scenes: median time, and per scene class its
-/// own error averaged over the class's scenes (hard-light: wrong %, area-light: penumbra RMSE,
-/// transparent: transmittance RMSE; errors of different kinds are never averaged together),
-/// and the worst wrong % with its scene. The README's technique table.
-pub fn summary_markdown(results: &[RunResult]) -> String {
+/// Which rows a summary table has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rows {
+    /// One per technique: its default settings where the sweep ran them (a set whose every
+    /// setting is the option's default counts), else its first set (the README's table).
+    PerTechnique,
+    /// One per technique and settings (docs/techniques.md's table).
+    PerSetting,
+}
+
+/// One row per technique and settings across all scenes (or one per technique, [`Rows`]):
+/// median time, and per scene class its own error averaged over the class's scenes
+/// (hard-light: wrong %, area-light: penumbra RMSE, transparent: transmittance RMSE; errors
+/// of different kinds are never averaged together), and the worst wrong % with its scene.
+pub fn summary_markdown(results: &[RunResult], rows: Rows) -> String {
     let mut labels: Vec<String> = Vec::new();
     for r in results {
         if !labels.contains(&r.label()) {
             labels.push(r.label());
         }
+    }
+    if rows == Rows::PerTechnique {
+        let registry = crate::shadow::registry();
+        // A run of the technique's defaults: every setting it names has its default value.
+        let is_default = |r: &RunResult| {
+            let Some(info) = registry.iter().find(|t| t.name == r.technique) else {
+                return r.settings.is_empty();
+            };
+            r.settings.split(';').filter(|kv| !kv.is_empty()).all(|kv| {
+                kv.split_once('=')
+                    .is_some_and(|(k, v)| info.options.iter().any(|o| o.key == k && o.default == v))
+            })
+        };
+        let mut kept: Vec<(String, String, bool)> = Vec::new(); // technique, label, default
+        for l in &labels {
+            let r = results.iter().find(|r| &r.label() == l).expect("a run of every label");
+            let d = is_default(r);
+            match kept.iter_mut().find(|k| k.0 == r.technique) {
+                None => kept.push((r.technique.clone(), l.clone(), d)),
+                Some(k) if d && !k.2 => *k = (r.technique.clone(), l.clone(), d),
+                Some(_) => {}
+            }
+        }
+        labels = kept.into_iter().map(|k| k.1).collect();
     }
     let count = |c: SceneClass| {
         let mut names: Vec<&str> = results

@@ -16,7 +16,7 @@ pub use chart::{chart_points, class_chart_svg, pareto, path_chart_svg, ChartPoin
 pub use csv::{csv, path_csv, read_csv};
 pub use html::report_html;
 pub use images::{error_image, visibility_image};
-pub use markdown::{report_markdown, summary_markdown};
+pub use markdown::{report_markdown, summary_markdown, Rows};
 
 /// What the report says of a scene: its name, the failure it shows (the scene file's opening
 /// comment) and its class. The sweep writes it beside the CSV (`scenes.json`) so shards merge.

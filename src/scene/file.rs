@@ -30,6 +30,7 @@
 
 use super::mesh;
 use super::*;
+use crate::Error;
 use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -63,39 +64,42 @@ pub fn triangle_budget() -> u64 {
 
 /// Reads a regular file of at most `limit` bytes: devices, pipes and folders are refused by
 /// name before anything is read (a read from `/dev/zero` would never end).
-pub fn read_regular(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, String> {
+pub fn read_regular(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error> {
     use std::io::Read;
     let len = check_regular(path, what, limit)?;
-    let f = std::fs::File::open(path).map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, &format!("cannot read {what}"), e))?;
     let mut bytes = Vec::with_capacity(len as usize);
     f.take(limit + 1)
         .read_to_end(&mut bytes)
-        .map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+        .map_err(|e| Error::io(path, &format!("cannot read {what}"), e))?;
     if bytes.len() as u64 > limit {
-        return Err(format!("{}: {what} grew past {limit} bytes while read", path.display()));
+        return Err(Error::scene(path, format!("{what} grew past {limit} bytes while read")));
     }
     Ok(bytes)
 }
 
 /// Checks that `path` is a regular file of at most `limit` bytes (see [`read_regular`]);
 /// returns its length.
-pub fn check_regular(path: &Path, what: &str, limit: u64) -> Result<u64, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("{}: cannot read {what}: {e}", path.display()))?;
+pub fn check_regular(path: &Path, what: &str, limit: u64) -> Result<u64, Error> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, &format!("cannot read {what}"), e))?;
     let kind = meta.file_type();
     if kind.is_dir() {
-        return Err(format!("{}: cannot read {what}: it is a folder", path.display()));
+        return Err(Error::io(path, &format!("cannot read {what}"), "it is a folder"));
     }
     if !kind.is_file() {
-        return Err(format!(
-            "{}: cannot read {what}: not a regular file (a device, pipe or socket)",
-            path.display()
+        return Err(Error::io(
+            path,
+            &format!("cannot read {what}"),
+            "not a regular file (a device, pipe or socket)",
         ));
     }
     if meta.len() > limit {
-        return Err(format!(
-            "{}: {what} of {} bytes is larger than the {limit} bytes read at most",
-            path.display(),
-            meta.len()
+        return Err(Error::scene(
+            path,
+            format!(
+                "{what} of {} bytes is larger than the {limit} bytes read at most",
+                meta.len()
+            ),
         ));
     }
     Ok(meta.len())
@@ -260,16 +264,18 @@ impl Ctx<'_> {
         what: &str,
         field: &str,
         msg: impl std::fmt::Display,
-    ) -> Result<T, String> {
-        Err(format!(
-            "{}:{}: {what}, field `{field}`: {msg}",
-            self.path.display(),
-            self.line(span.start)
-        ))
+    ) -> Result<T, Error> {
+        Err(Error::Scene {
+            file: self.path.into(),
+            line: Some(self.line(span.start)),
+            section: Some(what.to_string()),
+            field: Some(field.to_string()),
+            message: msg.to_string(),
+        })
     }
 
     /// The `[camera]` section, or the glTF's first perspective camera without one.
-    fn camera(&self, raw: &RawScene, gltf: Option<&super::gltf::GltfScene>) -> Result<Camera, String> {
+    fn camera(&self, raw: &RawScene, gltf: Option<&super::gltf::GltfScene>) -> Result<Camera, Error> {
         let (cs, c) = match (&raw.camera, gltf) {
             (Some(c), _) => (c.span(), c.get_ref().clone()),
             (None, Some(g)) => match g.camera {
@@ -286,13 +292,13 @@ impl Ctx<'_> {
                     },
                 ),
                 None => {
-                    return Err(format!(
-                        "{}: the scene has no [camera] and its glTF file has no perspective camera",
-                        self.path.display()
+                    return Err(Error::scene(
+                        self.path,
+                        "the scene has no [camera] and its glTF file has no perspective camera",
                     ))
                 }
             },
-            (None, None) => return Err(format!("{}: the scene has no [camera]", self.path.display())),
+            (None, None) => return Err(Error::scene(self.path, "the scene has no [camera]")),
         };
         let cam = "[camera]";
         let (position, target, up) = match check_view(c.position, c.target, c.up) {
@@ -333,7 +339,7 @@ impl Ctx<'_> {
     }
 
     /// The `[[material]]`s after the built-in one.
-    fn materials(&self, raw: &RawScene) -> Result<Vec<Material>, String> {
+    fn materials(&self, raw: &RawScene) -> Result<Vec<Material>, Error> {
         let mut materials = vec![Material::default()];
         for (i, m) in raw.materials.iter().enumerate() {
             let (s, m) = (m.span(), m.get_ref());
@@ -377,12 +383,12 @@ impl Ctx<'_> {
         materials: &[Material],
         dir: &Path,
         (triangles, budget): (&mut u64, u64),
-    ) -> Result<Vec<Object>, String> {
+    ) -> Result<Vec<Object>, Error> {
         let mut objects: Vec<Object> = Vec::new();
         for (i, o) in raw.objects.iter().enumerate() {
             let (s, o) = (o.span(), o.get_ref());
             let what = format!("[[object]] #{} ({})", i + 1, o.mesh);
-            let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, String> {
+            let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, Error> {
                 let v = v.unwrap_or(default);
                 if v.is_finite() && v > 0.0 && v < 1e6 {
                     Ok(v)
@@ -390,7 +396,7 @@ impl Ctx<'_> {
                     self.err(s.clone(), &what, field, format!("{v} must be positive and below 1e6"))
                 }
             };
-            let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, String> {
+            let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, Error> {
                 let v = match &o.size {
                     None => default.to_vec(),
                     Some(NumOrVec::Num(x)) => vec![*x; n],
@@ -405,7 +411,7 @@ impl Ctx<'_> {
                     self.err(s.clone(), &what, "size", "every entry must be positive and below 1e6")
                 }
             };
-            let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, String> {
+            let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, Error> {
                 let v = v.unwrap_or(default);
                 if (1..=max).contains(&v) {
                     Ok(v)
@@ -580,7 +586,7 @@ impl Ctx<'_> {
         g: super::gltf::GltfScene,
         (materials, objects): (&mut Vec<Material>, &mut Vec<Object>),
         (triangles, budget): (&mut u64, u64),
-    ) -> Result<Vec<Light>, String> {
+    ) -> Result<Vec<Light>, Error> {
         {
             let base = materials.len();
             for mut m in g.materials {
@@ -626,7 +632,7 @@ impl Ctx<'_> {
 
     /// The `[[light]]`s (a light without a direction faces the centre of `objects`), or
     /// `gltf_lights` without any.
-    fn lights(&self, raw: &RawScene, objects: &[Object], gltf_lights: Vec<Light>) -> Result<Vec<Light>, String> {
+    fn lights(&self, raw: &RawScene, objects: &[Object], gltf_lights: Vec<Light>) -> Result<Vec<Light>, Error> {
         let center = objects
             .iter()
             .filter_map(|o| o.mesh.bounds())
@@ -677,7 +683,7 @@ impl Ctx<'_> {
                     return self.err(s, &what, "direction", "missing (a directional light needs direction = [x, y, z])")
                 }
             };
-            let radius = |default: f32| -> Result<f32, String> {
+            let radius = |default: f32| -> Result<f32, Error> {
                 let r = l.radius.unwrap_or(default);
                 if r.is_finite() && r > 0.0 {
                     Ok(r)
@@ -741,7 +747,7 @@ impl Ctx<'_> {
     }
 
     /// The `[[camera_path]]` keyframes, checked as `camera` is.
-    fn camera_path(&self, raw: &RawScene, camera: &Camera) -> Result<Vec<Keyframe>, String> {
+    fn camera_path(&self, raw: &RawScene, camera: &Camera) -> Result<Vec<Keyframe>, Error> {
         if raw.camera_path.len() > MAX_KEYFRAMES {
             let s = raw.camera_path[MAX_KEYFRAMES].span();
             return self.err(
@@ -832,13 +838,13 @@ fn check_view(
 }
 
 /// Loads a scene file. Relative OBJ paths resolve against the file's folder.
-pub fn load(path: &Path) -> Result<Scene, String> {
+pub fn load(path: &Path) -> Result<Scene, Error> {
     load_with_text(path).map(|(s, _)| s)
 }
 
 /// [`load`], also returning the scene's text (for a glTF file, the one-line scene that
 /// stands for it).
-pub fn load_with_text(path: &Path) -> Result<(Scene, String), String> {
+pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     if matches!(ext.as_deref(), Some("gltf" | "glb")) {
         // A glTF file alone is the scene `gltf = "<its name>"`.
@@ -855,7 +861,13 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), String> {
             .filter(|&&b| b == b'\n')
             .count()
             + 1;
-        format!("{}:{line}: not UTF-8 text (a scene file is TOML)", path.display())
+        Error::Scene {
+            file: path.into(),
+            line: Some(line),
+            section: None,
+            field: None,
+            message: "not UTF-8 text (a scene file is TOML)".into(),
+        }
     })?;
     parse(&text, path).map(|s| (s, text))
 }
@@ -866,13 +878,16 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), String> {
 /// the `[[object]]`s, its materials after the `[[material]]`s, its punctual lights when the
 /// scene has no `[[light]]`, and its first perspective camera when the scene has no
 /// `[camera]` ([`super::gltf`]).
-pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
+pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
     let ctx = Ctx { path, text };
     let raw: RawScene = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| ctx.line(s.start)).unwrap_or(0);
-        match e.span().and_then(|s| key_before(text, s.start)) {
-            Some(key) => format!("{}:{line}: field `{key}`: {}", path.display(), e.message().trim_end()),
-            None => format!("{}:{line}: {}", path.display(), e.message().trim_end()),
+        Error::Scene {
+            file: path.into(),
+            line: Some(line),
+            section: None,
+            field: e.span().and_then(|s| key_before(text, s.start)),
+            message: e.message().trim_end().to_string(),
         }
     })?;
     let description: String = text
@@ -900,10 +915,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, String> {
     };
     let lights = ctx.lights(&raw, &objects, gltf_lights)?;
     if lights.is_empty() {
-        return Err(format!("{}: the scene has no [[light]]", path.display()));
+        return Err(Error::scene(path, "the scene has no [[light]]"));
     }
     if objects.is_empty() {
-        return Err(format!("{}: the scene has no [[object]]", path.display()));
+        return Err(Error::scene(path, "the scene has no [[object]]"));
     }
     let camera_path = ctx.camera_path(&raw, &camera)?;
     let name = path
@@ -950,7 +965,7 @@ translate = [0, 0.5, 0]
 "#;
 
     fn err(text: &str) -> String {
-        parse(text, Path::new("s.toml")).unwrap_err()
+        parse(text, Path::new("s.toml")).unwrap_err().to_string()
     }
 
     #[test]
@@ -1073,7 +1088,7 @@ translate = [0, 0.5, 0]
             if want.is_empty() {
                 assert!(r.is_ok(), "{to}: {:?}", r.err());
             } else {
-                let e = r.unwrap_err();
+                let e = r.unwrap_err().to_string();
                 assert!(e.contains(want), "{to}:\n  got  {e}\n  want {want}");
             }
         }
@@ -1157,16 +1172,17 @@ translate = [0, 0.5, 0]
         std::fs::create_dir_all(&dir).unwrap();
         #[cfg(unix)]
         {
-            let e = load(Path::new("/dev/zero")).unwrap_err();
+            let e = load(Path::new("/dev/zero")).unwrap_err().to_string();
             assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
             let e = parse(
                 &OK.replace("mesh = \"box\"", "mesh = \"/dev/zero.obj\""),
                 Path::new("s.toml"),
             )
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
             assert!(e.contains("field `mesh`"), "{e}");
         }
-        let e = load(&dir).unwrap_err();
+        let e = load(&dir).unwrap_err().to_string();
         assert!(e.contains("it is a folder"), "{e}");
         // A named pipe would block a reader for ever: refused by its kind, without opening it.
         #[cfg(unix)]
@@ -1178,14 +1194,14 @@ translate = [0, 0.5, 0]
                 .status()
                 .is_ok_and(|s| s.success())
             {
-                let e = load(&fifo).unwrap_err();
+                let e = load(&fifo).unwrap_err().to_string();
                 assert!(e.contains("pipe.toml") && e.contains("not a regular file"), "{e}");
             }
         }
-        let e = load(&dir.join("missing.toml")).unwrap_err();
+        let e = load(&dir.join("missing.toml")).unwrap_err().to_string();
         assert!(e.contains("missing.toml") && e.contains("No such file"), "{e}");
         std::fs::write(dir.join("bin.toml"), b"# ok\n\xff\xfe\n").unwrap();
-        let e = load(&dir.join("bin.toml")).unwrap_err();
+        let e = load(&dir.join("bin.toml")).unwrap_err().to_string();
         assert!(e.contains("bin.toml:2: not UTF-8"), "{e}");
         // OBJ files: a folder, faces of fewer than three vertices, indices past the vertices
         // (with line numbers), polylines only, and a non-UTF-8 comment (fine).
@@ -1198,7 +1214,7 @@ translate = [0, 0.5, 0]
             std::fs::write(&scene, OK.replace("mesh = \"box\"", &format!("mesh = \"{name}\""))).unwrap();
             match load(&scene) {
                 Ok(s) => format!("ok {}", s.triangles()),
-                Err(e) => e,
+                Err(e) => e.to_string(),
             }
         };
         let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";

@@ -8,6 +8,7 @@
 //! files do), orthographic cameras.
 
 use super::{Camera, Light, LightKind, Material, Mesh};
+use crate::Error;
 use glam::{Mat4, Vec3};
 use std::path::Path;
 
@@ -92,10 +93,9 @@ impl GltfScene {
 }
 
 /// Loads a `.gltf` (with its buffers) or `.glb` file.
-pub fn load(path: &Path) -> Result<GltfScene, String> {
-    let shown = path.display();
+pub fn load(path: &Path) -> Result<GltfScene, Error> {
     super::file::check_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
-    let (doc, buffers, _) = gltf::import(path).map_err(|e| format!("{shown}: cannot load glTF: {e}"))?;
+    let (doc, buffers, _) = gltf::import(path).map_err(|e| Error::scene(path, format!("cannot load glTF: {e}")))?;
     let mut materials: Vec<Material> = doc
         .materials()
         .enumerate()
@@ -116,7 +116,10 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
         .collect();
     for m in &materials {
         if !m.albedo.is_finite() || !m.opacity.is_finite() {
-            return Err(format!("{shown}: material '{}': base colour is not finite", m.name));
+            return Err(Error::scene(
+                path,
+                format!("material '{}': base colour is not finite", m.name),
+            ));
         }
     }
     let default_material = materials.len();
@@ -127,7 +130,7 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
-        .ok_or_else(|| format!("{shown}: the file has no scene"))?;
+        .ok_or_else(|| Error::scene(path, "the file has no scene"))?;
     let mut out = GltfScene {
         materials,
         objects: Vec::new(),
@@ -140,7 +143,7 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
     while let Some((node, parent)) = stack.pop() {
         visited += 1;
         if visited > 1_000_000 {
-            return Err(format!("{shown}: more than a million nodes (a cycle?)"));
+            return Err(Error::scene(path, "more than a million nodes (a cycle?)"));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
@@ -149,7 +152,7 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
             None => format!("node {}", node.index()),
         };
         if !world.is_finite() {
-            return Err(format!("{shown}: {node_name}: its transform is not finite"));
+            return Err(Error::scene(path, format!("{node_name}: its transform is not finite")));
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
@@ -160,21 +163,24 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
                     prim.index()
                 );
                 if prim.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(format!(
-                        "{shown}: {what}: mode {:?} is not supported (only TRIANGLES)",
-                        prim.mode()
+                    return Err(Error::scene(
+                        path,
+                        format!("{what}: mode {:?} is not supported (only TRIANGLES)", prim.mode()),
                     ));
                 }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let positions: Vec<Vec3> = reader
                     .read_positions()
-                    .ok_or_else(|| format!("{shown}: {what}: no POSITION accessor"))?
+                    .ok_or_else(|| Error::scene(path, format!("{what}: no POSITION accessor")))?
                     .map(Vec3::from)
                     .collect();
                 if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
-                    return Err(format!(
-                        "{shown}: {what}: accessor {}: a position is not finite ({p})",
-                        prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.index())
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "{what}: accessor {}: a position is not finite ({p})",
+                            prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.index())
+                        ),
                     ));
                 }
                 let indices: Vec<u32> = match reader.read_indices() {
@@ -182,16 +188,19 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
                     None => (0..positions.len() as u32).collect(),
                 };
                 if !indices.len().is_multiple_of(3) {
-                    return Err(format!(
-                        "{shown}: {what}: {} indices are not whole triangles",
-                        indices.len()
+                    return Err(Error::scene(
+                        path,
+                        format!("{what}: {} indices are not whole triangles", indices.len()),
                     ));
                 }
                 if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-                    return Err(format!(
-                        "{shown}: {what}: accessor {}: index {bad} beyond the {} positions",
-                        prim.indices().map_or(0, |a| a.index()),
-                        positions.len()
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "{what}: accessor {}: index {bad} beyond the {} positions",
+                            prim.indices().map_or(0, |a| a.index()),
+                            positions.len()
+                        ),
                     ));
                 }
                 let normals: Vec<Vec3> = match reader.read_normals() {
@@ -199,10 +208,9 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
                     None => super::mesh::face_normals(&positions, &indices),
                 };
                 if normals.len() != positions.len() {
-                    return Err(format!(
-                        "{shown}: {what}: {} normals for {} positions",
-                        normals.len(),
-                        positions.len()
+                    return Err(Error::scene(
+                        path,
+                        format!("{what}: {} normals for {} positions", normals.len(), positions.len()),
                     ));
                 }
                 let mut m = Mesh {
@@ -235,15 +243,21 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
             if let (None, gltf::camera::Projection::Perspective(p)) = (&out.camera, cam.projection()) {
                 let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
                 if forward == Vec3::ZERO || up == Vec3::ZERO {
-                    return Err(format!("{shown}: {node_name}: the camera's transform is degenerate"));
+                    return Err(Error::scene(
+                        path,
+                        format!("{node_name}: the camera's transform is degenerate"),
+                    ));
                 }
                 let fov = p.yfov().to_degrees();
                 if !(fov > 0.0 && fov < 180.0 && p.znear() > 0.0 && p.znear().is_finite()) {
-                    return Err(format!(
-                        "{shown}: {node_name}: camera {}: yfov {} rad or znear {} is out of range",
-                        cam.index(),
-                        p.yfov(),
-                        p.znear()
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "{node_name}: camera {}: yfov {} rad or znear {} is out of range",
+                            cam.index(),
+                            p.yfov(),
+                            p.znear()
+                        ),
                     ));
                 }
                 out.camera = Some(GltfCamera {
@@ -265,16 +279,22 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
                 Kind::Spot { outer_cone_angle, .. } => {
                     let angle_deg = 2.0 * outer_cone_angle.to_degrees();
                     if !(angle_deg > 0.0 && angle_deg < 180.0) {
-                        return Err(format!(
-                            "{shown}: {node_name}: light {}: outerConeAngle {outer_cone_angle} is outside (0, pi/2)",
-                            l.index()
+                        return Err(Error::scene(
+                            path,
+                            format!(
+                                "{node_name}: light {}: outerConeAngle {outer_cone_angle} is outside (0, pi/2)",
+                                l.index()
+                            ),
                         ));
                     }
                     LightKind::Spot { angle_deg }
                 }
             };
             if forward == Vec3::ZERO {
-                return Err(format!("{shown}: {node_name}: the light's transform is degenerate"));
+                return Err(Error::scene(
+                    path,
+                    format!("{node_name}: the light's transform is degenerate"),
+                ));
             }
             out.lights.push(Light {
                 kind,
@@ -288,7 +308,7 @@ pub fn load(path: &Path) -> Result<GltfScene, String> {
         }
     }
     if out.objects.iter().all(|o| o.mesh.indices.is_empty()) {
-        return Err(format!("{shown}: no triangles in the scene"));
+        return Err(Error::scene(path, "no triangles in the scene"));
     }
     Ok(out)
 }

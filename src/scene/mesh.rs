@@ -3,8 +3,11 @@
 //! and pleated sheet around y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
 
 use super::Mesh;
+#[cfg(feature = "files")]
+use crate::Error;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
+#[cfg(feature = "files")]
 use std::path::Path;
 
 /// A plane in y = 0 of `size` (x, z), facing +y, split into `n` x `n` quads.
@@ -207,17 +210,25 @@ pub fn pleated(size: Vec2, n: u32, amplitude: f32, pleats: u32) -> Mesh {
 }
 
 /// Largest OBJ file read (bytes).
+#[cfg(feature = "files")]
 pub const MAX_OBJ_BYTES: u64 = 1 << 30;
 
 /// Checks an OBJ's element lines before parsing, so that errors carry line numbers: every
 /// face (`f`) has three or more vertices whose position indices are integers naming a vertex
 /// defined so far (1-based, or negative: relative). Points and polylines (`p`, `l`) have no
 /// area: they are dropped (and counted). Returns the text to parse and the dropped count.
-fn check_obj(text: &str, path: &Path) -> Result<(String, usize), String> {
+#[cfg(feature = "files")]
+fn check_obj(text: &str, path: &Path) -> Result<(String, usize), Error> {
     let mut out = String::with_capacity(text.len());
     let (mut vertices, mut dropped) = (0i64, 0usize);
     for (i, line) in text.lines().enumerate() {
-        let at = |msg: String| format!("{}:{}: {msg}", path.display(), i + 1);
+        let at = |msg: String| Error::Scene {
+            file: path.into(),
+            line: Some(i + 1),
+            section: None,
+            field: None,
+            message: msg,
+        };
         let mut words = line.split_whitespace();
         match words.next() {
             Some(kw @ ("v" | "vn")) => {
@@ -270,7 +281,8 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), String> {
 /// faces (area-weighted). The file must be a regular file of at most [`MAX_OBJ_BYTES`]; bytes
 /// that are not UTF-8 (in comments, say) are replaced; faces are checked line by line
 /// (with line numbers). Errors name the path, and the line where there is one.
-pub fn load_obj(path: &Path) -> Result<Mesh, String> {
+#[cfg(feature = "files")]
+pub fn load_obj(path: &Path) -> Result<Mesh, Error> {
     let bytes = super::file::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
     let text = String::from_utf8_lossy(&bytes);
     let (text, _dropped) = check_obj(&text, path)?;
@@ -283,7 +295,7 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |_| {
         Ok((Vec::new(), Default::default()))
     })
-    .map_err(|e| format!("{}: cannot parse OBJ: {e}", path.display()))?;
+    .map_err(|e| Error::scene(path, format!("cannot parse OBJ: {e}")))?;
     let mut out = Mesh::default();
     for model in models {
         let mm = &model.mesh;
@@ -293,18 +305,19 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
             .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect();
         if positions.iter().any(|p| !p.is_finite()) {
-            return Err(format!(
-                "{}: model '{}' has a non-finite vertex position",
-                path.display(),
-                model.name
+            return Err(Error::scene(
+                path,
+                format!("model '{}' has a non-finite vertex position", model.name),
             ));
         }
         if let Some(&bad) = mm.indices.iter().find(|&&i| i as usize >= positions.len()) {
-            return Err(format!(
-                "{}: model '{}' has face index {bad} beyond its {} vertices",
-                path.display(),
-                model.name,
-                positions.len()
+            return Err(Error::scene(
+                path,
+                format!(
+                    "model '{}' has face index {bad} beyond its {} vertices",
+                    model.name,
+                    positions.len()
+                ),
             ));
         }
         let normals = if mm.normals.len() == mm.positions.len() {
@@ -322,7 +335,7 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
         });
     }
     if out.indices.is_empty() {
-        return Err(format!("{}: no triangles in the file (no `f` lines)", path.display()));
+        return Err(Error::scene(path, "no triangles in the file (no `f` lines)"));
     }
     Ok(out)
 }

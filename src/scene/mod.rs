@@ -3,7 +3,9 @@
 //!
 //! Scenes are written as TOML files ([`mod@file`]) naming procedural or OBJ meshes ([`mesh`]).
 
+#[cfg(feature = "files")]
 pub mod file;
+#[cfg(feature = "files")]
 pub mod gltf;
 pub mod mesh;
 pub mod spheres;

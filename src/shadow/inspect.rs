@@ -3,11 +3,11 @@
 //! text printed from inside the technique); the CLI prints them or emits them as JSON.
 
 use glam::{Vec2, Vec3};
-use serde::Serialize;
 
 /// A value shown at one step.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-#[serde(untagged)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "cli", derive(serde::Serialize))]
+#[cfg_attr(feature = "cli", serde(untagged))]
 pub enum Value {
     /// A number.
     Num(f64),
@@ -37,7 +37,8 @@ impl std::fmt::Display for Value {
 }
 
 /// One step of a technique at one pixel: a name, a sentence of what happened, values.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "cli", derive(serde::Serialize))]
 pub struct Step {
     /// Short name ("light-space position", "texel", "comparison").
     pub name: String,

@@ -35,6 +35,7 @@ pub mod timing;
 pub mod volume;
 pub mod volumetric;
 
+use crate::Error;
 pub use inspect::{Step, Value};
 pub use options::{Declaration, Field, OptionInfo};
 
@@ -73,10 +74,10 @@ impl Stage {
     }
 
     /// Per-pixel values of `frame` (row-major) as a scalar stage shown from `lo` to `hi`.
-    pub fn pixels(frame: &Frame, name: &str, data: Vec<f32>, lo: f32, hi: f32) -> Result<Stage, String> {
+    pub fn pixels(frame: &Frame, name: &str, data: Vec<f32>, lo: f32, hi: f32) -> Result<Stage, Error> {
         Ok(Stage::Scalar {
             name: name.into(),
-            data: Surface::from_vec(frame.width(), frame.height(), data).map_err(|e| e.to_string())?,
+            data: Surface::from_vec(frame.width(), frame.height(), data)?,
             lo,
             hi,
         })
@@ -88,11 +89,11 @@ pub trait ShadowTechnique: Send {
     /// Registry name.
     fn name(&self) -> &'static str;
     /// Light visibility for every camera pixel of `frame`, row-major (NaN: no geometry).
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String>;
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error>;
     /// Intermediate buffers of the last call, which was on `frame`; `p` draws the buffers
     /// that are only worth making when somebody looks (overviews, overdraw), so that they do
     /// not count in the technique's time.
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String>;
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error>;
     /// What the last call (on `frame`) did at pixel (`x`, `y`), step by step: the light-space
     /// position, texels read and their values, each bias term and comparison, filter taps,
     /// the result. The caller adds the pixel's surface point and the reference's value.
@@ -203,7 +204,7 @@ pub struct TechniqueInfo {
 }
 
 /// A technique's constructor from `key=value` settings.
-pub type Constructor = fn(&[(String, String)]) -> Result<Box<dyn ShadowTechnique>, String>;
+pub type Constructor = fn(&[(String, String)]) -> Result<Box<dyn ShadowTechnique>, Error>;
 
 /// All techniques, in chart order.
 pub fn registry() -> Vec<TechniqueInfo> {
@@ -229,33 +230,70 @@ pub fn registry() -> Vec<TechniqueInfo> {
 
 /// Creates technique `name` with `key=value` settings; errors name unknown techniques and
 /// options and list the valid ones.
-pub fn create(name: &str, pairs: &[(String, String)]) -> Result<Box<dyn ShadowTechnique>, String> {
+pub fn create(name: &str, pairs: &[(String, String)]) -> Result<Box<dyn ShadowTechnique>, Error> {
     let reg = registry();
     let Some(info) = reg.iter().find(|t| t.name == name) else {
         let names: Vec<&str> = reg.iter().map(|t| t.name).collect();
-        return Err(format!("unknown technique '{name}' (known: {})", names.join(", ")));
+        return Err(Error::technique(format!(
+            "unknown technique '{name}' (known: {})",
+            names.join(", ")
+        )));
     };
-    (info.create)(pairs)
+    let inner = (info.create)(pairs).map_err(|e| e.in_technique(info.name))?;
+    Ok(Box::new(Named(inner)))
+}
+
+/// A technique from the registry: its errors name it, whichever shared pass raised them.
+struct Named(Box<dyn ShadowTechnique>);
+
+impl ShadowTechnique for Named {
+    fn name(&self) -> &'static str {
+        self.0.name()
+    }
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
+        let name = self.0.name();
+        self.0.visibility(p, frame).map_err(|e| e.in_technique(name))
+    }
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
+        self.0.stages(p, frame).map_err(|e| e.in_technique(self.0.name()))
+    }
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        self.0.inspect(frame, x, y)
+    }
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        self.0.timings()
+    }
+    fn notes(&self) -> Vec<String> {
+        self.0.notes()
+    }
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        self.0.counters()
+    }
 }
 
 /// Parses `key=value` strings.
-pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>, String> {
+pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>, Error> {
     sets.iter()
         .map(|s| match s.split_once('=') {
             Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
-            _ => Err(format!("--set '{s}' is not key=value")),
+            _ => Err(Error::input(format!("option setting '{s}' is not key=value"))),
         })
         .collect()
 }
 
 /// The index of the object called `name` in `frame`'s scene; the error names the technique,
 /// the option and the objects there are.
-pub fn object_named(frame: &Frame, technique: &str, option: &str, name: &str) -> Result<usize, String> {
+pub fn object_named(frame: &Frame, technique: &str, option: &str, name: &str) -> Result<usize, Error> {
     let objs = &frame.scene.objects;
     objs.iter().position(|o| o.name == name).ok_or_else(|| {
-        format!(
-            "technique '{technique}': option {option}: the scene has no object '{name}' (objects: {})",
-            objs.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
+        Error::option(
+            option,
+            name,
+            format!(
+                "names no object of the scene (objects: {})",
+                objs.iter().map(|o| o.name.as_str()).collect::<Vec<_>>().join(", ")
+            ),
         )
+        .in_technique(technique)
     })
 }

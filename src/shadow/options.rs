@@ -10,6 +10,7 @@
 //! stays ordinary Rust (readable, formatted, checked by the compiler field by field), a field
 //! type is added by one `impl`, and choice enums get their names from [`crate::choice_enum!`].
 
+use crate::Error;
 use std::fmt::Display;
 
 /// A type an option can have: parsed from and shown as text.
@@ -229,33 +230,40 @@ pub struct Declaration<O> {
 impl<O: Clone + Default + 'static> Declaration<O> {
     /// `Options::default()` with `pairs` applied in order; errors name the technique, the
     /// option and what is wrong, and list the valid keys for an unknown one.
-    pub fn parse(&self, pairs: &[(String, String)]) -> Result<O, String> {
+    pub fn parse(&self, pairs: &[(String, String)]) -> Result<O, Error> {
         let mut o = O::default();
         for (k, v) in pairs {
             let Some(f) = self.fields.iter().find(|f| f.key == k) else {
                 let keys: Vec<&str> = self.fields.iter().map(|f| f.key).collect();
-                return Err(format!(
-                    "technique '{}' has no option '{k}' (options: {})",
-                    self.technique,
-                    if keys.is_empty() {
-                        "none".into()
-                    } else {
-                        keys.join(", ")
-                    }
+                return Err(self.error(
+                    k,
+                    v,
+                    format!(
+                        "is unknown (options: {})",
+                        if keys.is_empty() {
+                            "none".into()
+                        } else {
+                            keys.join(", ")
+                        }
+                    ),
                 ));
             };
-            (f.set)(&mut o, v).map_err(|e| format!("technique '{}': option {k}={v} {e}", self.technique))?;
+            (f.set)(&mut o, v).map_err(|e| self.error(k, v, e))?;
         }
         Ok(o)
     }
 
     /// Checks every ranged field of `o` (the library constructors call this).
-    pub fn check(&self, o: &O) -> Result<(), String> {
+    pub fn check(&self, o: &O) -> Result<(), Error> {
         for f in &self.fields {
-            (f.check)(o)
-                .map_err(|e| format!("technique '{}': option {}={} {e}", self.technique, f.key, (f.show)(o)))?;
+            (f.check)(o).map_err(|e| self.error(f.key, &(f.show)(o), e))?;
         }
         Ok(())
+    }
+
+    /// An error of option `key` (given as `value`) of this technique.
+    pub fn error(&self, key: &str, value: &str, message: impl Into<String>) -> Error {
+        Error::option(key, value, message).in_technique(self.technique)
     }
 
     /// The settings of `o` that differ from the defaults, as `key=value` pairs.
@@ -356,7 +364,7 @@ mod tests {
             .unwrap();
         assert_eq!((o.n, o.x, o.on, o.name.as_str()), (3, -0.5, true, "a b"));
         assert_eq!(d.settings(&o).len(), 4);
-        let err = |p: &[(&str, &str)]| d.parse(&pairs(p)).unwrap_err();
+        let err = |p: &[(&str, &str)]| d.parse(&pairs(p)).unwrap_err().to_string();
         assert_eq!(err(&[("n", "9")]), "technique 't': option n=9 is outside [1, 8]");
         assert_eq!(
             err(&[("x", "NaN")]),
@@ -377,12 +385,12 @@ mod tests {
         assert!(err(&[("on", "yes")]).contains("is not one of true, false"));
         assert_eq!(
             err(&[("m", "1")]),
-            "technique 't' has no option 'm' (options: n, x, on, name)"
+            "technique 't': option m=1 is unknown (options: n, x, on, name)"
         );
         // The library path: a struct built in code is checked with the same message.
         let bad = O { n: 0, ..O::default() };
         assert_eq!(
-            d.check(&bad).unwrap_err(),
+            d.check(&bad).unwrap_err().to_string(),
             "technique 't': option n=0 is outside [1, 8]"
         );
         let infos = d.infos();

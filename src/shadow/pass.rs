@@ -9,16 +9,17 @@ use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::shadow::timing::Passes;
 use crate::shadow::{ShadowTechnique, Stage, Step, Visibility};
+use crate::Error;
 
 /// A shared pass that a technique can be: what [`ShadowTechnique`] asks, less the name and
 /// the timing.
 pub trait Pass: Send {
     /// Visibility per pixel of `frame` (NaN where no geometry), each pass timed into `passes`.
-    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String>;
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error>;
     /// What the last run did at pixel `(x, y)`, ending with the image's value there.
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step>;
     /// The last run's buffers for `dump`.
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String>;
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error>;
     /// Work counters of the last run. Default: none.
     fn counters(&self) -> Vec<(&'static str, f64)> {
         Vec::new()
@@ -58,7 +59,7 @@ impl<P: Pass> ShadowTechnique for PassTechnique<P> {
         self.name
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         let out = self.pass.run(p, frame, &mut passes)?;
         self.times = passes.finish();
@@ -69,7 +70,7 @@ impl<P: Pass> ShadowTechnique for PassTechnique<P> {
         self.pass.inspect(frame, x, y)
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.pass.stages(p, frame)
     }
 

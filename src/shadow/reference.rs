@@ -6,6 +6,7 @@ use crate::pipeline::{Pipeline, Surface};
 use crate::reference::{Reference, ReferenceOptions};
 use crate::shadow::inspect::{self, Step};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 
 /// Options of the reference technique.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,7 +68,7 @@ pub struct RefTechnique {
 
 impl RefTechnique {
     /// The reference with `opts`.
-    pub fn new(opts: Options) -> Result<RefTechnique, String> {
+    pub fn new(opts: Options) -> Result<RefTechnique, Error> {
         declaration().check(&opts)?;
         Ok(RefTechnique {
             opts: ReferenceOptions {
@@ -85,7 +86,7 @@ impl ShadowTechnique for RefTechnique {
         "reference"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let r = p.install(|| Reference::new(frame.scene));
         let pts = frame.points();
         let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &self.opts));
@@ -108,7 +109,7 @@ impl ShadowTechnique for RefTechnique {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.last
             .iter()
             .map(|v| {
@@ -119,7 +120,7 @@ impl ShadowTechnique for RefTechnique {
                         lo: 0.0,
                         hi: 1.0,
                     })
-                    .map_err(|e| e.to_string())
+                    .map_err(Error::from)
             })
             .collect()
     }

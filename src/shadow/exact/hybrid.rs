@@ -23,6 +23,7 @@ use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_map;
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 
 /// Options of the hybrid.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,12 +113,13 @@ pub struct Hybrid {
 
 impl Hybrid {
     /// The hybrid with `opts`; an option out of its range, or `to` below `from`, is an error.
-    pub fn new(opts: Options) -> Result<Hybrid, String> {
+    pub fn new(opts: Options) -> Result<Hybrid, Error> {
         declaration().check(&opts)?;
         if opts.to < opts.from {
-            return Err(format!(
-                "technique 'hybrid': option to={} is below from={} (the blend band runs from from to to)",
-                opts.to, opts.from
+            return Err(declaration().error(
+                "to",
+                &opts.to.to_string(),
+                format!("is below from={} (the blend band runs from from to to)", opts.from),
             ));
         }
         let mut pcss = SoftShadows::new(opts.pcss.clone());
@@ -195,7 +197,7 @@ impl ShadowTechnique for Hybrid {
         "hybrid"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         // Each part's own passes are timed as one.
         let soft = self.pcss.run(p, frame, &mut Passes::start())?;
@@ -267,10 +269,10 @@ impl ShadowTechnique for Hybrid {
         c
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = vec![Stage::Scalar {
             name: "pcss_weight".into(),
-            data: Surface::from_vec(frame.width(), frame.height(), self.weight.clone()).map_err(|e| e.to_string())?,
+            data: Surface::from_vec(frame.width(), frame.height(), self.weight.clone())?,
             lo: 0.0,
             hi: 1.0,
         }];

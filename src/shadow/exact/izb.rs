@@ -10,6 +10,7 @@ pub use super::irregular::{
 use crate::pipeline::MAX_DIMENSION;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::Error;
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -67,7 +68,7 @@ pub type Izb = PassTechnique<IrregularZBuffer>;
 
 impl Izb {
     /// An irregular z-buffer with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Izb, String> {
+    pub fn new(opts: Options) -> Result<Izb, Error> {
         declaration().check(&opts)?;
         Ok(PassTechnique::with("izb", IrregularZBuffer::new(opts)))
     }

@@ -5,6 +5,7 @@
 use super::LightView;
 use crate::frame::Frame;
 use crate::pipeline::*;
+use crate::Error;
 use glam::{Vec3, Vec4};
 
 /// The casters' triangles as one mesh, in scene order.
@@ -24,7 +25,7 @@ pub struct Casters {
 /// The kept objects' triangles as one mesh, in scene order (one draw instead of one per
 /// object). An object whose indices reach past its own vertices is an error, as its own draw
 /// would be.
-pub fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<Casters, String> {
+pub fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<Casters, Error> {
     let kept = || {
         frame
             .scene
@@ -45,11 +46,13 @@ pub fn merged_casters(frame: &Frame, keep: &[bool]) -> Result<Casters, String> {
     for (oi, o) in kept() {
         let m = &o.mesh;
         if let Some(bad) = m.indices.iter().find(|&&i| i as usize >= m.positions.len()) {
-            return Err(format!(
-                "object '{}': index {bad} beyond its {} vertices",
-                o.name,
-                m.positions.len()
-            ));
+            return Err(Error::Scene {
+                file: frame.scene.name.clone().into(),
+                line: None,
+                section: Some(format!("object '{}'", o.name)),
+                field: Some("indices".into()),
+                message: format!("index {bad} beyond its {} vertices", m.positions.len()),
+            });
         }
         let base = c.positions.len() as u32;
         c.positions.extend_from_slice(&m.positions);
@@ -83,10 +86,10 @@ impl DepthPass {
         cull: CullMode,
         peel: Option<&Surface<f32>>,
         reuse: Option<Surface<f32>>,
-    ) -> Result<Surface<f32>, String> {
+    ) -> Result<Surface<f32>, Error> {
         let mut map = match reuse {
             Some(m) if m.width() == self.size && m.height() == self.size => m,
-            _ => Surface::new(self.size, self.size, 1.0f32).map_err(|e| e.to_string())?,
+            _ => Surface::new(self.size, self.size, 1.0f32)?,
         };
         let cull = match (cull, view.mirrored()) {
             (CullMode::Back, true) => CullMode::Front,
@@ -121,7 +124,7 @@ impl DepthPass {
                 p.draw(targets, &state, &casters.positions, &casters.indices, &vs, &fs)
             }
         };
-        r.map_err(|e| e.to_string())?;
+        r?;
         Ok(map)
     }
 }
@@ -135,8 +138,8 @@ pub fn scene_depth(
     w: u32,
     h: u32,
     keep: impl Fn(usize) -> bool,
-) -> Result<Surface<f32>, String> {
-    let mut d = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+) -> Result<Surface<f32>, Error> {
+    let mut d = Surface::new(w, h, 1.0f32)?;
     for (_, o) in frame.scene.objects.iter().enumerate().filter(|(i, _)| keep(*i)) {
         p.draw(
             &mut Targets::depth_only(&mut d),
@@ -145,8 +148,7 @@ pub fn scene_depth(
             &o.mesh.indices,
             &TransformPositions(matrix),
             &DepthOnly,
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
     }
     Ok(d)
 }

@@ -17,6 +17,7 @@ use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::Light;
 use crate::shadow::Stage;
+use crate::Error;
 use glam::{BVec4A, Vec2, Vec3, Vec4};
 
 choice_enum! {
@@ -226,7 +227,7 @@ impl LightMaps {
     /// The map pass: the maps of `frame`'s light with options `o`, storing `layer`. The maps
     /// of the last call are reused where their size allows; the memory the pass adds is
     /// checked against the budget before anything is drawn.
-    pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), String> {
+    pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), Error> {
         let fit = fit(frame, o.size, o.fit == FitTo::Receivers, o.snap);
         self.culled = fit.culled;
         self.fitted = fit.fitted;
@@ -243,11 +244,11 @@ impl LightMaps {
         let new_maps = (fit.views.len() as u64 * layers).saturating_sub(reused);
         if new_maps > 0 {
             check_room(o.size, o.size, 4, new_maps).map_err(|e| {
-                format!(
-                    "the light's maps ({} views, option size={}): {e}",
+                Error::from(e).within(&format!(
+                    "the light's maps ({} views, option size={})",
                     fit.views.len(),
                     o.size
-                )
+                ))
             })?;
         }
         let casters = merged_casters(frame, &fit.casters)?;
@@ -268,13 +269,13 @@ impl LightMaps {
                     let d1 = pass.render(p, &casters, &view, CullMode::None, None, reuse)?;
                     let d2 = pass.render(p, &casters, &view, CullMode::None, Some(&d1), None)?;
                     let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
-                    Surface::from_vec(o.size, o.size, mid).map_err(|e| e.to_string())?
+                    Surface::from_vec(o.size, o.size, mid)?
                 }
                 Layer::Id => {
                     // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
                     // `dump` shows.
-                    let mut ids = Surface::new(o.size, o.size, 0.0f32).map_err(|e| e.to_string())?;
-                    let mut depth = Surface::new(o.size, o.size, 1.0f32).map_err(|e| e.to_string())?;
+                    let mut ids = Surface::new(o.size, o.size, 0.0f32)?;
+                    let mut depth = Surface::new(o.size, o.size, 1.0f32)?;
                     for (oi, ob) in frame.scene.objects.iter().enumerate().filter(|(i, _)| fit.casters[*i]) {
                         let id = oi as f32 + 1.0;
                         let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
@@ -285,8 +286,7 @@ impl LightMaps {
                             &ob.mesh.indices,
                             &TransformPositions(view.matrix),
                             &fs,
-                        )
-                        .map_err(|e| e.to_string())?;
+                        )?;
                     }
                     self.ids.push(ids);
                     depth
@@ -353,7 +353,7 @@ impl LightMaps {
 
     /// The pass's buffers for `dump`: each depth map, the fitted frustum over the whole
     /// scene's map (RTR fig. 7.11) and the id maps.
-    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v: Vec<Stage> = self
             .maps
             .iter()

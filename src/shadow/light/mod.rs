@@ -24,6 +24,7 @@ pub mod soft;
 use crate::frame::Frame;
 use crate::pipeline::{CubeFace, Pipeline, Rgba8, Surface};
 use crate::scene::{Light, LightKind};
+use crate::Error;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 pub use depth::{merged_casters, scene_depth, Casters, DepthPass};
@@ -304,7 +305,7 @@ pub fn homogeneous_position(light: &Light) -> Vec4 {
 
 /// The whole scene seen from the light (256 x 256, grey depth) with a fitted frustum's
 /// footprint drawn over it in red: RTR fig. 7.11, for `dump`.
-pub fn fitted_overview(p: &Pipeline, frame: &Frame, fitted: &LightView) -> Result<Surface<Rgba8>, String> {
+pub fn fitted_overview(p: &Pipeline, frame: &Frame, fitted: &LightView) -> Result<Surface<Rgba8>, Error> {
     const N: u32 = 256;
     let all = light_views(frame, N)[0];
     let d = scene_depth(p, frame, all.matrix, N, N, |_| true)?;

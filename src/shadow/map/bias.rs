@@ -186,7 +186,7 @@ pub fn receiver_plane4(
     out
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
     use crate::pipeline::Pipeline;

@@ -33,6 +33,7 @@ use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec4};
 
 /// Taps per axis of the blocker search (8x8 texels in 16 gathers).
@@ -118,7 +119,7 @@ pub struct Chs {
 
 impl Chs {
     /// CHS with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Chs, String> {
+    pub fn new(opts: Options) -> Result<Chs, Error> {
         declaration().check(&opts)?;
         let lookup = MapLookup::new(Setup {
             map: opts.map.clone(),
@@ -391,7 +392,7 @@ impl ShadowTechnique for Chs {
         "chs"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.width = light_width(frame, self.opts.light, self.opts.angle);
@@ -430,7 +431,7 @@ impl ShadowTechnique for Chs {
         vec![("map texels", self.lookup.texels() as f64), ("taps", self.taps as f64)]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         if self.lookup.maps().is_empty() || self.width <= 0.0 {
             return Ok(v);
@@ -466,7 +467,7 @@ impl ShadowTechnique for Chs {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
     use crate::hash::SplitMix;

@@ -27,6 +27,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::Stage;
+use crate::Error;
 use glam::{Vec2, Vec4};
 
 /// The lookup's depth-bias terms applied per pixel (the polygon offset is the map pass's).
@@ -149,7 +150,7 @@ impl MapLookup {
     }
 
     /// The map pass of `frame` ([`LightMaps::render`]), and the chains the setup asks for.
-    pub fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), String> {
+    pub fn light_pass(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         self.maps.render(p, frame, &self.setup.map, self.setup.layer)?;
         self.minmax.clear();
         self.planes.clear();
@@ -180,7 +181,7 @@ impl MapLookup {
     }
 
     /// The last pass's buffers for `dump` ([`LightMaps::stages`]).
-    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.maps.stages(p, frame)
     }
 
@@ -655,7 +656,7 @@ fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool) -> Step {
 
 /// Shared by the family's tests: a small scene under every light kind, and the check that
 /// a technique's four-pixel lookups equal its one-pixel ones.
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 pub(crate) mod testing {
     use crate::frame::Frame;
     use crate::pipeline::Pipeline;

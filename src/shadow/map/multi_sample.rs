@@ -29,6 +29,7 @@ use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::stencil::{Mode, StencilVolumes};
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec3};
 
 choice_enum! {
@@ -159,7 +160,7 @@ pub struct MultiSample {
 
 impl MultiSample {
     /// The technique with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<MultiSample, String> {
+    pub fn new(opts: Options) -> Result<MultiSample, Error> {
         declaration().check(&opts)?;
         Ok(MultiSample {
             lookup: MapLookup::new(Self::setup(&opts)),
@@ -198,7 +199,7 @@ impl MultiSample {
 
     /// One sample's hard visibility per pixel of `frame` (whose light is the sample's), with
     /// the taps; the passes' times added to `passes`.
-    fn sample(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<(Vec<f32>, u64), String> {
+    fn sample(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<(Vec<f32>, u64), Error> {
         passes.skip();
         match self.opts.method {
             Method::Maps => {
@@ -236,7 +237,7 @@ impl ShadowTechnique for MultiSample {
         "multi-sample"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         self.points = sample_points(&frame.light, self.opts.samples);
         let mut sampled = frame.with_light(frame.light);
         let mut sum = vec![0.0f32; frame.points().len()];
@@ -320,10 +321,10 @@ impl ShadowTechnique for MultiSample {
         c
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         // The sample points on the light (unit square of the light's tangents, 256 x 256).
         const N: u32 = 256;
-        let mut img = Surface::new(N, N, [24u8, 24, 32, 255] as Rgba8).map_err(|e| e.to_string())?;
+        let mut img = Surface::new(N, N, [24u8, 24, 32, 255] as Rgba8)?;
         let (t1, t2) = frame.light.tangents();
         let extent = match frame.light.kind {
             LightKind::Area(s) => s.width().max(1e-6),

@@ -12,6 +12,7 @@ use super::soft::SoftShadows;
 pub use super::soft::{Disk, Options};
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::Error;
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -68,13 +69,13 @@ pub type Pcss = PassTechnique<SoftShadows>;
 
 impl Pcss {
     /// PCSS with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Pcss, String> {
+    pub fn new(opts: Options) -> Result<Pcss, Error> {
         declaration().check(&opts)?;
         Ok(PassTechnique::with("pcss", SoftShadows::new(opts)))
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
     use crate::shadow::inspect::NoTrace;

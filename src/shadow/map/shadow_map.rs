@@ -34,6 +34,7 @@ use crate::shadow::light::{LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 
 choice_enum! {
     /// How the map is sampled.
@@ -214,12 +215,13 @@ pub struct ShadowMap {
 
 impl ShadowMap {
     /// A shadow map with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<ShadowMap, String> {
+    pub fn new(opts: Options) -> Result<ShadowMap, Error> {
         declaration().check(&opts)?;
         if opts.filter.pattern().is_some() && opts.kernel > opts.map.size as f32 {
-            return Err(format!(
-                "technique 'shadow-map': option kernel={} is wider than the map (size={})",
-                opts.kernel, opts.map.size
+            return Err(declaration().error(
+                "kernel",
+                &opts.kernel.to_string(),
+                format!("is wider than the map (size={})", opts.map.size),
             ));
         }
         let lookup = MapLookup::new(Setup {
@@ -393,7 +395,7 @@ impl ShadowTechnique for ShadowMap {
         "shadow-map"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         passes.end("light pass");
@@ -436,12 +438,12 @@ impl ShadowTechnique for ShadowMap {
         ]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.lookup.stages(p, frame)
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
 
@@ -507,6 +509,9 @@ mod tests {
         })
         .err()
         .unwrap();
-        assert_eq!(e, "technique 'shadow-map': option size=0 is outside [16, 16384]");
+        assert_eq!(
+            e.to_string(),
+            "technique 'shadow-map': option size=0 is outside [16, 16384]"
+        );
     }
 }

@@ -58,6 +58,7 @@ use crate::shadow::pass::Pass;
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::Stage;
+use crate::Error;
 use glam::{BVec4A, Vec2, Vec4};
 
 choice_enum! {
@@ -527,7 +528,7 @@ thread_local! {
 }
 
 impl Pass for SoftShadows {
-    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         self.lookup.light_pass(p, frame)?;
         self.width = light_width(frame, self.opts.light, self.opts.angle);
         self.nearest = self.lookup.light_maps().nearest_casters(p);
@@ -576,7 +577,7 @@ impl Pass for SoftShadows {
         ]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         if self.lookup.maps().is_empty() || self.width <= 0.0 {
             return Ok(v);

@@ -24,6 +24,7 @@ use crate::shadow::light::soft::light_width;
 use crate::shadow::light::{homogeneous_position, LightView};
 use crate::shadow::volume::silhouette;
 use crate::shadow::Field;
+use crate::Error;
 use glam::{Vec3, Vec4};
 use std::collections::HashMap;
 
@@ -156,9 +157,9 @@ pub struct VolumeMap {
 /// test `Less` with the pipeline's depth clamp so that the far ends at infinity are not
 /// clipped): the depth target is the volume depth map, the colour target (one `f32` per
 /// texel) holds the nearest quad's value, which the program reads by primitive id.
-pub fn render(p: &Pipeline, quads: &Quads, view: &LightView, size: u32) -> Result<VolumeMap, String> {
-    let mut depth = Surface::new(size, size, 1.0f32).map_err(|e| e.to_string())?;
-    let mut texel = Surface::new(size, size, -1.0f32).map_err(|e| e.to_string())?;
+pub fn render(p: &Pipeline, quads: &Quads, view: &LightView, size: u32) -> Result<VolumeMap, Error> {
+    let mut depth = Surface::new(size, size, 1.0f32)?;
+    let mut texel = Surface::new(size, size, -1.0f32)?;
     if quads.is_empty() {
         return Ok(VolumeMap {
             depth,
@@ -175,16 +176,14 @@ pub fn render(p: &Pipeline, quads: &Quads, view: &LightView, size: u32) -> Resul
     };
     let texels = &quads.texels;
     let fs = Shader(move |f: &Fragment<()>| Vec4::splat(texels[(f.prim / 2) as usize]));
-    let stats = p
-        .draw(
-            &mut Targets::color(&mut texel).with_depth(&mut depth),
-            &state,
-            &quads.vertices,
-            &quads.indices,
-            &TransformHomogeneous(view.matrix),
-            &fs,
-        )
-        .map_err(|e| e.to_string())?;
+    let stats = p.draw(
+        &mut Targets::color(&mut texel).with_depth(&mut depth),
+        &state,
+        &quads.vertices,
+        &quads.indices,
+        &TransformHomogeneous(view.matrix),
+        &fs,
+    )?;
     Ok(VolumeMap {
         depth,
         texel,

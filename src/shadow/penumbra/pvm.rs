@@ -53,6 +53,7 @@ use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::{Error, Resource};
 use glam::{Vec2, Vec3};
 
 /// Options of penumbra volume maps.
@@ -223,7 +224,7 @@ enum Found {
 
 impl Pvm {
     /// Penumbra volume maps with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Pvm, String> {
+    pub fn new(opts: Options) -> Result<Pvm, Error> {
         declaration().check(&opts)?;
         // The depth map, compared with 2x2 PCF outside the volumes.
         let lookup = MapLookup::new(Setup {
@@ -330,7 +331,7 @@ impl ShadowTechnique for Pvm {
         "pvm"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
@@ -343,9 +344,11 @@ impl ShadowTechnique for Pvm {
         if self.radius > 0.0 {
             self.sil = silhouettes(p, frame);
             if self.sil.edges.len() >= 1 << 23 {
-                return Err(format!(
-                    "technique 'pvm': {} silhouette edges, more than the edge map holds (2^23)",
-                    self.sil.edges.len()
+                return Err(Error::budget(
+                    "the edge map's silhouette edges",
+                    self.sil.edges.len() as u64,
+                    (1 << 23) - 1,
+                    Resource::Entries,
                 ));
             }
         }
@@ -427,7 +430,7 @@ impl ShadowTechnique for Pvm {
         ]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         if self.volumes.is_empty() {
             return Ok(v);

@@ -62,6 +62,7 @@ use crate::shadow::map::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec3};
 
 crate::choice_enum! {
@@ -343,18 +344,13 @@ pub struct Pvmf {
 
 impl Pvmf {
     /// Penumbra volume mask filtering with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Pvmf, String> {
+    pub fn new(opts: Options) -> Result<Pvmf, Error> {
         declaration().check(&opts)?;
         if opts.spread.is_nan() || opts.spread <= 0.0 {
-            return Err(format!(
-                "technique 'pvmf': option spread={} is outside (0, 1]",
-                opts.spread
-            ));
+            return Err(declaration().error("spread", &opts.spread.to_string(), "is outside (0, 1]"));
         }
         if opts.layer == Layer::Id {
-            return Err(
-                "technique 'pvmf': option layer=id stores no depth to filter (first, second or midpoint)".into(),
-            );
+            return Err(declaration().error("layer", "id", "stores no depth to filter (first, second or midpoint)"));
         }
         // Wide kernels: the lookup prepares the receiver plane and cone of the taps.
         let lookup = MapLookup::new(Setup {
@@ -550,7 +546,7 @@ impl ShadowTechnique for Pvmf {
         "pvmf"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.lookup.light_pass(p, frame)?;
         self.radius = light_radius(frame, self.opts.light);
@@ -672,7 +668,7 @@ impl ShadowTechnique for Pvmf {
         ]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         for (i, m) in self.masks.iter().enumerate() {
             if m.fragments == 0 {
@@ -724,8 +720,7 @@ impl ShadowTechnique for Pvmf {
                 frame.width(),
                 frame.height(),
                 self.ids.iter().map(|&id| colour(id)).collect(),
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
             v.push(Stage::Color {
                 name: "blur_ids".into(),
                 data,

@@ -20,6 +20,7 @@ use crate::shadow::light::{self, light_views, LightView};
 use crate::shadow::pixels::per_pixel;
 use crate::shadow::timing::Passes;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::Vec4;
 
 choice_enum! {
@@ -104,7 +105,7 @@ pub struct Cookie {
 
 impl Cookie {
     /// A cookie with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Cookie, String> {
+    pub fn new(opts: Options) -> Result<Cookie, Error> {
         declaration().check(&opts)?;
         Ok(Cookie {
             opts,
@@ -115,7 +116,7 @@ impl Cookie {
     }
 
     /// Which objects are occluders.
-    fn pick(&self, frame: &Frame) -> Result<Vec<bool>, String> {
+    fn pick(&self, frame: &Frame) -> Result<Vec<bool>, Error> {
         let objs = &frame.scene.objects;
         if self.opts.occluders == "auto" {
             return Ok(objs
@@ -191,14 +192,14 @@ impl ShadowTechnique for Cookie {
         "cookie"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         self.occluding = self.pick(frame)?;
         let size = self.opts.size;
         // Pass 1: the occluders' silhouette, 1 where covered (no depth).
         self.masks.clear();
         for view in light_views(frame, size) {
-            let mut mask = Surface::new(size, size, 0.0f32).map_err(|e| e.to_string())?;
+            let mut mask = Surface::new(size, size, 0.0f32)?;
             for (o, _) in frame.scene.objects.iter().zip(&self.occluding).filter(|(_, k)| **k) {
                 p.draw(
                     &mut Targets::color(&mut mask),
@@ -214,8 +215,7 @@ impl ShadowTechnique for Cookie {
                     &o.mesh.indices,
                     &TransformPositions(view.matrix),
                     &Shader(|_: &Fragment<()>| Vec4::ONE),
-                )
-                .map_err(|e| e.to_string())?;
+                )?;
             }
             self.masks.push((mask, view));
         }
@@ -246,7 +246,7 @@ impl ShadowTechnique for Cookie {
         vec![("occluders", self.occluding.iter().filter(|k| **k).count() as f64)]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
         Ok(self
             .masks
             .iter()

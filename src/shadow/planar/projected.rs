@@ -29,6 +29,7 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::homogeneous_position;
 use crate::shadow::timing::Passes;
 use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
 /// Options of planar projected shadows.
@@ -114,7 +115,7 @@ pub struct Planar {
 
 impl Planar {
     /// Planar shadows with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Planar, String> {
+    pub fn new(opts: Options) -> Result<Planar, Error> {
         declaration().check(&opts)?;
         Ok(Planar {
             opts,
@@ -241,7 +242,7 @@ impl ShadowTechnique for Planar {
         "planar"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         passes.add("flatten casters", 0.0);
         let scene = frame.scene;
@@ -250,17 +251,14 @@ impl ShadowTechnique for Planar {
         } else {
             let i = object_named(frame, "planar", "receiver", &self.opts.receiver)?;
             if plane_of(&scene.objects[i].mesh).is_none() {
-                return Err(format!(
-                    "technique 'planar': option receiver={}: that object is not planar",
-                    self.opts.receiver
-                ));
+                return Err(declaration().error("receiver", &self.opts.receiver, "names an object that is not planar"));
             }
             vec![i]
         };
         let light = homogeneous_position(&frame.light);
         let vp = frame.camera.view_projection();
         let (w, h) = (frame.width(), frame.height());
-        let mut shadow = Surface::new(w, h, 1.0f32).map_err(|e| e.to_string())?;
+        let mut shadow = Surface::new(w, h, 1.0f32)?;
         self.masks.clear();
         self.fragments = 0;
         for r in receivers {
@@ -282,7 +280,7 @@ impl ShadowTechnique for Planar {
             passes.end("flatten casters");
             // Pass 1: stencil 1 where the receiver is the visible surface.
             let mut depth = frame.gbuffer.depth.clone();
-            let mut mask = Surface::new(w, h, 0u8).map_err(|e| e.to_string())?;
+            let mut mask = Surface::new(w, h, 0u8)?;
             let mark = StencilFace {
                 pass: StencilOp::Replace,
                 ..Default::default()
@@ -308,8 +306,7 @@ impl ShadowTechnique for Planar {
                 &scene.objects[r].mesh.indices,
                 &TransformPositions(vp),
                 &DepthOnly,
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
             // Pass 2: the flattened casters darken, once per pixel, on the receiver only.
             let once = StencilFace {
                 func: CompareFunc::Equal,
@@ -356,16 +353,14 @@ impl ShadowTechnique for Planar {
             } else {
                 Targets::color(&mut shadow).with_depth(&mut depth)
             };
-            let st = p
-                .draw(
-                    &mut targets,
-                    &state,
-                    &verts,
-                    &idx,
-                    &TransformHomogeneous(vp),
-                    &Shader(move |_: &Fragment<()>| Vec4::splat(keep)),
-                )
-                .map_err(|e| e.to_string())?;
+            let st = p.draw(
+                &mut targets,
+                &state,
+                &verts,
+                &idx,
+                &TransformHomogeneous(vp),
+                &Shader(move |_: &Fragment<()>| Vec4::splat(keep)),
+            )?;
             self.fragments += st.fragments_rasterized;
             self.masks.push((r, mask));
         }
@@ -434,7 +429,7 @@ impl ShadowTechnique for Planar {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v: Vec<Stage> = self
             .masks
             .iter()

@@ -26,6 +26,7 @@ pub use super::stencil::Mode;
 use super::stencil::StencilVolumes;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::Error;
 
 /// Options of stencil shadow volumes.
 #[derive(Clone, Debug, PartialEq)]
@@ -70,7 +71,7 @@ pub type ShadowVolume = PassTechnique<StencilVolumes>;
 
 impl ShadowVolume {
     /// Shadow volumes with `opts`.
-    pub fn new(opts: Options) -> Result<ShadowVolume, String> {
+    pub fn new(opts: Options) -> Result<ShadowVolume, Error> {
         declaration().check(&opts)?;
         Ok(PassTechnique::with("shadow-volume", StencilVolumes::new(opts.mode)))
     }

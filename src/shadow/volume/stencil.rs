@@ -15,6 +15,7 @@ use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pass::Pass;
 use crate::shadow::timing::Passes;
 use crate::shadow::Stage;
+use crate::Error;
 use glam::{Mat4, Vec3, Vec4};
 
 crate::choice_enum! {
@@ -69,7 +70,7 @@ impl StencilVolumes {
 }
 
 impl Pass for StencilVolumes {
-    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, String> {
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         let light = homogeneous_position(&frame.light);
         (self.volumes, self.irregular) = silhouette::scene_volumes(p, frame, light);
         passes.end("silhouettes");
@@ -98,7 +99,7 @@ impl Pass for StencilVolumes {
         } else {
             frame.gbuffer.depth.clone()
         };
-        let mut stencil = Surface::new(frame.width(), frame.height(), self.eye as u8).map_err(|e| e.to_string())?;
+        let mut stencil = Surface::new(frame.width(), frame.height(), self.eye as u8)?;
         let (front, back) = if self.chose_zpass {
             (
                 StencilFace {
@@ -140,16 +141,14 @@ impl Pass for StencilVolumes {
         let vs = TransformHomogeneous(vp);
         self.fill = 0;
         for v in &self.volumes {
-            let st = p
-                .draw(
-                    &mut Targets::none().with_depth(&mut depth).with_stencil(&mut stencil),
-                    &state,
-                    &v.vertices,
-                    &v.indices,
-                    &vs,
-                    &DepthOnly,
-                )
-                .map_err(|e| e.to_string())?;
+            let st = p.draw(
+                &mut Targets::none().with_depth(&mut depth).with_stencil(&mut stencil),
+                &state,
+                &v.vertices,
+                &v.indices,
+                &vs,
+                &DepthOnly,
+            )?;
             self.fill += st.fragments_rasterized;
         }
         let out: Vec<f32> = frame
@@ -229,7 +228,7 @@ impl Pass for StencilVolumes {
         ]
     }
 
-    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let Some(stencil) = &self.stencil else {
             return Ok(Vec::new());
         };
@@ -248,7 +247,7 @@ impl Pass for StencilVolumes {
         }
         // The volumes from the camera: fragments per pixel, every volume triangle counted
         // (the stencil pass's fill, which the depth test does not reduce).
-        let mut fill = Surface::new(frame.width(), frame.height(), 0.0f32).map_err(|e| e.to_string())?;
+        let mut fill = Surface::new(frame.width(), frame.height(), 0.0f32)?;
         let state = RenderState {
             depth: DepthState {
                 func: CompareFunc::Always,
@@ -268,8 +267,7 @@ impl Pass for StencilVolumes {
                 &v.indices,
                 &vs,
                 &Shader(|_: &Fragment<()>| Vec4::ONE),
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
         }
         let hi = fill.data().iter().copied().fold(1.0f32, f32::max);
         Ok(vec![

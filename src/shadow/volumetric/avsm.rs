@@ -35,6 +35,7 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec3};
 
 /// Most nodes a texel may keep.
@@ -252,7 +253,7 @@ pub struct Avsm {
 
 impl Avsm {
     /// An AVSM with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<Avsm, String> {
+    pub fn new(opts: Options) -> Result<Avsm, Error> {
         declaration().check(&opts)?;
         Ok(Avsm {
             opts,
@@ -319,7 +320,7 @@ impl ShadowTechnique for Avsm {
         "avsm"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
@@ -362,7 +363,7 @@ impl ShadowTechnique for Avsm {
         for view in light_views(frame, o.size) {
             let mut store = match old.pop() {
                 Some(s) if s.width() == o.size && s.pixel(0, 0).len() == slots => s,
-                _ => PixelStore::fixed(o.size, o.size, slots, UNUSED).map_err(|e| e.to_string())?,
+                _ => PixelStore::fixed(o.size, o.size, slots, UNUSED)?,
             };
             p.install(|| {
                 use rayon::prelude::*;
@@ -371,17 +372,15 @@ impl ShadowTechnique for Avsm {
                     px[slots - 1] = HEADER;
                 })
             });
-            let st = p
-                .draw_ordered(
-                    &mut Targets::none(),
-                    &state,
-                    &casters.positions,
-                    &indices,
-                    &TransformPositions(view.matrix),
-                    &program,
-                    &mut store,
-                )
-                .map_err(|e| e.to_string())?;
+            let st = p.draw_ordered(
+                &mut Targets::none(),
+                &state,
+                &casters.positions,
+                &indices,
+                &TransformPositions(view.matrix),
+                &program,
+                &mut store,
+            )?;
             self.fragments += st.fragments_shaded;
             self.maps.push((store, view));
         }
@@ -422,14 +421,14 @@ impl ShadowTechnique for Avsm {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, (s, _)) in self.maps.iter().enumerate() {
             let (w, h) = (s.width(), s.height());
             let slots = self.opts.nodes as usize + 1;
-            let of = |f: &dyn Fn(Curve) -> f32| -> Result<Surface<f32>, String> {
+            let of = |f: &dyn Fn(Curve) -> f32| -> Result<Surface<f32>, Error> {
                 Surface::from_vec(w, h, s.data().chunks_exact(slots).map(|c| f(Curve(c))).collect())
-                    .map_err(|e| e.to_string())
+                    .map_err(Error::from)
             };
             let most = s
                 .data()

@@ -36,6 +36,7 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::{Error, Resource};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -284,7 +285,7 @@ pub struct DeepShadowMap {
 
 impl DeepShadowMap {
     /// A deep shadow map with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<DeepShadowMap, String> {
+    pub fn new(opts: Options) -> Result<DeepShadowMap, Error> {
         declaration().check(&opts)?;
         Ok(DeepShadowMap {
             opts,
@@ -409,7 +410,7 @@ impl ShadowTechnique for DeepShadowMap {
         "deep-shadow-map"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
@@ -446,14 +447,14 @@ impl ShadowTechnique for DeepShadowMap {
         // memory budget before the first view.
         let texels = o.size as u64 * o.size as u64;
         crate::pipeline::check_bytes(o.size, o.size, texels * (40 + 4 * views.len() as u64)).map_err(|e| {
-            format!(
-                "technique 'deep-shadow-map' ({} views, option size={}): {e}",
+            Error::from(e).within(&format!(
+                "the deep shadow maps ({} views, option size={})",
                 views.len(),
                 o.size
-            )
+            ))
         })?;
         for view in views {
-            let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize).map_err(|e| e.to_string())?;
+            let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize)?;
             let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
             p.draw(
                 &mut Targets::none().with_lists(&mut lists),
@@ -464,11 +465,13 @@ impl ShadowTechnique for DeepShadowMap {
                 &fs,
             )
             .map_err(|e| match e {
-                PipelineError::FragmentPoolFull { needed, .. } => format!(
-                    "technique 'deep-shadow-map': the scene needs {needed} fragments in one light view, more than capacity={} (raise it)",
-                    o.capacity
+                PipelineError::FragmentPoolFull { needed, capacity } => Error::budget(
+                    "the fragments of one light view (option capacity)",
+                    needed as u64,
+                    capacity as u64,
+                    Resource::Entries,
                 ),
-                e => e.to_string(),
+                e => Error::from(e),
             })?;
             // Per texel: sort, step function, compression (texels in parallel, gathered in
             // order).
@@ -555,7 +558,7 @@ impl ShadowTechnique for DeepShadowMap {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
         let mut out = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             let n = (m.size * m.size) as usize;
@@ -563,7 +566,7 @@ impl ShadowTechnique for DeepShadowMap {
             let hi = count.iter().copied().fold(1.0f32, f32::max);
             out.push(Stage::Scalar {
                 name: format!("vertices_per_texel{i}"),
-                data: Surface::from_vec(m.size, m.size, count).map_err(|e| e.to_string())?,
+                data: Surface::from_vec(m.size, m.size, count)?,
                 lo: 0.0,
                 hi,
             });

@@ -31,6 +31,7 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec3, Vec4};
 
 /// Most slices.
@@ -150,7 +151,7 @@ pub struct OpacityMaps {
 
 impl OpacityMaps {
     /// Opacity maps with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<OpacityMaps, String> {
+    pub fn new(opts: Options) -> Result<OpacityMaps, Error> {
         declaration().check(&opts)?;
         Ok(OpacityMaps {
             opts,
@@ -226,7 +227,7 @@ impl ShadowTechnique for OpacityMaps {
         "opacity-maps"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
@@ -276,14 +277,14 @@ impl ShadowTechnique for OpacityMaps {
             }
             self.step = ((hi - lo) / k as f32).max(1e-7);
             let start = match o.layout {
-                Slices::Uniform => Surface::new(o.size, o.size, lo).map_err(|e| e.to_string())?,
+                Slices::Uniform => Surface::new(o.size, o.size, lo)?,
                 // Deep opacity maps: each texel's slices start at its first transparent depth.
                 Slices::Deep => pass.render(p, &glass, &view, CullMode::None, None, None)?,
             };
             let mut slices = Vec::with_capacity(k);
             let step = self.step;
             for j in 0..k {
-                let mut acc = Surface::new(o.size, o.size, Vec4::ZERO).map_err(|e| e.to_string())?;
+                let mut acc = Surface::new(o.size, o.size, Vec4::ZERO)?;
                 let st = &start;
                 // Only fragments in slice j (the last slice takes everything behind).
                 let fs = DiscardingShader(move |f: &Fragment<()>| {
@@ -291,26 +292,24 @@ impl ShadowTechnique for OpacityMaps {
                     let slice = if x < 0.0 { 0 } else { (x as usize).min(k - 1) };
                     (slice == j).then(|| tau[f.prim as usize])
                 });
-                let stats = p
-                    .draw(
-                        &mut Targets::color(&mut acc),
-                        &RenderState {
-                            depth: DepthState {
-                                func: CompareFunc::Always,
-                                write: false,
-                                clamp: true,
-                                ..Default::default()
-                            },
-                            blend: BlendMode::Add,
-                            shading: Shading::Immediate,
+                let stats = p.draw(
+                    &mut Targets::color(&mut acc),
+                    &RenderState {
+                        depth: DepthState {
+                            func: CompareFunc::Always,
+                            write: false,
+                            clamp: true,
                             ..Default::default()
                         },
-                        &glass.positions,
-                        &glass.indices,
-                        &TransformPositions(view.matrix),
-                        &fs,
-                    )
-                    .map_err(|e| e.to_string())?;
+                        blend: BlendMode::Add,
+                        shading: Shading::Immediate,
+                        ..Default::default()
+                    },
+                    &glass.positions,
+                    &glass.indices,
+                    &TransformPositions(view.matrix),
+                    &fs,
+                )?;
                 self.fragments += stats.fragments_passed;
                 slices.push(acc);
             }
@@ -347,7 +346,7 @@ impl ShadowTechnique for OpacityMaps {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             v.push(Stage::Scalar {

@@ -22,6 +22,7 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::Error;
 use glam::{Vec2, Vec3, Vec4};
 
 /// Options of the coloured transparency map.
@@ -102,7 +103,7 @@ pub struct TransparencyMap {
 
 impl TransparencyMap {
     /// A transparency map with `opts`; an option out of its range is an error.
-    pub fn new(opts: Options) -> Result<TransparencyMap, String> {
+    pub fn new(opts: Options) -> Result<TransparencyMap, Error> {
         declaration().check(&opts)?;
         Ok(TransparencyMap {
             opts,
@@ -168,7 +169,7 @@ impl ShadowTechnique for TransparencyMap {
         "transparency-map"
     }
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, String> {
+    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
@@ -202,8 +203,8 @@ impl ShadowTechnique for TransparencyMap {
         for view in light_views(frame, o.size) {
             let od = pass.render(p, &opaque, &view, CullMode::None, None, None)?;
             // The nearest transparent surface: its depth and, by the depth test, its colour.
-            let mut depth = Surface::new(o.size, o.size, 1.0f32).map_err(|e| e.to_string())?;
-            let mut colour = Surface::new(o.size, o.size, Vec4::ONE).map_err(|e| e.to_string())?;
+            let mut depth = Surface::new(o.size, o.size, 1.0f32)?;
+            let mut colour = Surface::new(o.size, o.size, Vec4::ONE)?;
             let fs = Shader(|f: &Fragment<()>| colours[f.prim as usize]);
             p.draw(
                 &mut Targets::color(&mut colour).with_depth(&mut depth),
@@ -216,8 +217,7 @@ impl ShadowTechnique for TransparencyMap {
                 &glass.indices,
                 &TransformPositions(view.matrix),
                 &fs,
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
             self.maps.push(Maps {
                 view,
                 opaque: od,
@@ -247,7 +247,7 @@ impl ShadowTechnique for TransparencyMap {
         vec![("light-space bytes", (texels * 12) as f64)]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, String> {
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             v.push(Stage::Scalar {
