@@ -27,7 +27,7 @@ use super::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
 use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
@@ -407,20 +407,15 @@ impl ShadowTechnique for Chs {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut t = Steps::default();
-        if self.lookup.maps().is_empty() {
-            return t.0;
-        }
-        t.step(|| {
+        let header = || {
             Step::new("map", "the light pass of the last run and its min/max chains")
                 .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .int("levels", self.levels(0))
                 .num("light width", self.width)
-        });
-        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
-        t.0.push(inspect::result(v));
-        t.0
+        };
+        self.lookup
+            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

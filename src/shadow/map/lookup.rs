@@ -24,7 +24,7 @@ use super::planes::PlaneChain;
 use crate::frame::Frame;
 use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
 use crate::pipeline::*;
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::Stage;
 use crate::Error;
@@ -183,6 +183,20 @@ impl MapLookup {
     /// The last pass's buffers for `dump` ([`LightMaps::stages`]).
     pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.maps.stages(p, frame)
+    }
+
+    /// `inspect` of a technique whose pixels read these maps: nothing before a run; else
+    /// `header` (what the run made), the pixel's steps from `pixel` (the same per-pixel
+    /// function as the image's, recording), and its result, the value `pixel` returns.
+    pub fn explain(&self, header: impl FnOnce() -> Step, pixel: impl FnOnce(&mut Steps) -> f32) -> Vec<Step> {
+        let mut t = Steps::default();
+        if self.maps().is_empty() {
+            return t.0;
+        }
+        t.step(header);
+        let v = pixel(&mut t);
+        t.0.push(crate::shadow::inspect::result(v));
+        t.0
     }
 
     /// `inspect`'s opening step: what the light pass made.

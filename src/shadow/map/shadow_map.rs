@@ -28,7 +28,7 @@ use super::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Trace};
 pub use crate::shadow::light::{FitTo, Layer};
 use crate::shadow::light::{LightView, MapOptions};
 use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
@@ -415,14 +415,9 @@ impl ShadowTechnique for ShadowMap {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut t = Steps::default();
-        if self.lookup.maps().is_empty() {
-            return t.0;
-        }
-        t.step(|| self.lookup.pass_step());
-        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
-        t.0.push(inspect::result(v));
-        t.0
+        let header = || self.lookup.pass_step();
+        self.lookup
+            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -51,7 +51,7 @@ use crate::frame::Frame;
 use crate::pipeline::sampler::{texels_at4, Indices4};
 use crate::pipeline::wide::floor4;
 use crate::pipeline::Pipeline;
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels, world};
 use crate::shadow::light::{DepthToDistance, Layer, MapOptions};
 use crate::shadow::pass::Pass;
@@ -551,20 +551,15 @@ impl Pass for SoftShadows {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut t = Steps::default();
-        if self.lookup.maps().is_empty() {
-            return t.0;
-        }
-        t.step(|| {
+        let header = || {
             Step::new("map", "the light pass of the last run")
                 .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .num("light width", self.width)
                 .flag("hierarchy", self.opts.wide.hierarchy)
-        });
-        let (v, _) = self.lookup(frame, x as usize, y as usize, &mut t);
-        t.0.push(inspect::result(v));
-        t.0
+        };
+        self.lookup
+            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {

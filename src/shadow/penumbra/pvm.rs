@@ -45,7 +45,7 @@ use super::{
 };
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::bilinear_compare;
 use crate::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
@@ -385,21 +385,16 @@ impl ShadowTechnique for Pvm {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut t = Steps::default();
-        if self.lookup.maps().is_empty() {
-            return t.0;
-        }
-        t.step(|| {
+        let header = || {
             Step::new("maps", "the depth map and the penumbra volume map of the last run")
                 .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
                 .int("volume quads", self.quads)
-        });
-        let f = self.lookup(frame, x as usize, y as usize, &mut t);
-        t.0.push(inspect::result(Self::value(f)));
-        t.0
+        };
+        self.lookup
+            .explain(header, |t| Self::value(self.lookup(frame, x as usize, y as usize, t)))
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -55,7 +55,7 @@ use super::{light_field, light_radius, render, silhouettes, Quads, Silhouettes, 
 use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
 use crate::shadow::map::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
@@ -601,11 +601,7 @@ impl ShadowTechnique for Pvmf {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut t = Steps::default();
-        if self.lookup.maps().is_empty() {
-            return t.0;
-        }
-        t.step(|| {
+        let header = || {
             Step::new("maps", "the depth map and the penumbra volume mask of the last run")
                 .int("views", self.lookup.maps().len())
                 .int("size", self.opts.map.size)
@@ -613,11 +609,13 @@ impl ShadowTechnique for Pvmf {
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
                 .num("s_e", self.opts.spread)
-        });
-        let f = self.lookup(frame, x as usize, y as usize, &mut t);
-        let i = y as usize * frame.width() as usize + x as usize;
-        let mut v = f.value();
-        if matches!(f, Found::Filtered { .. }) && !self.horizontal.is_empty() {
+        };
+        self.lookup.explain(header, |t| {
+            let f = self.lookup(frame, x as usize, y as usize, t);
+            let i = y as usize * frame.width() as usize + x as usize;
+            if !matches!(f, Found::Filtered { .. }) || self.horizontal.is_empty() {
+                return f.value();
+            }
             let final_v = self.blur_at(frame, &self.horizontal, x as usize, y as usize, false);
             t.step(|| {
                 Step::new(
@@ -630,10 +628,8 @@ impl ShadowTechnique for Pvmf {
                 .num("after the horizontal pass", self.horizontal[i])
                 .num("after the vertical pass", final_v)
             });
-            v = final_v;
-        }
-        t.0.push(inspect::result(v));
-        t.0
+            final_v
+        })
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

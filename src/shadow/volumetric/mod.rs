@@ -16,8 +16,10 @@ use crate::pipeline::Pipeline;
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
 use crate::shadow::inspect::{self, NoTrace, Step, Trace};
+use crate::shadow::light::{merged_casters, Casters};
 use crate::shadow::Field;
 use crate::visibility::{Visibility, LUMINANCE};
+use crate::Error;
 use glam::Vec3;
 
 /// Whether some material of `scene` transmits a colour (different per channel): the
@@ -27,6 +29,19 @@ pub fn coloured(scene: &Scene) -> bool {
         let t = m.transmittance_rgb();
         t.x != t.y || t.y != t.z
     })
+}
+
+/// The frame's opaque casters and its transparent ones, each merged in scene order (for the
+/// techniques that draw them into separate maps).
+pub fn opaque_and_transparent(frame: &Frame) -> Result<(Casters, Casters), Error> {
+    let scene = frame.scene;
+    let transparent: Vec<bool> = scene
+        .objects
+        .iter()
+        .map(|ob| scene.materials[ob.material].is_transparent())
+        .collect();
+    let opaque = merged_casters(frame, &transparent.iter().map(|t| !t).collect::<Vec<_>>())?;
+    Ok((opaque, merged_casters(frame, &transparent)?))
 }
 
 /// The lookup pass every volumetric technique ends with: `f` at each covered pixel's point,

@@ -19,7 +19,7 @@ use super::PointLookup;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{self, light_views, merged_casters, DepthPass, LightView};
+use crate::shadow::light::{self, light_views, DepthPass, LightView};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
@@ -173,14 +173,8 @@ impl ShadowTechnique for TransparencyMap {
         let mut passes = Passes::start();
         let o = self.opts.clone();
         let scene = frame.scene;
-        let transparent: Vec<bool> = scene
-            .objects
-            .iter()
-            .map(|ob| scene.materials[ob.material].is_transparent())
-            .collect();
         self.coloured = super::coloured(scene);
-        let opaque = merged_casters(frame, &transparent.iter().map(|t| !t).collect::<Vec<_>>())?;
-        let glass = merged_casters(frame, &transparent)?;
+        let (opaque, glass) = super::opaque_and_transparent(frame)?;
         let colours: Vec<Vec4> = glass
             .object
             .iter()
