@@ -4,7 +4,7 @@
 //! Library messages name no command-line flag: a program built on the library knows how its
 //! users raise a limit (the CLI adds `--max-memory` to [`Error::Budget`] of [`Resource::Memory`]).
 
-use crate::pipeline::PipelineError;
+use crate::pipeline::{mib, PipelineError};
 use std::fmt;
 use std::path::PathBuf;
 
@@ -180,10 +180,6 @@ impl Error {
     }
 }
 
-fn mib(b: u64) -> f64 {
-    b as f64 / (1u64 << 20) as f64
-}
-
 fn technique_prefix(f: &mut fmt::Formatter<'_>, t: &Option<String>) -> fmt::Result {
     match t {
         Some(t) => write!(f, "technique '{t}': "),
@@ -332,6 +328,20 @@ mod tests {
             }
         ));
         let t = e.in_technique("shadow-map").to_string();
+        // Regression: a request whose size overflowed the live total wrapped around in the
+        // pipeline's message (1 MiB alive) or panicked with overflow checks.
+        let huge = PipelineError::OverBudget {
+            width: 1,
+            height: 1,
+            bytes: u64::MAX,
+            live: 1 << 20,
+            limit: 1 << 30,
+        };
+        let m = huge.to_string();
+        assert!(
+            m.contains("alive to 17592186044416 MiB, beyond the memory limit of 1024 MiB"),
+            "{m}"
+        );
         assert!(
             t.starts_with("technique 'shadow-map': the light's maps (1 view, option size=100): 100x100 buffers"),
             "{t}"

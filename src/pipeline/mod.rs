@@ -181,12 +181,12 @@ impl fmt::Display for PipelineError {
                 live,
                 limit,
             } => {
-                let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+                // `live + bytes` may not fit in a u64: that is how some requests are refused.
                 write!(
                     f,
                     "{width}x{height} buffers of {:.0} MiB would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the memory limit)",
                     mib(*bytes),
-                    mib(live + bytes),
+                    mib(live.saturating_add(*bytes)),
                     mib(*limit)
                 )
             }
@@ -195,6 +195,11 @@ impl fmt::Display for PipelineError {
 }
 
 impl std::error::Error for PipelineError {}
+
+/// Bytes in MiB, for messages.
+pub(crate) fn mib(bytes: u64) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
+}
 
 /// Per-draw counters, for users exploring internals. Summed over draws with `+=`.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
