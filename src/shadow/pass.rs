@@ -3,7 +3,8 @@
 //! [`super::map::soft`], [`super::volume::stencil`]), because composite techniques hold them
 //! too (the hybrid holds the first two, the multi-sample light the third); their technique
 //! files keep only the options, the declaration and the registry entry, and the technique is
-//! a [`PassTechnique`] of the pass.
+//! a [`PassTechnique`] of the pass. The volumetric techniques are a [`PassTechnique`] of
+//! their light pass and the family's lookup ([`super::volumetric::Volumetric`]).
 
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
@@ -14,8 +15,10 @@ use crate::Error;
 /// A shared pass that a technique can be: what [`ShadowTechnique`] asks, less the name and
 /// the timing.
 pub trait Pass: Send {
+    /// What a run gives: one value per pixel (`Vec<f32>`) or a [`Visibility`].
+    type Output: Into<Visibility>;
     /// Visibility per pixel of `frame` (NaN where no geometry), each pass timed into `passes`.
-    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error>;
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Self::Output, Error>;
     /// What the last run did at pixel `(x, y)`, ending with the image's value there.
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step>;
     /// The last run's buffers for `dump`.
@@ -63,7 +66,7 @@ impl<P: Pass> ShadowTechnique for PassTechnique<P> {
         let mut passes = Passes::start();
         let out = self.pass.run(p, frame, &mut passes)?;
         self.times = passes.finish();
-        Ok(Visibility::Scalar(out))
+        Ok(out.into())
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {

@@ -528,6 +528,8 @@ thread_local! {
 }
 
 impl Pass for SoftShadows {
+    type Output = Vec<f32>;
+
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         self.lookup.light_pass(p, frame)?;
         self.width = light_width(frame, self.opts.light, self.opts.angle);

@@ -70,6 +70,8 @@ impl StencilVolumes {
 }
 
 impl Pass for StencilVolumes {
+    type Output = Vec<f32>;
+
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         let light = homogeneous_position(&frame.light);
         (self.volumes, self.irregular) = silhouette::scene_volumes(p, frame, light);

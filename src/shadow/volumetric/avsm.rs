@@ -27,16 +27,16 @@
 //! fragments in reverse submission order, and the difference is measured on `smoke`. With too
 //! few nodes for the layers of a texel, far layers merge and light leaks.
 
-use super::PointLookup;
+use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{self, light_views, merged_casters, LightView};
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::light::{light_views, merged_casters, LightView};
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Most nodes a texel may keep.
 pub const MAX_NODES: usize = 64;
@@ -240,53 +240,42 @@ fn remove_least(buf: &mut [Node], n: usize) {
     buf[n - 1] = UNUSED;
 }
 
-/// The adaptive volumetric shadow map (see the module docs).
-pub struct Avsm {
+/// The light pass of the adaptive volumetric shadow map: a store of curves per light view.
+pub struct AvsmPass {
     opts: Options,
     /// Last run: one store of curves (`nodes + 1` slots per texel) and view per light view.
     maps: Vec<(PixelStore<Node>, LightView)>,
-    /// Whether the scene has a coloured material (then the result is per channel).
-    coloured: bool,
     fragments: u64,
-    times: Vec<(&'static str, f64)>,
 }
+
+/// The adaptive volumetric shadow map (see the module docs).
+pub type Avsm = PassTechnique<Volumetric<AvsmPass>>;
 
 impl Avsm {
     /// An AVSM with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Avsm, Error> {
         declaration().check(&opts)?;
-        Ok(Avsm {
-            opts,
-            maps: Vec::new(),
-            coloured: false,
-            fragments: 0,
-            times: Vec::new(),
-        })
+        Ok(Volumetric::technique(
+            "avsm",
+            AvsmPass {
+                opts,
+                maps: Vec::new(),
+                fragments: 0,
+            },
+        ))
     }
 }
 
-impl PointLookup for Avsm {
+impl PointLookup for AvsmPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): the curve of the texel the point falls in, read at its depth, every
     /// step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
-            t.step(|| Step::new("outside", "the point is outside the light's map: lit"));
+        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
-        let store = &self.maps[at.view].0;
-        let s = store.width();
-        let (tx, ty) = at.texel(s, s);
-        let (z, c) = (at.depth, Curve(store.pixel(tx, ty)));
-        t.step(|| {
-            Step::new(
-                "light-space position",
-                "the texel whose curve the point reads, and its depth there",
-            )
-            .int("view", at.view)
-            .vec2("texel", Vec2::new(tx as f32, ty as f32))
-            .num("depth", z)
-        });
+        let (z, c) = (at.depth, Curve(self.maps[at.view].0.pixel(at.x, at.y)));
+        t.step(|| at.step("the texel whose curve the point reads, and its depth there", z));
         t.step(|| {
             let mut st = Step::new(
                 "curve",
@@ -315,16 +304,10 @@ impl PointLookup for Avsm {
     }
 }
 
-impl ShadowTechnique for Avsm {
-    fn name(&self) -> &'static str {
-        "avsm"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
-        let mut passes = Passes::start();
+impl LightPass for AvsmPass {
+    fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = super::coloured(scene);
         // Casters in scene order, each triangle with its material's transmittance.
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
         let transmit: Vec<Vec3> = casters
@@ -384,20 +367,11 @@ impl ShadowTechnique for Avsm {
             self.fragments += st.fragments_shaded;
             self.maps.push((store, view));
         }
-        passes.end("light pass");
-        // Lookup: each receiver's depth against its texel's curve.
-        let out = super::lookup_pass(p, frame, self.coloured, &*self);
-        passes.end("lookup pass");
-        self.times = passes.finish();
-        Ok(out)
+        Ok(())
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
+    fn ran(&self) -> bool {
+        !self.maps.is_empty()
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -421,7 +395,7 @@ impl ShadowTechnique for Avsm {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
+    fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, (s, _)) in self.maps.iter().enumerate() {
             let (w, h) = (s.width(), s.height());

@@ -27,15 +27,15 @@
 //! Known failure: resolution; one function per texel, so thin occluders alias as in a shadow
 //! map (softened, not removed, by the bilinear filter).
 
-use super::PointLookup;
+use super::{LightPass, PointLookup, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::sampler::footprint;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -272,30 +272,34 @@ struct Lookup {
     frac: Option<Vec2>,
 }
 
-/// The deep shadow map (see the module docs).
-pub struct DeepShadowMap {
+/// The light pass of the deep shadow map: every texel's compressed function per light view.
+pub struct DeepShadowPass {
     opts: Options,
     maps: Vec<Map>,
-    coloured: bool,
-    times: Vec<(&'static str, f64)>,
     /// Most bytes held at once while building: the finished views' functions plus one view's
     /// lists (heads, tails, nodes) and its functions twice (per row, then pooled).
     peak: usize,
 }
 
+/// The deep shadow map (see the module docs).
+pub type DeepShadowMap = PassTechnique<Volumetric<DeepShadowPass>>;
+
 impl DeepShadowMap {
     /// A deep shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<DeepShadowMap, Error> {
         declaration().check(&opts)?;
-        Ok(DeepShadowMap {
-            opts,
-            maps: Vec::new(),
-            coloured: false,
-            times: Vec::new(),
-            peak: 0,
-        })
+        Ok(Volumetric::technique(
+            "deep-shadow-map",
+            DeepShadowPass {
+                opts,
+                maps: Vec::new(),
+                peak: 0,
+            },
+        ))
     }
+}
 
+impl DeepShadowPass {
     /// The lookup of point `p`: its view, depth, and the texels it reads with their weights
     /// (one texel for `nearest`; for `bilinear` the 2x2 footprint of the shadow map's
     /// hardware PCF, clamped to the map's edge, weights `(1 - fx)(1 - fy)`, `fx (1 - fy)`,
@@ -344,7 +348,7 @@ impl DeepShadowMap {
     }
 }
 
-impl PointLookup for DeepShadowMap {
+impl PointLookup for DeepShadowPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): each texel's function at the point's depth, filtered; every step
     /// reported to `t`.
@@ -405,16 +409,12 @@ impl PointLookup for DeepShadowMap {
     }
 }
 
-impl ShadowTechnique for DeepShadowMap {
-    fn name(&self) -> &'static str {
-        "deep-shadow-map"
-    }
+impl LightPass for DeepShadowPass {
+    const PASS: &'static str = "light pass and compression";
 
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
-        let mut passes = Passes::start();
+    fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = super::coloured(scene);
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
         let transmit: Vec<Vec4> = casters
             .object
@@ -517,19 +517,11 @@ impl ShadowTechnique for DeepShadowMap {
                 fragments: lists.len() as u64,
             });
         }
-        passes.end("light pass and compression");
-        let out = super::lookup_pass(p, frame, self.coloured, &*self);
-        passes.end("lookup pass");
-        self.times = passes.finish();
-        Ok(out)
+        Ok(())
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
+    fn ran(&self) -> bool {
+        !self.maps.is_empty()
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -558,7 +550,7 @@ impl ShadowTechnique for DeepShadowMap {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
+    fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut out = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             let n = (m.size * m.size) as usize;

@@ -16,11 +16,111 @@ use crate::pipeline::Pipeline;
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
 use crate::shadow::inspect::{self, NoTrace, Step, Trace};
-use crate::shadow::light::{merged_casters, Casters};
-use crate::shadow::Field;
+use crate::shadow::light::{self, merged_casters, Casters, OnView};
+use crate::shadow::pass::{Pass, PassTechnique};
+use crate::shadow::timing::Passes;
+use crate::shadow::{Field, Stage};
 use crate::visibility::{Visibility, LUMINANCE};
 use crate::Error;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+
+/// What a volumetric technique is made of besides the family's lookup: its light pass (the
+/// per-view maps it renders) and the transmittance those maps give at a point
+/// ([`PointLookup`]). [`Volumetric`] makes a technique of it.
+pub trait LightPass: PointLookup + Send {
+    /// The light pass's name in `timings`. Default: "light pass".
+    const PASS: &'static str = "light pass";
+    /// Renders the light-space maps of `frame` (the technique's "light pass").
+    fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error>;
+    /// Whether a run has left maps to read (`inspect` reports nothing before).
+    fn ran(&self) -> bool;
+    /// The last run's maps for `dump`.
+    fn stages(&self) -> Result<Vec<Stage>, Error>;
+    /// Work counters of the last run (light-space bytes, fragments...).
+    fn counters(&self) -> Vec<(&'static str, f64)>;
+}
+
+/// A volumetric technique: light pass `L`, then the lookup pass at every pixel's point, both
+/// timed; `inspect` runs the same per-point function with a recording trace.
+pub struct Volumetric<L> {
+    /// The light pass and its maps.
+    pub light: L,
+    /// Whether the last scene had a coloured material (the result is then per channel).
+    coloured: bool,
+}
+
+impl<L: LightPass> Volumetric<L> {
+    /// The technique `name` made of `light`.
+    pub fn technique(name: &'static str, light: L) -> PassTechnique<Volumetric<L>> {
+        PassTechnique::with(name, Volumetric { light, coloured: false })
+    }
+}
+
+impl<L: LightPass> Pass for Volumetric<L> {
+    type Output = Visibility;
+
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Visibility, Error> {
+        self.coloured = coloured(frame.scene);
+        self.light.render(p, frame)?;
+        passes.end(L::PASS);
+        let out = lookup_pass(p, frame, self.coloured, &self.light);
+        passes.end("lookup pass");
+        Ok(out)
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        explain_point(frame, x, y, self.coloured, self.light.ran(), &self.light)
+    }
+
+    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
+        self.light.stages()
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        self.light.counters()
+    }
+}
+
+/// Where a world point falls in a technique's square maps: the view, the texel and the
+/// point's depth in that view.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Texel {
+    /// The light view (cube face) it falls in.
+    pub view: usize,
+    /// Texel column.
+    pub x: u32,
+    /// Texel row.
+    pub y: u32,
+    /// Depth in the view, as the view's projection gives it (not clamped).
+    pub depth: f32,
+}
+
+impl Texel {
+    /// The texel of world point `p` in `maps` (each `size` texels square); `None`, reported
+    /// to `t` as lit, where `p` is outside every map (the light side's one edge rule).
+    pub fn of(maps: &[impl OnView], frame: &Frame, p: Vec3, size: u32, t: &mut impl Trace) -> Option<Texel> {
+        let Some(at) = light::locate(maps, &frame.light, p).filter(|at| at.inside()) else {
+            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+            return None;
+        };
+        let (x, y) = at.texel(size, size);
+        Some(Texel {
+            view: at.view,
+            x,
+            y,
+            depth: at.depth,
+        })
+    }
+
+    /// The `inspect` step that says where the point was read (`what`: what is read there),
+    /// with depth `z`.
+    pub fn step(&self, what: &str, z: f32) -> Step {
+        Step::new("light-space position", what)
+            .int("view", self.view)
+            .vec2("texel", Vec2::new(self.x as f32, self.y as f32))
+            .num("depth", z)
+    }
+}
 
 /// Whether some material of `scene` transmits a colour (different per channel): the
 /// volumetric techniques then return one transmittance per channel.

@@ -23,16 +23,16 @@
 //! `smoke`, `layers` and `stained_glass`: deep opacity maps, whose first boundary lies on the
 //! first layer, reach a lower error with 4 slices than uniform slices with 16.
 
-use super::PointLookup;
+use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{self, light_views, DepthPass, LightView};
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::light::{light_views, DepthPass, LightView};
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 /// Most slices.
 pub const MAX_SLICES: u32 = 64;
@@ -138,55 +138,49 @@ impl crate::shadow::light::OnView for Maps {
     }
 }
 
-/// Opacity shadow maps and deep opacity maps (see the module docs).
-pub struct OpacityMaps {
+/// The light pass of opacity maps: the opaque depth, the first depth and the slices per light view.
+pub struct OpacityPass {
     opts: Options,
     maps: Vec<Maps>,
     /// Slice thickness in light depth.
     step: f32,
-    coloured: bool,
     fragments: u64,
-    times: Vec<(&'static str, f64)>,
 }
+
+/// Opacity shadow maps and deep opacity maps (see the module docs).
+pub type OpacityMaps = PassTechnique<Volumetric<OpacityPass>>;
 
 impl OpacityMaps {
     /// Opacity maps with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<OpacityMaps, Error> {
         declaration().check(&opts)?;
-        Ok(OpacityMaps {
-            opts,
-            maps: Vec::new(),
-            step: 1.0,
-            coloured: false,
-            fragments: 0,
-            times: Vec::new(),
-        })
+        Ok(Volumetric::technique(
+            "opacity-maps",
+            OpacityPass {
+                opts,
+                maps: Vec::new(),
+                step: 1.0,
+                fragments: 0,
+            },
+        ))
     }
 }
 
-impl PointLookup for OpacityMaps {
+impl PointLookup for OpacityPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace), every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
-            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
         let m = &self.maps[at.view];
-        let s = m.opaque.width();
-        let (tx, ty) = at.texel(s, s);
+        let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let od = m.opaque.at(tx, ty);
         t.step(|| {
-            Step::new(
-                "light-space position",
-                "the texel the maps are read at, and the point's depth",
-            )
-            .int("view", at.view)
-            .vec2("texel", Vec2::new(tx as f32, ty as f32))
-            .num("depth", z)
-            .num("opaque depth", od)
-            .flag("behind an opaque caster", z > od)
+            at.step("the texel the maps are read at, and the point's depth", z)
+                .num("opaque depth", od)
+                .flag("behind an opaque caster", z > od)
         });
         if z > od {
             return Vec3::ZERO;
@@ -222,16 +216,10 @@ impl PointLookup for OpacityMaps {
     }
 }
 
-impl ShadowTechnique for OpacityMaps {
-    fn name(&self) -> &'static str {
-        "opacity-maps"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
-        let mut passes = Passes::start();
+impl LightPass for OpacityPass {
+    fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = super::coloured(scene);
         let (opaque, glass) = super::opaque_and_transparent(frame)?;
         // Optical depth per triangle (a fully opaque channel would be infinite: capped).
         let tau: Vec<Vec4> = glass
@@ -314,19 +302,11 @@ impl ShadowTechnique for OpacityMaps {
                 slices,
             });
         }
-        passes.end("light pass");
-        let out = super::lookup_pass(p, frame, self.coloured, &*self);
-        passes.end("lookup pass");
-        self.times = passes.finish();
-        Ok(out)
+        Ok(())
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
+    fn ran(&self) -> bool {
+        !self.maps.is_empty()
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -340,7 +320,7 @@ impl ShadowTechnique for OpacityMaps {
         ]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
+    fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             v.push(Stage::Scalar {

@@ -15,15 +15,15 @@
 //! Both maps come from the shared light pass ([`crate::shadow::light`]); the colour map is a
 //! colour target drawn with a depth test, so its colour is the nearest transparent surface's.
 
-use super::PointLookup;
+use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{self, light_views, DepthPass, LightView};
-use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::light::{light_views, DepthPass, LightView};
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 /// Options of the coloured transparency map.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,49 +93,38 @@ impl crate::shadow::light::OnView for Maps {
     }
 }
 
-/// The coloured transparency map (see the module docs).
-pub struct TransparencyMap {
+/// The light pass of the coloured transparency map: both maps per light view.
+pub struct TransparencyPass {
     opts: Options,
     maps: Vec<Maps>,
-    coloured: bool,
-    times: Vec<(&'static str, f64)>,
 }
+
+/// The coloured transparency map (see the module docs).
+pub type TransparencyMap = PassTechnique<Volumetric<TransparencyPass>>;
 
 impl TransparencyMap {
     /// A transparency map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<TransparencyMap, Error> {
         declaration().check(&opts)?;
-        Ok(TransparencyMap {
-            opts,
-            maps: Vec::new(),
-            coloured: false,
-            times: Vec::new(),
-        })
+        Ok(Volumetric::technique(
+            "transparency-map",
+            TransparencyPass { opts, maps: Vec::new() },
+        ))
     }
 }
 
-impl PointLookup for TransparencyMap {
+impl PointLookup for TransparencyPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): both maps read at the point's texel, every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside()) else {
-            t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
+        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
         let m = &self.maps[at.view];
-        let s = m.opaque.width();
-        let (tx, ty) = at.texel(s, s);
+        let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let (od, td, c) = (m.opaque.at(tx, ty), m.depth.at(tx, ty), m.colour.at(tx, ty).truncate());
-        t.step(|| {
-            Step::new(
-                "light-space position",
-                "the texel both maps are read at, and the point's depth",
-            )
-            .int("view", at.view)
-            .vec2("texel", Vec2::new(tx as f32, ty as f32))
-            .num("depth", z)
-        });
+        t.step(|| at.step("the texel both maps are read at, and the point's depth", z));
         t.step(|| {
             Step::new(
                 "opaque map",
@@ -164,16 +153,10 @@ impl PointLookup for TransparencyMap {
     }
 }
 
-impl ShadowTechnique for TransparencyMap {
-    fn name(&self) -> &'static str {
-        "transparency-map"
-    }
-
-    fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
-        let mut passes = Passes::start();
+impl LightPass for TransparencyPass {
+    fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let o = self.opts.clone();
         let scene = frame.scene;
-        self.coloured = super::coloured(scene);
         let (opaque, glass) = super::opaque_and_transparent(frame)?;
         let colours: Vec<Vec4> = glass
             .object
@@ -219,19 +202,11 @@ impl ShadowTechnique for TransparencyMap {
                 colour,
             });
         }
-        passes.end("light pass");
-        let out = super::lookup_pass(p, frame, self.coloured, &*self);
-        passes.end("lookup pass");
-        self.times = passes.finish();
-        Ok(out)
+        Ok(())
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        super::explain_point(frame, x, y, self.coloured, !self.maps.is_empty(), self)
-    }
-
-    fn timings(&self) -> Vec<(&'static str, f64)> {
-        self.times.clone()
+    fn ran(&self) -> bool {
+        !self.maps.is_empty()
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -241,7 +216,7 @@ impl ShadowTechnique for TransparencyMap {
         vec![("light-space bytes", (texels * 12) as f64)]
     }
 
-    fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
+    fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, m) in self.maps.iter().enumerate() {
             v.push(Stage::Scalar {

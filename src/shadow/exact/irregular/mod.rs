@@ -460,6 +460,8 @@ fn resolve(marks: &[u8], t: &mut impl Trace) -> f32 {
 }
 
 impl Pass for IrregularZBuffer {
+    type Output = Vec<f32>;
+
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         // The samples and their lists (at most 88 bytes a sample: its position, record, key
         // and sort entry, the store's node and its index, its result), checked against the
