@@ -11,6 +11,7 @@ use penumbra::reference::{Reference, ReferenceOptions};
 use penumbra::shadow::inspect::{self, NoTrace, Trace};
 use penumbra::shadow::light::{Layer, MapOptions};
 use penumbra::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
+use penumbra::shadow::options::within;
 use penumbra::shadow::pixels::per_pixel_counted;
 use penumbra::shadow::timing::Passes;
 use penumbra::shadow::{Declaration, ShadowTechnique, Stage, Step, Visibility};
@@ -29,8 +30,8 @@ pub struct Options {
 
 /// The option declaration (`key=value` settings, ranges, the constructor's check).
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = penumbra::map_fields!(Options, |o| o.map);
-    fields.extend(penumbra::bias_fields!(Options, |o| o.bias));
+    let mut fields = within(MapOptions::fields(), |o: &mut Options| &mut o.map);
+    fields.extend(within(Bias::fields(), |o: &mut Options| &mut o.bias));
     Declaration {
         technique: "soft-edge",
         fields,

@@ -218,6 +218,42 @@ impl<O: Clone + Default + 'static> Field<O> {
     }
 }
 
+impl<I: Clone + Default + 'static> Field<I> {
+    /// This field of a group of options `I` as a field of an options struct `O` that holds
+    /// the group at `access` (the map pass's [`crate::shadow::light::MapOptions`], the
+    /// lookups' [`crate::shadow::map::lookup::Bias`]...): same key, documentation and range;
+    /// its default is the one `O::default()` holds.
+    pub fn within<O: Clone + Default + 'static>(self, access: fn(&mut O) -> &mut I) -> Field<O> {
+        let Field {
+            key,
+            doc,
+            ty,
+            set,
+            check,
+            show,
+            ..
+        } = self;
+        Field {
+            key,
+            doc,
+            ty,
+            default: show(access(&mut O::default())),
+            set: Box::new(move |o, s| set(access(o), s)),
+            check: Box::new(move |o| check(access(&mut o.clone()))),
+            show: Box::new(move |o| show(access(&mut o.clone()))),
+        }
+    }
+}
+
+/// The fields of a group of options `I` ([`Field::within`]) as fields of `O`, which holds the
+/// group at `access`.
+pub fn within<O: Clone + Default + 'static, I: Clone + Default + 'static>(
+    fields: impl IntoIterator<Item = Field<I>>,
+    access: fn(&mut O) -> &mut I,
+) -> Vec<Field<O>> {
+    fields.into_iter().map(|f| f.within(access)).collect()
+}
+
 /// A technique's options: its name and fields. Parses `key=value` settings into the struct
 /// and checks a struct built in code, with the same messages.
 pub struct Declaration<O> {

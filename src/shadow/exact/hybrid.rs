@@ -18,6 +18,8 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::irregular::{self, IrregularZBuffer};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::light::soft::light_size_fields;
+use crate::shadow::map::lookup::lookup_fields;
 use crate::shadow::map::soft::{self, SoftShadows};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_map;
@@ -52,13 +54,15 @@ impl Default for Options {
 
 /// The option declaration: PCSS's, the IZB's grid and the blend band.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.pcss.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.pcss.bias));
-    fields.extend([
-        crate::cone_field!(Options, |o| o.pcss.wide),
-        crate::hierarchy_field!(Options, |o| o.pcss.wide),
-    ]);
-    fields.extend(crate::light_size_fields!(Options, |o| o.pcss));
+    let mut fields = lookup_fields(
+        |o: &mut Options| &mut o.pcss.map,
+        |o: &mut Options| &mut o.pcss.bias,
+        |o: &mut Options| &mut o.pcss.wide,
+    );
+    fields.extend(light_size_fields(
+        |o: &mut Options| &mut o.pcss.light,
+        |o: &mut Options| &mut o.pcss.angle,
+    ));
     fields.extend([
         Field::range(
             "grid",

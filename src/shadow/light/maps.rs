@@ -16,7 +16,7 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::Light;
-use crate::shadow::Stage;
+use crate::shadow::{Field, Stage};
 use crate::Error;
 use glam::{BVec4A, Vec2, Vec3, Vec4};
 
@@ -74,48 +74,48 @@ impl Default for MapOptions {
     }
 }
 
-/// The declaration of [`MapOptions`]' fields (size, format, polygon offset, fitting,
-/// snapping) for an options struct whose `MapOptions` is reached by `|o| path`
-/// (`map_fields!(Options, |o| o.map)`).
-#[macro_export]
-macro_rules! map_fields {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        use $crate::shadow::Field;
+impl MapOptions {
+    /// The declaration of the map pass's fields (size, format, polygon offset, fitting,
+    /// snapping); a technique's options that hold a `MapOptions` declare them with
+    /// [`crate::shadow::options::within`].
+    pub fn fields() -> Vec<Field<MapOptions>> {
         vec![
             Field::range(
                 "size",
                 "map side in texels (a cube map has six faces of this size)",
                 16,
-                $crate::pipeline::MAX_DIMENSION,
-                |$x: &mut $o| &mut $($path)+.size,
+                MAX_DIMENSION,
+                |m: &mut MapOptions| &mut m.size,
             ),
-            Field::new("format", "depth storage: f32, u24 or u16", |$x: &mut $o| &mut $($path)+.format),
+            Field::new("format", "depth storage: f32, u24 or u16", |m: &mut MapOptions| {
+                &mut m.format
+            }),
             Field::range(
                 "units",
                 "constant polygon offset, in units of the format's resolvable depth step",
                 -1e6,
                 1e6,
-                |$x: &mut $o| &mut $($path)+.units,
+                |m: &mut MapOptions| &mut m.units,
             ),
             Field::range(
                 "slope",
                 "slope-scaled polygon offset factor",
                 -1e3,
                 1e3,
-                |$x: &mut $o| &mut $($path)+.slope,
+                |m: &mut MapOptions| &mut m.slope,
             ),
             Field::new(
                 "fit",
                 "directional lights: scene bounds, or receivers (casters that shadow visible receivers)",
-                |$x: &mut $o| &mut $($path)+.fit,
+                |m: &mut MapOptions| &mut m.fit,
             ),
             Field::new(
                 "snap",
                 "snap the fitted frustum to whole texels (against shimmering)",
-                |$x: &mut $o| &mut $($path)+.snap,
+                |m: &mut MapOptions| &mut m.snap,
             ),
         ]
-    }};
+    }
 }
 
 /// Where a world point falls in a light's maps ([`locate`]).

@@ -6,6 +6,7 @@
 use super::LightView;
 use crate::frame::Frame;
 use crate::scene::LightKind;
+use crate::shadow::Field;
 
 /// The light's width for PCSS-style estimates: the scene's area light (a disk's or sphere's
 /// diameter, a rectangle's mean side) times `scale`; `2 tan(angle / 2)` for a directional
@@ -60,28 +61,27 @@ pub fn world(view: &LightView, texels: f32, d: f32) -> f32 {
 }
 
 /// The declaration of the light-size options of the PCSS-style techniques (`light`, `angle`)
-/// for an options struct whose light width and angle are reached by `|o| path`.
-#[macro_export]
-macro_rules! light_size_fields {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        use $crate::shadow::Field;
-        [
-            Field::range(
-                "light",
-                "the light's width as a multiple of the scene's area light (0: hard shadow)",
-                0.0,
-                1e3,
-                |$x: &mut $o| &mut $($path)+.light,
-            ),
-            Field::range(
-                "angle",
-                "directional lights: angular diameter in degrees (0: hard shadow)",
-                0.0,
-                90.0,
-                |$x: &mut $o| &mut $($path)+.angle,
-            ),
-        ]
-    }};
+/// at `light` and `angle`.
+pub fn light_size_fields<O: Clone + Default + 'static>(
+    light: fn(&mut O) -> &mut f32,
+    angle: fn(&mut O) -> &mut f32,
+) -> [Field<O>; 2] {
+    [
+        Field::range(
+            "light",
+            "the light's width as a multiple of the scene's area light (0: hard shadow)",
+            0.0,
+            1e3,
+            light,
+        ),
+        Field::range(
+            "angle",
+            "directional lights: angular diameter in degrees (0: hard shadow)",
+            0.0,
+            90.0,
+            angle,
+        ),
+    ]
 }
 
 #[cfg(test)]

@@ -28,8 +28,11 @@ use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
+use crate::shadow::map::lookup::cone_field;
+use crate::shadow::options::within;
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -76,10 +79,13 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.bias));
-    fields.push(crate::cone_field!(Options, |o| o));
-    fields.extend(crate::light_size_fields!(Options, |o| o));
+    let mut fields = within(MapOptions::fields(), |o: &mut Options| &mut o.map);
+    fields.extend(within(Bias::fields(), |o: &mut Options| &mut o.bias));
+    fields.push(cone_field(|o: &mut Options| &mut o.cone));
+    fields.extend(light_size_fields(
+        |o: &mut Options| &mut o.light,
+        |o: &mut Options| &mut o.angle,
+    ));
     fields.extend([Field::range(
         "kernel",
         "filter taps per axis at the penumbra's mip level (made odd)",

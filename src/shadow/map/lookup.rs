@@ -26,7 +26,8 @@ use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSample
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
-use crate::shadow::Stage;
+use crate::shadow::options::within;
+use crate::shadow::{Field, Stage};
 use crate::Error;
 use glam::{Vec2, Vec4};
 
@@ -41,27 +42,25 @@ pub struct Bias {
     pub receiver: bool,
 }
 
-/// The declaration of [`Bias`]' fields for an options struct whose `Bias` is reached by
-/// `|o| path` (`bias_fields!(Options, |o| o.bias)`).
-#[macro_export]
-macro_rules! bias_fields {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        use $crate::shadow::Field;
-        [
+impl Bias {
+    /// The declaration of the bias fields (`normal`, `receiver`), for options that hold a
+    /// `Bias` ([`crate::shadow::options::within`]).
+    pub fn fields() -> Vec<Field<Bias>> {
+        vec![
             Field::range(
                 "normal",
                 "normal-offset bias: texels along the normal, times sin(angle to the light)",
                 0.0,
                 100.0,
-                |$x: &mut $o| &mut $($path)+.normal,
+                |b: &mut Bias| &mut b.normal,
             ),
             Field::new(
                 "receiver",
                 "receiver-plane depth bias (one texel of the receiver's depth slope; across wide kernels, the receiver's plane)",
-                |$x: &mut $o| &mut $($path)+.receiver,
+                |b: &mut Bias| &mut b.receiver,
             ),
         ]
-    }};
+    }
 }
 
 /// What a lookup that filters with wide kernels prepares beyond the reference depth.
@@ -76,32 +75,43 @@ pub struct Wide {
     pub hierarchy: bool,
 }
 
-/// The declaration of [`Wide`]'s bias cone for an options struct whose `Wide` is reached by
-/// `|o| path`.
-#[macro_export]
-macro_rules! cone_field {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        $crate::shadow::Field::range(
-            "cone",
-            "wide filters: bias cone slope (Burley), depth toward the light per unit of tap distance",
-            0.0,
-            100.0,
-            |$x: &mut $o| &mut $($path)+.cone,
-        )
-    }};
+/// The declaration of the bias cone's slope ([`Wide::cone`]) at `access`.
+pub fn cone_field<O: Clone + Default + 'static>(access: fn(&mut O) -> &mut f32) -> Field<O> {
+    Field::range(
+        "cone",
+        "wide filters: bias cone slope (Burley), depth toward the light per unit of tap distance",
+        0.0,
+        100.0,
+        access,
+    )
 }
 
-/// The declaration of [`Wide`]'s hierarchy switch for an options struct whose `Wide` is
-/// reached by `|o| path`.
-#[macro_export]
-macro_rules! hierarchy_field {
-    ($o:ty, |$x:ident| $($path:tt)+) => {{
-        $crate::shadow::Field::new(
-            "hierarchy",
-            "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides, and for PCSS's 16-tap search, which costs no more than a classification, it saves less than it costs)",
-            |$x: &mut $o| &mut $($path)+.hierarchy,
-        )
-    }};
+impl Wide {
+    /// The declaration of the wide kernels' fields (`cone`, `hierarchy`), for options that
+    /// hold a `Wide` ([`crate::shadow::options::within`]).
+    pub fn fields() -> Vec<Field<Wide>> {
+        vec![
+            cone_field(|w: &mut Wide| &mut w.cone),
+            Field::new(
+                "hierarchy",
+                "wide filters: skip the taps of kernels the map's hierarchy shows fully lit or shadowed (per block min/max depth and bounds around a plane: pays with the receiver plane and wide kernels; with a flat reference on sloped receivers it rarely decides, and for PCSS's 16-tap search, which costs no more than a classification, it saves less than it costs)",
+                |w: &mut Wide| &mut w.hierarchy,
+            ),
+        ]
+    }
+}
+
+/// The fields of a technique whose lookup is a [`MapLookup`] with wide kernels: the map
+/// pass's, the bias's and the kernels', for options holding them at `map`, `bias`, `wide`.
+pub fn lookup_fields<O: Clone + Default + 'static>(
+    map: fn(&mut O) -> &mut MapOptions,
+    bias: fn(&mut O) -> &mut Bias,
+    wide: fn(&mut O) -> &mut Wide,
+) -> Vec<Field<O>> {
+    let mut fields = within(MapOptions::fields(), map);
+    fields.extend(within(Bias::fields(), bias));
+    fields.extend(within(Wide::fields(), wide));
+    fields
 }
 
 /// What a technique's lookup needs: the map pass, the layer it stores, the bias, and, for

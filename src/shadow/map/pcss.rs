@@ -10,19 +10,23 @@
 use super::kernel::MAX_TAPS;
 use super::soft::SoftShadows;
 pub use super::soft::{Disk, Options};
+use crate::shadow::light::soft::light_size_fields;
+use crate::shadow::map::lookup::lookup_fields;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.bias));
-    fields.extend([
-        crate::cone_field!(Options, |o| o.wide),
-        crate::hierarchy_field!(Options, |o| o.wide),
-    ]);
-    fields.extend(crate::light_size_fields!(Options, |o| o));
+    let mut fields = lookup_fields(
+        |o: &mut Options| &mut o.map,
+        |o: &mut Options| &mut o.bias,
+        |o: &mut Options| &mut o.wide,
+    );
+    fields.extend(light_size_fields(
+        |o: &mut Options| &mut o.light,
+        |o: &mut Options| &mut o.angle,
+    ));
     fields.extend([
         Field::range("blockers", "blocker-search taps", 1, MAX_TAPS, |o: &mut Options| {
             &mut o.blockers

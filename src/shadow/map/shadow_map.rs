@@ -24,51 +24,62 @@
 //! across the kernel, uniform penumbrae of fixed-width PCF.
 
 use super::kernel::{Kernel, Pattern, MAX_TAPS};
-use super::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
-use crate::choice_enum;
+use super::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 pub use crate::shadow::light::{FitTo, Layer};
 use crate::shadow::light::{LightView, MapOptions};
+use crate::shadow::options::OptionValue;
 use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 
-choice_enum! {
-    /// How the map is sampled.
-    pub enum Filter {
-        /// One comparison of the nearest texel.
-        None = "none",
-        /// Hardware-style 2x2 PCF: four comparisons, bilinearly weighted.
-        Pcf2 = "pcf2",
-        /// Bilinear filtering of the depths, then one comparison (the wrong order).
-        DepthBilinear = "depth-bilinear",
-        /// `n x n` 2x2 comparisons at whole-texel offsets, box weights (`kernel` = n).
-        Grid = "grid",
-        /// `n x n` 2x2 comparisons at whole-texel offsets, tent weights.
-        Tent = "tent",
-        /// A fixed Poisson disk of `taps` 2x2 comparisons, `kernel` texels wide.
-        Poisson = "poisson",
-        /// The Poisson disk rotated per pixel by a hashed angle.
-        Rotated = "rotated",
-        /// A Vogel spiral rotated by interleaved gradient noise (Jimenez 2014).
-        Spiral = "spiral",
-    }
+/// How the map is sampled: one comparison, hardware 2x2 PCF, or a kernel of 2x2 comparisons
+/// (its option names are the [`Pattern`]s': `grid`, `tent`, `poisson`, `rotated`, `spiral`,
+/// and `depth-bilinear`, the wrong order shown for contrast).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Filter {
+    /// One comparison of the nearest texel (`none`).
+    None,
+    /// Hardware-style 2x2 PCF: four comparisons, bilinearly weighted (`pcf2`).
+    Pcf2,
+    /// A kernel of `pattern`, `kernel` texels wide, of `taps` taps where the pattern has a
+    /// tap count.
+    Kernel(Pattern),
 }
 
 impl Filter {
     /// The PCF kernel pattern of the wide filters.
     pub fn pattern(self) -> Option<Pattern> {
         match self {
+            Filter::Kernel(p) => Some(p),
             Filter::None | Filter::Pcf2 => None,
-            Filter::DepthBilinear => Some(Pattern::DepthBilinear),
-            Filter::Grid => Some(Pattern::Grid),
-            Filter::Tent => Some(Pattern::Tent),
-            Filter::Poisson => Some(Pattern::Poisson),
-            Filter::Rotated => Some(Pattern::Rotated),
-            Filter::Spiral => Some(Pattern::Spiral),
+        }
+    }
+}
+
+impl OptionValue for Filter {
+    fn type_name() -> String {
+        format!("none|pcf2|{}", Pattern::type_name())
+    }
+
+    fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(Filter::None),
+            "pcf2" => Ok(Filter::Pcf2),
+            _ => Pattern::parse(s)
+                .map(Filter::Kernel)
+                .map_err(|_| format!("is not one of none, pcf2, {}", Pattern::NAMES.join(", "))),
+        }
+    }
+
+    fn show(&self) -> String {
+        match self {
+            Filter::None => "none".into(),
+            Filter::Pcf2 => "pcf2".into(),
+            Filter::Kernel(p) => p.show(),
         }
     }
 }
@@ -113,11 +124,12 @@ impl Default for Options {
 
 /// The option declaration (`--set`, `penumbra list`, the constructor's check).
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.bias));
+    let mut fields = lookup_fields(
+        |o: &mut Options| &mut o.map,
+        |o: &mut Options| &mut o.bias,
+        |o: &mut Options| &mut o.wide,
+    );
     fields.extend([
-        crate::cone_field!(Options, |o| o.wide),
-        crate::hierarchy_field!(Options, |o| o.wide),
         Field::new(
             "layer",
             "first, second (back faces), midpoint (two nearest layers) or id (object ids)",

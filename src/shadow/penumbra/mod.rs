@@ -22,8 +22,10 @@ use crate::pipeline::*;
 use crate::scene::LightKind;
 use crate::shadow::light::soft::light_width;
 use crate::shadow::light::{homogeneous_position, LightView};
+use crate::shadow::map::lookup::MapLookup;
+use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette;
-use crate::shadow::Field;
+use crate::shadow::{Field, Stage};
 use crate::Error;
 use glam::{Vec3, Vec4};
 use std::collections::HashMap;
@@ -189,6 +191,59 @@ pub fn render(p: &Pipeline, quads: &Quads, view: &LightView, size: u32) -> Resul
         texel,
         fragments: stats.fragments_rasterized,
     })
+}
+
+impl VolumeMap {
+    /// The map's depth for `dump` as stage `name` (from the nearest depth to 1); `None` when
+    /// no volume reached the map.
+    pub fn depth_stage(&self, name: String) -> Option<Stage> {
+        (self.fragments > 0).then(|| Stage::Scalar {
+            name,
+            data: self.depth.clone(),
+            lo: self.depth.data().iter().copied().fold(1.0f32, f32::min),
+            hi: 1.0,
+        })
+    }
+}
+
+/// [`render`] in every view of `lookup`'s maps, at the maps' size.
+pub fn render_views(p: &Pipeline, quads: &Quads, lookup: &MapLookup, size: u32) -> Result<Vec<VolumeMap>, Error> {
+    lookup
+        .maps()
+        .iter()
+        .map(|(_, view)| render(p, quads, view, size))
+        .collect()
+}
+
+/// The passes both techniques begin with, timed into `passes`: the depth maps ("light
+/// pass"), the light's radius scaled by `light` ([`light_radius`]) and, for a light with a
+/// size, the silhouettes ("silhouettes"; none for a point light).
+pub fn light_and_silhouettes(
+    p: &Pipeline,
+    frame: &Frame,
+    lookup: &mut MapLookup,
+    light: f32,
+    passes: &mut Passes,
+) -> Result<(f32, Silhouettes), Error> {
+    lookup.light_pass(p, frame)?;
+    let radius = light_radius(frame, light);
+    passes.end("light pass");
+    let sil = if radius > 0.0 {
+        silhouettes(p, frame)
+    } else {
+        Silhouettes::default()
+    };
+    passes.end("silhouettes");
+    Ok((radius, sil))
+}
+
+/// The input warnings of silhouettes `sil`: each object that is not a closed manifold, with
+/// `then`, what the technique does there.
+pub fn silhouette_notes(sil: &Silhouettes, then: &str) -> Vec<String> {
+    sil.irregular
+        .iter()
+        .map(|(o, d)| format!("object '{o}': {d}; {then}"))
+        .collect()
 }
 
 /// The light's visibility through a cutting plane (Cournia 4.2): the plane through the edge

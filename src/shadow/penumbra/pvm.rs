@@ -41,7 +41,8 @@
 //! nearby occluder.
 
 use super::{
-    bernstein, disk_visibility, light_field, light_radius, render, silhouettes, Quads, Silhouettes, VolumeMap,
+    bernstein, disk_visibility, light_and_silhouettes, light_field, render_views, silhouette_notes, Quads, Silhouettes,
+    VolumeMap,
 };
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
@@ -49,6 +50,7 @@ use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::bilinear_compare;
 use crate::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
+use crate::shadow::options::within;
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
 use crate::shadow::timing::Passes;
@@ -85,8 +87,8 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.bias));
+    let mut fields = within(MapOptions::fields(), |o: &mut Options| &mut o.map);
+    fields.extend(within(Bias::fields(), |o: &mut Options| &mut o.bias));
     fields.extend([
         light_field(|o: &mut Options| &mut o.light),
         Field::new(
@@ -333,26 +335,19 @@ impl ShadowTechnique for Pvm {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
-        self.lookup.light_pass(p, frame)?;
-        self.radius = light_radius(frame, self.opts.light);
-        passes.end("light pass");
         let l = frame.light.position;
         self.volumes.clear();
-        self.sil = Silhouettes::default();
         self.ext.clear();
         self.quads = 0;
-        if self.radius > 0.0 {
-            self.sil = silhouettes(p, frame);
-            if self.sil.edges.len() >= 1 << 23 {
-                return Err(Error::budget(
-                    "the edge map's silhouette edges",
-                    self.sil.edges.len() as u64,
-                    (1 << 23) - 1,
-                    Resource::Entries,
-                ));
-            }
+        (self.radius, self.sil) = light_and_silhouettes(p, frame, &mut self.lookup, self.opts.light, &mut passes)?;
+        if self.sil.edges.len() >= 1 << 23 {
+            return Err(Error::budget(
+                "the edge map's silhouette edges",
+                self.sil.edges.len() as u64,
+                (1 << 23) - 1,
+                Resource::Entries,
+            ));
         }
-        passes.end("silhouettes");
         let mut quads = Quads::default();
         if self.radius > 0.0 {
             self.ext = extrusions(&self.sil, l, self.radius);
@@ -361,10 +356,7 @@ impl ShadowTechnique for Pvm {
         }
         passes.end("volume construction");
         if self.radius > 0.0 {
-            let size = self.opts.map.size;
-            for (_, view) in self.lookup.maps() {
-                self.volumes.push(render(p, &quads, view, size)?);
-            }
+            self.volumes = render_views(p, &quads, &self.lookup, self.opts.map.size)?;
         }
         passes.end("volume rendering");
         let this = &*self;
@@ -386,9 +378,8 @@ impl ShadowTechnique for Pvm {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let header = || {
-            Step::new("maps", "the depth map and the penumbra volume map of the last run")
-                .int("views", self.lookup.maps().len())
-                .int("size", self.opts.map.size)
+            self.lookup
+                .pass_step()
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
                 .int("volume quads", self.quads)
@@ -402,13 +393,10 @@ impl ShadowTechnique for Pvm {
     }
 
     fn notes(&self) -> Vec<String> {
-        self.sil
-            .irregular
-            .iter()
-            .map(|(o, d)| {
-                format!("object '{o}': {d}; its silhouette loops may be open (coincident-plane extrusion there)")
-            })
-            .collect()
+        silhouette_notes(
+            &self.sil,
+            "its silhouette loops may be open (coincident-plane extrusion there)",
+        )
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -437,16 +425,10 @@ impl ShadowTechnique for Pvm {
             [c.x as u8, c.y as u8, c.z as u8, 255]
         };
         for (i, vm) in self.volumes.iter().enumerate() {
-            if vm.fragments == 0 {
+            let Some(depth) = vm.depth_stage(format!("volume_depth{i}")) else {
                 continue;
-            }
-            let dlo = vm.depth.data().iter().copied().fold(1.0f32, f32::min);
-            v.push(Stage::Scalar {
-                name: format!("volume_depth{i}"),
-                data: vm.depth.clone(),
-                lo: dlo,
-                hi: 1.0,
-            });
+            };
+            v.push(depth);
             for (end, name) in [(0, "edge0"), (1, "edge1")] {
                 let data = vm.texel.map(|t| {
                     if t < 0.0 {

@@ -51,14 +51,14 @@
 //! Known failure (4.3, point 4, shared with PVM): one silhouette from the light's centre is
 //! wrong for a light much larger than a nearby occluder.
 
-use super::{light_field, light_radius, render, silhouettes, Quads, Silhouettes, VolumeMap};
+use super::{light_and_silhouettes, light_field, render_views, silhouette_notes, Quads, Silhouettes, VolumeMap};
 use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::map::kernel::{bilinear_compare, Class};
-use crate::shadow::map::lookup::{At, Bias, MapLookup, Prepared, Setup, Wide};
+use crate::shadow::map::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
@@ -146,11 +146,12 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    let mut fields = crate::map_fields!(Options, |o| o.map);
-    fields.extend(crate::bias_fields!(Options, |o| o.bias));
+    let mut fields = lookup_fields(
+        |o: &mut Options| &mut o.map,
+        |o: &mut Options| &mut o.bias,
+        |o: &mut Options| &mut o.wide,
+    );
     fields.extend([
-        crate::cone_field!(Options, |o| o.wide),
-        crate::hierarchy_field!(Options, |o| o.wide),
         Field::new(
             "layer",
             "pass 1: first, second (back faces, the text's) or midpoint depth",
@@ -548,25 +549,16 @@ impl ShadowTechnique for Pvmf {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
-        self.lookup.light_pass(p, frame)?;
-        self.radius = light_radius(frame, self.opts.light);
-        passes.end("light pass");
         self.masks.clear();
-        self.sil = Silhouettes::default();
         self.vols.clear();
         let mut quads = Quads::default();
-        if self.radius > 0.0 {
-            self.sil = silhouettes(p, frame);
-        }
-        passes.end("silhouettes");
+        (self.radius, self.sil) = light_and_silhouettes(p, frame, &mut self.lookup, self.opts.light, &mut passes)?;
         if self.radius > 0.0 {
             (self.vols, quads) = mask_quads(&self.sil, frame.light.position, self.radius, self.opts.spread);
         }
         passes.end("volume construction");
         if self.radius > 0.0 {
-            for (_, view) in self.lookup.maps() {
-                self.masks.push(render(p, &quads, view, self.opts.map.size)?);
-            }
+            self.masks = render_views(p, &quads, &self.lookup, self.opts.map.size)?;
         }
         passes.end("volume rendering");
         let this = &*self;
@@ -602,10 +594,8 @@ impl ShadowTechnique for Pvmf {
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         let header = || {
-            Step::new("maps", "the depth map and the penumbra volume mask of the last run")
-                .int("views", self.lookup.maps().len())
-                .int("size", self.opts.map.size)
-                .text("layer", self.opts.layer.as_str())
+            self.lookup
+                .pass_step()
                 .num("light radius", self.radius)
                 .int("silhouette edges", self.sil.edges.len())
                 .num("s_e", self.opts.spread)
@@ -637,11 +627,7 @@ impl ShadowTechnique for Pvmf {
     }
 
     fn notes(&self) -> Vec<String> {
-        self.sil
-            .irregular
-            .iter()
-            .map(|(o, d)| format!("object '{o}': {d}; its open edges extrude as silhouettes"))
-            .collect()
+        silhouette_notes(&self.sil, "its open edges extrude as silhouettes")
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
@@ -667,16 +653,10 @@ impl ShadowTechnique for Pvmf {
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         for (i, m) in self.masks.iter().enumerate() {
-            if m.fragments == 0 {
+            let Some(depth) = m.depth_stage(format!("mask_depth{i}")) else {
                 continue;
-            }
-            let dlo = m.depth.data().iter().copied().fold(1.0f32, f32::min);
-            v.push(Stage::Scalar {
-                name: format!("mask_depth{i}"),
-                data: m.depth.clone(),
-                lo: dlo,
-                hi: 1.0,
-            });
+            };
+            v.push(depth);
             let finite = m.texel.data().iter().copied().filter(|&d| d >= 0.0);
             let (lo, hi) = finite.fold((f32::MAX, 0.0f32), |(a, b), d| (a.min(d), b.max(d)));
             v.push(Stage::Scalar {
