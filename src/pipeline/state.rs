@@ -395,6 +395,24 @@ pub struct RenderState {
     pub shading: Shading,
 }
 
+impl RenderState {
+    /// Every fragment added into the colour target: no depth test or depth write, depth
+    /// clamp on (nothing is clipped at the far plane), additive blending. Counting passes
+    /// (fragments per pixel) and accumulation passes (optical depth per slice) draw with it.
+    pub fn accumulate() -> RenderState {
+        RenderState {
+            depth: DepthState {
+                func: CompareFunc::Always,
+                write: false,
+                clamp: true,
+                ..Default::default()
+            },
+            blend: BlendMode::Add,
+            ..Default::default()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,6 +9,9 @@
 //! Why a small trait ([`OptionValue`]) and a builder rather than a macro: the declaration
 //! stays ordinary Rust (readable, formatted, checked by the compiler field by field), a field
 //! type is added by one `impl`, and choice enums get their names from [`crate::choice_enum!`].
+//! A group of options that several techniques hold (the map pass, the bias) declares its
+//! fields once, on its own type; a technique takes them into its declaration with
+//! [`within`], which reaches the group inside its `Options`.
 
 use crate::Error;
 use std::fmt::Display;
@@ -386,6 +389,42 @@ mod tests {
                 Field::new("name", "words", |o: &mut O| &mut o.name),
             ],
         }
+    }
+
+    #[derive(Clone, Debug, Default)]
+    struct Outer {
+        inner: O,
+        k: u32,
+    }
+
+    /// A group declared on its own type, nested with `within`: same keys and ranges, the
+    /// outer struct's default, values set and checked in the group.
+    #[test]
+    fn fields_within_a_group_reach_it() {
+        let outer_default = || Outer {
+            inner: O { n: 3, ..O::default() },
+            k: 0,
+        };
+        let d = Declaration {
+            technique: "t",
+            fields: within(decl().fields, |o: &mut Outer| &mut o.inner),
+        };
+        let infos = d.infos();
+        assert_eq!(
+            infos.iter().map(|i| i.key).collect::<Vec<_>>(),
+            ["n", "x", "on", "name"]
+        );
+        // The default shown is `Outer::default()`'s (here the group's own default).
+        assert_eq!(infos[0].default, "0");
+        let o = d.parse(&pairs(&[("n", "5"), ("on", "true")])).unwrap();
+        assert_eq!((o.inner.n, o.inner.on, o.k), (5, true, 0));
+        let e = d.parse(&pairs(&[("n", "9")])).unwrap_err().to_string();
+        assert!(e.contains("n=9") && e.contains("[1, 8]"), "{e}");
+        let mut bad = outer_default();
+        assert!(d.check(&bad).is_ok());
+        bad.inner.x = 2.0;
+        let e = d.check(&bad).unwrap_err().to_string();
+        assert!(e.contains("x=2") && e.contains("[-1, 1]"), "{e}");
     }
 
     fn pairs(p: &[(&str, &str)]) -> Vec<(String, String)> {

@@ -250,16 +250,7 @@ impl Pass for StencilVolumes {
         // The volumes from the camera: fragments per pixel, every volume triangle counted
         // (the stencil pass's fill, which the depth test does not reduce).
         let mut fill = Surface::new(frame.width(), frame.height(), 0.0f32)?;
-        let state = RenderState {
-            depth: DepthState {
-                func: CompareFunc::Always,
-                write: false,
-                clamp: true,
-                ..Default::default()
-            },
-            blend: BlendMode::Add,
-            ..Default::default()
-        };
+        let state = RenderState::accumulate();
         let vs = TransformHomogeneous(frame.camera.view_projection());
         for v in &self.volumes {
             p.draw(

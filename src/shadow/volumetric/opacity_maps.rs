@@ -277,15 +277,8 @@ impl LightPass for OpacityPass {
                 let stats = p.draw(
                     &mut Targets::color(&mut acc),
                     &RenderState {
-                        depth: DepthState {
-                            func: CompareFunc::Always,
-                            write: false,
-                            clamp: true,
-                            ..Default::default()
-                        },
-                        blend: BlendMode::Add,
                         shading: Shading::Immediate,
-                        ..Default::default()
+                        ..RenderState::accumulate()
                     },
                     &glass.positions,
                     &glass.indices,
