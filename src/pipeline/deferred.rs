@@ -48,8 +48,9 @@ const PIXELS: usize = (TILE * TILE) as usize;
 
 /// True when `state` and the targets let the draw be shaded deferred with the same result
 /// (see [`Shading::Deferred`]); `wide` says the four-pixel path already applies (a colour
-/// target, no stencil, no lists, no discard). The path exists on x86-64 only (its pass 1 is
-/// the SSE4.1 depth path); elsewhere every draw shades immediately.
+/// target, no stencil, no lists, no discard). The path is the same on every target (pass 1
+/// takes the four-pixel SSE4.1 depth spans where the build has them, the scalar spans with
+/// the same result elsewhere), so the counters are too.
 #[inline]
 pub(crate) fn applies<C>(state: &RenderState, targets: &RawTargets<C>, wide: bool) -> bool {
     wide && state.shading == Shading::Deferred
@@ -60,7 +61,6 @@ pub(crate) fn applies<C>(state: &RenderState, targets: &RawTargets<C>, wide: boo
 }
 
 /// Stages 5 and 6 of one tile, deferred (the caller checked [`applies`]).
-#[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
@@ -230,6 +230,21 @@ fn group_pixels(p: &[u16], live: u32, (ox, oy): (i32, i32)) -> (Vec4, Vec4, [u32
             std::mem::transmute::<__m128i, [u32; 4]>(ys),
         )
     }
+}
+
+/// [`group_pixels`] without SSE2, lane by lane: the same values.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn group_pixels(p: &[u16], live: u32, (ox, oy): (i32, i32)) -> (Vec4, Vec4, [u32; 4], [u32; 4]) {
+    let v: [u32; 4] = std::array::from_fn(|i| p[if (i as u32) < live { i } else { 0 }] as u32);
+    let lx = v.map(|v| v & (TILE as u32 - 1));
+    let ly = v.map(|v| v >> TILE_SHIFT);
+    (
+        Vec4::from_array(lx.map(|x| x as f32)),
+        Vec4::from_array(ly.map(|y| y as f32)),
+        std::array::from_fn(|i| (lx[i] as i32 + ox) as u32),
+        std::array::from_fn(|i| (ly[i] as i32 + oy) as u32),
+    )
 }
 
 /// A triangle of the tile: its planes re-based at the tile, and where its visible pixels

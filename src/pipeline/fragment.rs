@@ -10,9 +10,7 @@
 
 use super::bin::{Chunk, TileTris};
 use super::lists::{ListNode, NONE};
-#[cfg(target_arch = "x86_64")]
-use super::raster::small_depth_fused;
-use super::raster::{raster_tile, TileMask};
+use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
 use super::vertex::Varyings;
 use super::wide::{shade_row4, Color4, Fragment4, WideState, WideTri};
@@ -342,7 +340,7 @@ fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
 /// order (mul then add, no FMA; clamp with the operand order that keeps -0.0 and NaN as the
 /// scalar `clamp` does), so results are bit-identical. With `ids = Some((p, k))`, `p` points
 /// at the row's tile-local pixel 0 of a `u32` buffer and `k` is written where a lane passes.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn depth_span_x4(
@@ -405,6 +403,28 @@ pub(crate) fn depth_span_x4(
             passed += chunk(last, xf, true);
         }
         passed as u64
+    }
+}
+
+/// [`depth_span_x4`] where SSE4.1 is not in the build's target: the scalar span, which gives
+/// the same depths, ids and count.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn depth_span_x4(
+    row: *mut f32,
+    lo: u32,
+    hi: u32,
+    zrow: f32,
+    dzdx: f32,
+    write: bool,
+    less_equal: bool,
+    ids: Option<(*mut u32, u32)>,
+) -> u64 {
+    if less_equal {
+        depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a <= b, ids)
+    } else {
+        depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a < b, ids)
     }
 }
 
@@ -530,7 +550,6 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let wide_state = WideState::new(state);
     let wide =
         needs_shading && !P::MAY_DISCARD && !P::ORDERED && !stencil_on && !targets.lists && targets.color.is_some();
-    #[cfg(target_arch = "x86_64")]
     if super::deferred::applies(state, targets, wide) {
         super::deferred::shade_tile_deferred(chunks, tile, rect, state, targets, program, stats);
         return;
@@ -539,7 +558,6 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
     for (tri, attrs) in TileTris::new(chunks, tile) {
         // Stages 5 and 6 fused for small triangles of depth-only passes.
-        #[cfg(target_arch = "x86_64")]
         if fused_small {
             let depth = targets.depth.as_ref().unwrap();
             // SAFETY: the tile origin is inside the target.
@@ -575,7 +593,6 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                 // SAFETY: the row start is inside this worker's tile.
                 let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
                 let w = depth_write;
-                #[cfg(target_arch = "x86_64")]
                 if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
                     let le = state.depth.func == CompareFunc::LessEqual;
                     passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);

@@ -164,7 +164,7 @@ impl RowLanes {
 /// gives the depth plane's value at the start of tile row `ly` (offset included) and `dzdx`
 /// its step. With `ids = Some((p, k))`, `p` points at a [`TILE`]-wide `u32` buffer of the tile
 /// and `k` is written to every pixel that passes (the deferred path's visibility buffer).
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn small_depth_fused(
@@ -252,12 +252,32 @@ pub(crate) fn small_depth_fused(
     }
 }
 
+/// [`small_depth_fused`] where SSE4.1 is not in the build's target: never applies, so the
+/// caller takes the general path (coverage, then depth spans), which gives the same pixels,
+/// depths, ids and counts.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn small_depth_fused(
+    _tri: &SetupTri,
+    _rect: [i32; 4],
+    _depth: *mut f32,
+    _stride: usize,
+    _zrow_at: impl Fn(i32) -> f32,
+    _dzdx: f32,
+    _write: bool,
+    _less_equal: bool,
+    _ids: Option<(*mut u32, u32)>,
+) -> Option<(u64, u64)> {
+    None
+}
+
 /// Writes id `k` to the lanes of `p[0..4]` (a visibility buffer) that `mask` (all-ones or
 /// all-zeros lanes) selects; the other lanes keep their ids.
 ///
 /// # Safety
 /// `p .. p + 4` is readable and writable; SSE4.1 is in the build's target.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
 #[inline(always)]
 pub(crate) unsafe fn store_ids4(p: *mut u32, k: u32, mask: std::arch::x86_64::__m128) {
     use std::arch::x86_64::*;

@@ -254,8 +254,6 @@ impl CompareSampler {
     /// [`CompareSampler::pcf2x2`] per lane.
     #[inline(always)]
     pub fn pcf2x2_4(&self, s: &Surface<f32>, u: Vec4, v: Vec4, reference: Vec4) -> Vec4 {
-        let (w, h) = (s.width() as i64, s.height() as i64);
-        let d = s.data();
         let c = |t: Vec4| Vec4::select(self.func.test4(reference, t), Vec4::ONE, Vec4::ZERO);
         // The comparisons of the four texels, filtered bilinearly.
         let filter = |((t0, t1), (b0, b1)): ((Vec4, Vec4), (Vec4, Vec4)), fx: Vec4, fy: Vec4| {
@@ -267,6 +265,8 @@ impl CompareSampler {
         #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
         {
             use std::arch::x86_64::*;
+            let (w, h) = (s.width() as i64, s.height() as i64);
+            let d = s.data();
             // Every lane's whole footprint inside the map (the common case): no NaN (it fails
             // the comparisons), no clamp, and inside [0, 1]^2, so no border either
             // (`floor(u w - 0.5) >= 0` gives `u > 0`, `<= w - 2` gives `u w < w`, so `u < 1`).
