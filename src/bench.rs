@@ -391,8 +391,8 @@ pub fn random_triangles(t: usize, area: f32, w: u32, h: u32, seed: u64) -> (Vec<
         let col = Vec4::new(rng.next_f32(), rng.next_f32(), rng.next_f32(), 1.0);
         for k in 0..3 {
             let a = rot + k as f32 * std::f32::consts::TAU / 3.0;
-            let x = cx + circum * a.cos();
-            let y = cy + circum * a.sin();
+            let x = cx + circum * crate::math::cos(a);
+            let y = cy + circum * crate::math::sin(a);
             verts.push((
                 Vec4::new(x / w as f32 * 2.0 - 1.0, 1.0 - y / h as f32 * 2.0, z, 1.0),
                 col,
@@ -593,7 +593,7 @@ mod tests {
         let data: Vec<f32> = (0..n * n)
             .map(|i| {
                 let (x, y) = ((i % n) as f32, (i / n) as f32);
-                0.5 + 0.002 * (x * 0.3).sin() + if (x + y) as u32 % 37 < 9 { -0.01 } else { 0.0 }
+                0.5 + 0.002 * crate::math::sin(x * 0.3) + if (x + y) as u32 % 37 < 9 { -0.01 } else { 0.0 }
             })
             .collect();
         let map = Surface::from_vec(n, n, data).unwrap();

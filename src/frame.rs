@@ -7,6 +7,7 @@
 //!
 //! Shading: `ambient + v * (Lambert + Blinn-Phong)` with `v` per colour channel.
 
+use crate::math;
 use crate::pipeline::*;
 use crate::reference::SamplePoint;
 use crate::scene::{Camera, Light, Scene};
@@ -255,7 +256,7 @@ pub fn shade(frame: &Frame, visibility: &Visibility) -> Surface<Rgba8> {
             let ndl = s.normal.dot(l).max(0.0);
             let hv = (l + v).normalize_or_zero();
             let spec = if ndl > 0.0 {
-                0.25 * s.normal.dot(hv).max(0.0).powf(48.0)
+                0.25 * math::powf(s.normal.dot(hv).max(0.0), 48.0)
             } else {
                 0.0
             };
@@ -267,7 +268,7 @@ pub fn shade(frame: &Frame, visibility: &Visibility) -> Surface<Rgba8> {
                 if c <= 0.003_130_8 {
                     c * 12.92
                 } else {
-                    1.055 * c.powf(1.0 / 2.4) - 0.055
+                    1.055 * math::powf(c, 1.0 / 2.4) - 0.055
                 }
             };
             out.set(

@@ -88,6 +88,7 @@ pub mod frame;
 pub mod hash;
 #[cfg(feature = "images")]
 pub mod image_io;
+pub mod math;
 pub mod metrics;
 pub mod pipeline;
 pub mod reference;

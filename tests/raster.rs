@@ -447,7 +447,7 @@ fn near_plane_clipping_matches_analytic_depth() {
         )
         .unwrap();
     assert_eq!(stats.clipped, 1);
-    let inv = vp.inverse();
+    let inv = penumbra::math::inverse(&vp);
     let mut checked = 0;
     for y in 0..128u32 {
         for x in 0..128u32 {

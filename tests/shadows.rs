@@ -1806,7 +1806,7 @@ fn hybrid_is_exact_near_contact_and_leaks_nowhere() {
     // contact: a unit box rotated 25 degrees about y at the origin. Ground pixels within 0.3
     // of its footprint are where its shadow starts: the penumbra is narrowest there.
     let near = |p: glam::Vec3| {
-        let (s, c) = (-25f32).to_radians().sin_cos();
+        let (s, c) = penumbra::math::sin_cos((-25f32).to_radians());
         let q = glam::Vec2::new(c * p.x + s * p.z, -s * p.x + c * p.z);
         let out = (q.abs() - glam::Vec2::splat(0.5)).max(glam::Vec2::ZERO).length();
         p.y.abs() < 1e-3 && out > 0.0 && out < 0.3

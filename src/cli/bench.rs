@@ -297,7 +297,11 @@ pub fn rays(a: RaysArgs) -> Result<(), CliError> {
                 let z = 2.0 * u() - 1.0;
                 let phi = std::f32::consts::TAU * u();
                 let s = (1.0 - z * z).max(0.0).sqrt();
-                (o, glam::Vec3::new(s * phi.cos(), s * phi.sin(), z), f32::INFINITY)
+                (
+                    o,
+                    glam::Vec3::new(s * penumbra::math::cos(phi), s * penumbra::math::sin(phi), z),
+                    f32::INFINITY,
+                )
             })
             .collect()
     } else {

@@ -5,6 +5,7 @@
 use super::sampler::Filterable;
 use super::surface::{MipChain, Surface};
 use super::{Pipeline, PipelineError};
+use crate::math;
 use glam::{DVec4, Vec4};
 use rayon::prelude::*;
 
@@ -213,7 +214,7 @@ pub fn gaussian_weights(radius: usize) -> Vec<f32> {
     }
     let sigma = radius as f64 / 2.0;
     let w: Vec<f64> = (-(radius as i64)..=radius as i64)
-        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
+        .map(|i| math::exp_f64(-(i * i) as f64 / (2.0 * sigma * sigma)))
         .collect();
     let sum: f64 = w.iter().sum();
     w.iter().map(|v| (v / sum) as f32).collect()

@@ -7,6 +7,7 @@
 use super::state::CompareFunc;
 use super::surface::{MipChain, Surface, Texel};
 use super::wide::{floor4, index4};
+use crate::math;
 use glam::{BVec4A, Vec2, Vec3, Vec4};
 
 /// What happens outside [0, 1].
@@ -523,7 +524,7 @@ pub fn select_level<T: Texel>(m: &MipChain<T>, duv_dx: Vec2, duv_dy: Vec2) -> f3
     if rho.is_nan() || rho <= 1.0 {
         return 0.0;
     }
-    rho.log2().min((m.level_count() - 1) as f32)
+    math::log2(rho).min((m.level_count() - 1) as f32)
 }
 
 #[cfg(test)]

@@ -1108,7 +1108,7 @@ mod tests {
             .map(|i| {
                 let a = |k: u32| {
                     let t = k as f32 / n as f32 * std::f32::consts::TAU;
-                    Vec3::new(t.cos(), t.sin(), 0.0)
+                    Vec3::new(crate::math::cos(t), crate::math::sin(t), 0.0)
                 };
                 Tri {
                     v: [Vec3::ZERO, a(i), a(i + 1)],
@@ -1120,7 +1120,7 @@ mod tests {
         for i in 0..n {
             let t = i as f32 / n as f32 * std::f32::consts::TAU;
             for s in [0.0f32, 0.25, 0.5, 0.999] {
-                let o = Vec3::new(t.cos() * s, t.sin() * s, 1.0);
+                let o = Vec3::new(crate::math::cos(t) * s, crate::math::sin(t) * s, 1.0);
                 assert!(bvh.occluded(o, -Vec3::Z, 10.0), "ray down edge {i} at {s} leaked");
             }
         }

@@ -16,6 +16,7 @@
 
 pub mod bvh;
 
+use crate::math;
 use crate::scene::{AreaShape, Light, LightKind, Scene};
 use crate::visibility::Visibility;
 use bvh::{Bvh, Tri};
@@ -184,7 +185,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
             std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
         )
     };
-    Vec2::new(theta.cos(), theta.sin()) * r
+    Vec2::new(math::cos(theta), math::sin(theta)) * r
 }
 
 impl Reference {
@@ -351,7 +352,7 @@ impl Reference {
                 let helper = if w.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
                 let a = w.cross(helper).normalize();
                 let b = w.cross(a);
-                let d = (a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + w * cos_t).normalize();
+                let d = (a * (sin_t * math::cos(phi)) + b * (sin_t * math::sin(phi)) + w * cos_t).normalize();
                 // Distance to the near side of the sphere along d.
                 let tca = to.dot(d);
                 let thc = (radius * radius - (dist * dist - tca * tca)).max(0.0).sqrt();

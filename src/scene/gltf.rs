@@ -220,7 +220,7 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                 }
                 .transformed(world);
                 // A mirroring transform turns the faces' winding around (glTF 2.0, 3.7.4).
-                if world.determinant() < 0.0 {
+                if crate::math::determinant(&world) < 0.0 {
                     for t in m.indices.chunks_exact_mut(3) {
                         t.swap(1, 2);
                     }

@@ -3,6 +3,7 @@
 //! and pleated sheet around y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
 
 use super::Mesh;
+use crate::math;
 #[cfg(feature = "files")]
 use crate::Error;
 use glam::{Vec2, Vec3};
@@ -68,7 +69,7 @@ pub fn cuboid(size: Vec3) -> Mesh {
 /// equal to the first, so seams weld and meshes close (shadow volumes need that).
 fn circle(k: u32, n: u32) -> (f32, f32) {
     let a = TAU * (k % n) as f32 / n as f32;
-    (a.cos(), a.sin())
+    (math::cos(a), math::sin(a))
 }
 
 /// The unit-sphere point of ring `s` of `stacks` (0: north pole) and segment `k` of `slices`
@@ -79,7 +80,7 @@ pub fn sphere_point(s: u32, stacks: u32, k: u32, slices: u32) -> Vec3 {
     let (st, ct) = match s {
         0 => (0.0, 1.0),
         _ if s == stacks - 1 => (0.0, -1.0),
-        _ => (theta.sin(), theta.cos()),
+        _ => (math::sin(theta), math::cos(theta)),
     };
     let (c, sn) = circle(k, slices);
     Vec3::new(st * c, ct, -st * sn)
@@ -160,7 +161,7 @@ pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {
             let a = rng.next_f32() * TAU;
             let f = (1.0 + i as f32) * (0.6 + rng.next_f32()) * TAU / size.max_element();
             (
-                Vec2::new(a.cos(), a.sin()) * f,
+                Vec2::new(math::cos(a), math::sin(a)) * f,
                 rng.next_f32() * TAU,
                 1.0 / (1.0 + i as f32),
             )
@@ -171,7 +172,7 @@ pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {
         amplitude / norm
             * waves
                 .iter()
-                .map(|(k, ph, w)| w * (k.x * x + k.y * z + ph).sin())
+                .map(|(k, ph, w)| w * math::sin(k.x * x + k.y * z + ph))
                 .sum::<f32>()
     };
     let mut m = plane(size, n);
@@ -200,9 +201,9 @@ pub fn pleated(size: Vec2, n: u32, amplitude: f32, pleats: u32) -> Mesh {
             let x = (i as f32 / nx as f32 - 0.5) * size.x;
             let z = (j as f32 / nz as f32 - 0.5) * size.y;
             let phase = k * (x + 0.5 * size.x);
-            m.positions.push(Vec3::new(x, amplitude * phase.sin(), z));
+            m.positions.push(Vec3::new(x, amplitude * math::sin(phase), z));
             m.normals
-                .push(Vec3::new(-amplitude * k * phase.cos(), 1.0, 0.0).normalize());
+                .push(Vec3::new(-amplitude * k * math::cos(phase), 1.0, 0.0).normalize());
         }
     }
     grid_indices(&mut m, nx, nz);

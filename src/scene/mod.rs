@@ -31,7 +31,7 @@ impl Mesh {
 
     /// The mesh with `m` applied to positions and the inverse transpose to normals.
     pub fn transformed(&self, m: Mat4) -> Mesh {
-        let n = m.inverse().transpose();
+        let n = crate::math::inverse(&m).transpose();
         Mesh {
             positions: self.positions.iter().map(|&p| m.transform_point3(p)).collect(),
             normals: self

@@ -15,6 +15,7 @@
 //! wrong side), and in the blend band the mix of a hard and a soft edge is neither.
 
 use crate::frame::Frame;
+use crate::math;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::irregular::{self, IrregularZBuffer};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
@@ -155,7 +156,7 @@ impl Hybrid {
         };
         let cam = &frame.camera;
         let pixel =
-            2.0 * (s.position - cam.position).length() * (cam.fov_deg.to_radians() * 0.5).tan() / cam.height as f32;
+            2.0 * (s.position - cam.position).length() * math::tan(cam.fov_deg.to_radians() * 0.5) / cam.height as f32;
         let px = world / pixel.max(1e-12);
         let (a, b) = (self.opts.from, self.opts.to);
         let t = if px <= a {

@@ -446,7 +446,11 @@ mod tests {
             for j in 0..80 {
                 let th = std::f32::consts::PI * (i as f32 + 0.5) / 40.0;
                 let ph = std::f32::consts::TAU * j as f32 / 80.0;
-                let d = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+                let d = Vec3::new(
+                    crate::math::sin(th) * crate::math::cos(ph),
+                    crate::math::cos(th),
+                    crate::math::sin(th) * crate::math::sin(ph),
+                );
                 for dir in [d, d.signum() * Vec3::ONE.normalize(), Vec3::new(d.x.signum(), 0.0, 1.0)] {
                     let m = locate(&views, &l, l.position + dir * 2.0).expect("in front of its face");
                     assert!(m.uv.x >= -1e-6 && m.uv.x <= 1.0 + 1e-6, "{dir} {m:?}");

@@ -22,6 +22,7 @@ pub mod maps;
 pub mod soft;
 
 use crate::frame::Frame;
+use crate::math;
 use crate::pipeline::{CubeFace, Pipeline, Rgba8, Surface};
 use crate::scene::{Light, LightKind};
 use crate::Error;
@@ -135,7 +136,7 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
         LightKind::Spot { angle_deg } => {
             let view = Mat4::look_at_rh(l.position, l.position + l.direction, up_for(l.direction));
             let far = far_from(l.position);
-            let half = (angle_deg.to_radians() * 0.5).tan();
+            let half = math::tan(angle_deg.to_radians() * 0.5);
             vec![LightView {
                 matrix: Mat4::perspective_rh(angle_deg.to_radians(), 1.0, (far * 1e-4).max(1e-3), far) * view,
                 texel: 2.0 * half / size as f32,
@@ -314,7 +315,7 @@ pub fn fitted_overview(p: &Pipeline, frame: &Frame, fitted: &LightView) -> Resul
         [g, g, g, 255]
     });
     // The fitted frustum's x/y outline, taken to world at mid depth and into the overview.
-    let inv = fitted.matrix.inverse();
+    let inv = math::inverse(&fitted.matrix);
     let c = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| {
         let w = inv.project_point3(Vec3::new(x, y, 0.5));
         let q = all.matrix.project_point3(w);

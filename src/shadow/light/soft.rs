@@ -5,6 +5,7 @@
 
 use super::LightView;
 use crate::frame::Frame;
+use crate::math;
 use crate::scene::LightKind;
 use crate::shadow::Field;
 
@@ -14,7 +15,7 @@ use crate::shadow::Field;
 pub fn light_width(frame: &Frame, scale: f32, angle: f32) -> f32 {
     match frame.light.kind {
         LightKind::Area(shape) => shape.width() * scale,
-        LightKind::Directional => 2.0 * (angle.to_radians() * 0.5).tan(),
+        LightKind::Directional => 2.0 * math::tan(angle.to_radians() * 0.5),
         LightKind::Point | LightKind::Spot { .. } => 0.0,
     }
 }

@@ -26,6 +26,7 @@
 use super::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
 use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
+use crate::math;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
@@ -176,7 +177,7 @@ impl Chs {
         let d_r = view.distance(at.r.z);
         let d_min = self.nearest[at.face].min(d_r);
         let search = search_texels(view, self.width, d_r, d_min).clamp(1.0, size);
-        let ls = ((search / SEARCH as f32).log2().ceil().max(0.0) as usize).min(self.levels(at.face) - 1);
+        let ls = (math::log2(search / SEARCH as f32).ceil().max(0.0) as usize).min(self.levels(at.face) - 1);
         let lvl = self.level(at.face, ls, false);
         let scale = (1u32 << ls) as f32;
         let (lw, lh) = (lvl.width() as i64, lvl.height() as i64);
@@ -287,8 +288,7 @@ impl Chs {
             return (1.0, e.taps as u64);
         }
         // The fractional level where the kernel spans the penumbra.
-        let lf = (e.penumbra / self.opts.kernel as f32)
-            .log2()
+        let lf = math::log2(e.penumbra / self.opts.kernel as f32)
             .max(0.0)
             .min((self.levels(at.face) - 1) as f32);
         let (l0, frac) = (lf.floor() as usize, lf.fract());
@@ -444,7 +444,7 @@ impl ShadowTechnique for Chs {
                 if e.found == 0 {
                     f32::NAN
                 } else {
-                    (e.penumbra / self.opts.kernel as f32).log2().max(0.0)
+                    math::log2(e.penumbra / self.opts.kernel as f32).max(0.0)
                 }
             }
             Prepared::Done(..) => f32::NAN,

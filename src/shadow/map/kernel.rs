@@ -30,6 +30,7 @@
 
 use crate::choice_enum;
 use crate::hash::SplitMix;
+use crate::math;
 use crate::pipeline::compute::min_max_chains;
 use crate::pipeline::sampler::{footprint, sample_bilinear, Address, CompareSampler};
 use crate::pipeline::{MipChain, Pipeline, Surface};
@@ -147,7 +148,7 @@ pub fn vogel(i: u32, n: u32, phi: f32) -> Vec2 {
     const GOLDEN_ANGLE: f32 = 2.399_963_2;
     let r = ((i as f32 + 0.5) / n as f32).sqrt();
     let a = i as f32 * GOLDEN_ANGLE + phi;
-    Vec2::new(a.cos(), a.sin()) * r
+    Vec2::new(math::cos(a), math::sin(a)) * r
 }
 
 /// What each tap compares against: the centre's depth, the receiver plane's depth change per
@@ -268,7 +269,7 @@ impl Kernel {
             }
             Pattern::Poisson => out.extend(poisson_disk(self.taps).iter().map(|&p| (p * r, 1.0))),
             Pattern::Rotated => {
-                let (s, c) = pixel_angle(x, y).sin_cos();
+                let (s, c) = math::sin_cos(pixel_angle(x, y));
                 out.extend(
                     poisson_disk(self.taps)
                         .iter()
@@ -276,7 +277,7 @@ impl Kernel {
                 );
             }
             Pattern::Spiral => {
-                let (s, c) = (interleaved_gradient_noise(x, y) * std::f32::consts::TAU).sin_cos();
+                let (s, c) = math::sin_cos(interleaved_gradient_noise(x, y) * std::f32::consts::TAU);
                 out.extend(
                     spiral(self.taps)
                         .iter()
@@ -427,7 +428,7 @@ impl Kernel {
     pub fn disk4(&self, xs: [u32; 4], y: u32, width: Vec4) -> Option<Disk4> {
         let r = Vec4::splat(0.5) * width;
         let turn = |a: [f32; 4]| {
-            let sc = a.map(f32::sin_cos);
+            let sc = a.map(math::sin_cos);
             (Vec4::from_array(sc.map(|v| v.0)), Vec4::from_array(sc.map(|v| v.1)))
         };
         let (base, (s, c), turned) = match self.pattern {

@@ -18,6 +18,7 @@ pub mod pvm;
 pub mod pvmf;
 
 use crate::frame::Frame;
+use crate::math;
 use crate::pipeline::*;
 use crate::scene::LightKind;
 use crate::shadow::light::soft::light_width;
@@ -263,7 +264,7 @@ pub fn disk_visibility(h0: Vec3, h1: Vec3, p: Vec3, l: Vec3, r: f32) -> (f32, f3
     let s = n.dot(l) - n.dot(h0);
     let x = (s / r).clamp(-1.0, 1.0);
     // 2a / (pi r^2) with a from eq. 4.1, r factored out.
-    let k = (x.acos() - x * (1.0 - x * x).max(0.0).sqrt()) / std::f32::consts::PI;
+    let k = (math::acos(x) - x * (1.0 - x * x).max(0.0).sqrt()) / std::f32::consts::PI;
     (k.clamp(0.0, 1.0), s)
 }
 
@@ -313,7 +314,7 @@ mod tests {
             0.5,
         );
         let x: f32 = 0.5;
-        let seg = (x.acos() - x * (1.0 - x * x).sqrt()) / std::f32::consts::PI;
+        let seg = (math::acos(x) - x * (1.0 - x * x).sqrt()) / std::f32::consts::PI;
         assert!((s - c).abs() < 1e-6 && (k - seg).abs() < 1e-6, "{k} {s} {seg}");
         assert_eq!(bernstein(0.0), 0.0);
         assert_eq!(bernstein(1.0), 1.0);

@@ -149,8 +149,8 @@ pub fn plane_of(mesh: &Mesh) -> Option<(Vec3, f32)> {
 
 /// RTR eq. 7.1/7.2, homogeneous: `M = (π·L) I − L πᵀ` projects onto plane `π` from light `L`.
 pub fn projection_matrix(plane: Vec4, light: Vec4) -> Mat4 {
-    let k = plane.dot(light);
-    let cols = [Vec4::X, Vec4::Y, Vec4::Z, Vec4::W].map(|e| e * k - light * plane.dot(e));
+    let k = crate::math::dot4(plane, light);
+    let cols = [Vec4::X, Vec4::Y, Vec4::Z, Vec4::W].map(|e| e * k - light * crate::math::dot4(plane, e));
     Mat4::from_cols(cols[0], cols[1], cols[2], cols[3])
 }
 
@@ -268,7 +268,7 @@ impl ShadowTechnique for Planar {
             // Orient the plane so the light is on its positive side; a light in the plane
             // casts nothing onto it.
             let mut plane = n.extend(d);
-            let side = plane.dot(light);
+            let side = crate::math::dot4(plane, light);
             if side == 0.0 {
                 continue;
             }

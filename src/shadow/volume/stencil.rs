@@ -297,7 +297,7 @@ impl Pass for StencilVolumes {
 /// about and needs no caps.
 pub fn zpass_is_safe(frame: &Frame) -> bool {
     let cam = &frame.camera;
-    let inv = cam.view_projection().inverse();
+    let inv = crate::math::inverse(&cam.view_projection());
     let near: Vec<Vec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
         .iter()
         .map(|&(x, y)| inv.project_point3(Vec3::new(x, y, 0.0)))

@@ -26,6 +26,7 @@
 use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
+use crate::math;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, DepthPass, LightView};
@@ -197,7 +198,7 @@ impl PointLookup for OpacityPass {
             let (lo, hi) = (sigma(j), sigma(j + 1));
             let frac = if j >= k { 0.0 } else { x - j as f32 };
             let s = lo + (hi - lo) * frac;
-            (j, lo, hi, Vec3::new((-s.x).exp(), (-s.y).exp(), (-s.z).exp()))
+            (j, lo, hi, Vec3::new(math::exp(-s.x), math::exp(-s.y), math::exp(-s.z)))
         };
         t.step(|| {
             Step::new(
@@ -227,7 +228,7 @@ impl LightPass for OpacityPass {
             .iter()
             .map(|&ob| {
                 let t = scene.materials[scene.objects[ob as usize].material].transmittance_rgb();
-                let od = |x: f32| (-(x.max(1e-6)).ln()).min(30.0);
+                let od = |x: f32| (-math::ln(x.max(1e-6))).min(30.0);
                 Vec4::new(od(t.x), od(t.y), od(t.z), 0.0)
             })
             .collect();

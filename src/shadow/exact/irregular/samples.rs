@@ -55,7 +55,7 @@ impl<'a> SampleFiller<'a> {
             frame,
             bases: frame.scene.triangle_bases(),
             grid: k.grid(),
-            inv: frame.camera.view_projection().inverse(),
+            inv: crate::math::inverse(&frame.camera.view_projection()),
             eye: frame.camera.position,
         }
     }
