@@ -340,7 +340,7 @@ fn prefetch_rows<T>(s: &RawSurface<T>, rect: [i32; 4]) {
 /// order (mul then add, no FMA; clamp with the operand order that keeps -0.0 and NaN as the
 /// scalar `clamp` does), so results are bit-identical. With `ids = Some((p, k))`, `p` points
 /// at the row's tile-local pixel 0 of a `u32` buffer and `k` is written where a lane passes.
-#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+/// Without SSE4.1 in the build's target, it is the scalar span (the same depths, ids, count).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn depth_span_x4(
@@ -353,9 +353,18 @@ pub(crate) fn depth_span_x4(
     less_equal: bool,
     ids: Option<(*mut u32, u32)>,
 ) -> u64 {
-    use std::arch::x86_64::*;
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+    {
+        if less_equal {
+            depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a <= b, ids)
+        } else {
+            depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a < b, ids)
+        }
+    }
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
     // SAFETY: SSE4.1 is in the build's target (x86-64-v2); pointers stay within the tile row.
     unsafe {
+        use std::arch::x86_64::*;
         let (zr, dz) = (_mm_set1_ps(zrow), _mm_set1_ps(dzdx));
         let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
         let ramp = _mm_setr_epi32(0, 1, 2, 3);
@@ -403,28 +412,6 @@ pub(crate) fn depth_span_x4(
             passed += chunk(last, xf, true);
         }
         passed as u64
-    }
-}
-
-/// [`depth_span_x4`] where SSE4.1 is not in the build's target: the scalar span, which gives
-/// the same depths, ids and count.
-#[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn depth_span_x4(
-    row: *mut f32,
-    lo: u32,
-    hi: u32,
-    zrow: f32,
-    dzdx: f32,
-    write: bool,
-    less_equal: bool,
-    ids: Option<(*mut u32, u32)>,
-) -> u64 {
-    if less_equal {
-        depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a <= b, ids)
-    } else {
-        depth_span(row, lo, hi, zrow, dzdx, write, |a, b| a < b, ids)
     }
 }
 

@@ -164,7 +164,8 @@ impl RowLanes {
 /// gives the depth plane's value at the start of tile row `ly` (offset included) and `dzdx`
 /// its step. With `ids = Some((p, k))`, `p` points at a [`TILE`]-wide `u32` buffer of the tile
 /// and `k` is written to every pixel that passes (the deferred path's visibility buffer).
-#[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+/// Without SSE4.1 in the build's target it never applies: the caller's general path
+/// (coverage, then depth spans) gives the same pixels, depths, ids and counts.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn small_depth_fused(
@@ -178,98 +179,88 @@ pub(crate) fn small_depth_fused(
     less_equal: bool,
     ids: Option<(*mut u32, u32)>,
 ) -> Option<(u64, u64)> {
-    use std::arch::x86_64::*;
-    let x0 = tri.bbox[0].max(rect[0]);
-    let y0 = tri.bbox[1].max(rect[1]);
-    let x1 = tri.bbox[2].min(rect[2]);
-    let y1 = tri.bbox[3].min(rect[3]);
-    if !tri.small || x1 - x0 >= 16 || y1 - y0 >= 16 || x0 > x1 || y0 > y1 {
-        return None;
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
+    {
+        let _ = (tri, rect, depth, stride, zrow_at, dzdx, write, less_equal, ids);
+        None
     }
-    let width = x1 - x0 + 1;
-    let chunks = (width + 3) / 4;
-    if x0 + 4 * chunks - 1 > rect[2] {
-        return None;
-    }
-    let (ox, oy) = (rect[0], rect[1]);
-    let e = &tri.edges;
-    let lx0 = x0 - ox;
-    // SAFETY: SSE4.1 is in the build's target (x86-64-v2); every lane read or written lies in
-    // this worker's tile (checked above); lanes outside the triangle are written back as read.
-    unsafe {
-        let ramp = [0, 1, 2].map(|k| {
-            let d = e[k].dx as i32;
-            _mm_setr_epi32(0, d, 2 * d, 3 * d)
-        });
-        let step = [0, 1, 2].map(|k| _mm_set1_epi32(4 * e[k].dx as i32));
-        let xs0 = _mm_add_epi32(_mm_set1_epi32(lx0), _mm_setr_epi32(0, 1, 2, 3));
-        let four = _mm_set1_epi32(4);
-        let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
-        let dz = _mm_set1_ps(dzdx);
-        let lane_limit = _mm_set1_epi32(x1 - ox + 1);
-        let (mut covered, mut passed) = (0u32, 0u32);
-        // Edge values at the box's first pixel, stepped down the rows (exact: small triangles'
-        // edge values stay far inside i32 over their box).
-        let mut rows = [0, 1, 2].map(|k| _mm_add_epi32(_mm_set1_epi32(e[k].at(x0 as i64, y0 as i64) as i32), ramp[k]));
-        let down = [0, 1, 2].map(|k| _mm_set1_epi32(e[k].dy as i32));
-        for y in y0..=y1 {
-            let [mut e0, mut e1, mut e2] = rows;
-            rows = [0, 1, 2].map(|k| _mm_add_epi32(rows[k], down[k]));
-            let zr = _mm_set1_ps(zrow_at(y - oy));
-            let mut xs = xs0;
-            let row = depth.add((y - oy) as usize * stride + lx0 as usize);
-            for c in 0..chunks as usize {
-                let or = _mm_or_si128(_mm_or_si128(e0, e1), e2);
-                // Inside all edges (sign bit clear) and inside the box's columns.
-                let inside = _mm_and_si128(_mm_cmpgt_epi32(or, _mm_set1_epi32(-1)), _mm_cmplt_epi32(xs, lane_limit));
-                let inside = _mm_castsi128_ps(inside);
-                // Branch-free: an empty chunk writes back what it read (lanes in this tile).
-                covered += (_mm_movemask_ps(inside) as u32).count_ones();
-                let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xs)));
-                let z = _mm_min_ps(one, _mm_max_ps(zero, z));
-                let p = row.add(4 * c);
-                let d = _mm_loadu_ps(p);
-                let t = if less_equal {
-                    _mm_cmple_ps(z, d)
-                } else {
-                    _mm_cmplt_ps(z, d)
-                };
-                let t = _mm_and_ps(t, inside);
-                passed += (_mm_movemask_ps(t) as u32).count_ones();
-                if write {
-                    _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
-                }
-                if let Some((ip, k)) = ids {
-                    store_ids4(ip.add((y - oy) as usize * TILE as usize + lx0 as usize + 4 * c), k, t);
-                }
-                e0 = _mm_add_epi32(e0, step[0]);
-                e1 = _mm_add_epi32(e1, step[1]);
-                e2 = _mm_add_epi32(e2, step[2]);
-                xs = _mm_add_epi32(xs, four);
-            }
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse4.1"))]
+    {
+        use std::arch::x86_64::*;
+        let x0 = tri.bbox[0].max(rect[0]);
+        let y0 = tri.bbox[1].max(rect[1]);
+        let x1 = tri.bbox[2].min(rect[2]);
+        let y1 = tri.bbox[3].min(rect[3]);
+        if !tri.small || x1 - x0 >= 16 || y1 - y0 >= 16 || x0 > x1 || y0 > y1 {
+            return None;
         }
-        Some((covered as u64, passed as u64))
+        let width = x1 - x0 + 1;
+        let chunks = (width + 3) / 4;
+        if x0 + 4 * chunks - 1 > rect[2] {
+            return None;
+        }
+        let (ox, oy) = (rect[0], rect[1]);
+        let e = &tri.edges;
+        let lx0 = x0 - ox;
+        // SAFETY: SSE4.1 is in the build's target (x86-64-v2); every lane read or written lies in
+        // this worker's tile (checked above); lanes outside the triangle are written back as read.
+        unsafe {
+            let ramp = [0, 1, 2].map(|k| {
+                let d = e[k].dx as i32;
+                _mm_setr_epi32(0, d, 2 * d, 3 * d)
+            });
+            let step = [0, 1, 2].map(|k| _mm_set1_epi32(4 * e[k].dx as i32));
+            let xs0 = _mm_add_epi32(_mm_set1_epi32(lx0), _mm_setr_epi32(0, 1, 2, 3));
+            let four = _mm_set1_epi32(4);
+            let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
+            let dz = _mm_set1_ps(dzdx);
+            let lane_limit = _mm_set1_epi32(x1 - ox + 1);
+            let (mut covered, mut passed) = (0u32, 0u32);
+            // Edge values at the box's first pixel, stepped down the rows (exact: small triangles'
+            // edge values stay far inside i32 over their box).
+            let mut rows =
+                [0, 1, 2].map(|k| _mm_add_epi32(_mm_set1_epi32(e[k].at(x0 as i64, y0 as i64) as i32), ramp[k]));
+            let down = [0, 1, 2].map(|k| _mm_set1_epi32(e[k].dy as i32));
+            for y in y0..=y1 {
+                let [mut e0, mut e1, mut e2] = rows;
+                rows = [0, 1, 2].map(|k| _mm_add_epi32(rows[k], down[k]));
+                let zr = _mm_set1_ps(zrow_at(y - oy));
+                let mut xs = xs0;
+                let row = depth.add((y - oy) as usize * stride + lx0 as usize);
+                for c in 0..chunks as usize {
+                    let or = _mm_or_si128(_mm_or_si128(e0, e1), e2);
+                    // Inside all edges (sign bit clear) and inside the box's columns.
+                    let inside =
+                        _mm_and_si128(_mm_cmpgt_epi32(or, _mm_set1_epi32(-1)), _mm_cmplt_epi32(xs, lane_limit));
+                    let inside = _mm_castsi128_ps(inside);
+                    // Branch-free: an empty chunk writes back what it read (lanes in this tile).
+                    covered += (_mm_movemask_ps(inside) as u32).count_ones();
+                    let z = _mm_add_ps(zr, _mm_mul_ps(dz, _mm_cvtepi32_ps(xs)));
+                    let z = _mm_min_ps(one, _mm_max_ps(zero, z));
+                    let p = row.add(4 * c);
+                    let d = _mm_loadu_ps(p);
+                    let t = if less_equal {
+                        _mm_cmple_ps(z, d)
+                    } else {
+                        _mm_cmplt_ps(z, d)
+                    };
+                    let t = _mm_and_ps(t, inside);
+                    passed += (_mm_movemask_ps(t) as u32).count_ones();
+                    if write {
+                        _mm_storeu_ps(p, _mm_blendv_ps(d, z, t));
+                    }
+                    if let Some((ip, k)) = ids {
+                        store_ids4(ip.add((y - oy) as usize * TILE as usize + lx0 as usize + 4 * c), k, t);
+                    }
+                    e0 = _mm_add_epi32(e0, step[0]);
+                    e1 = _mm_add_epi32(e1, step[1]);
+                    e2 = _mm_add_epi32(e2, step[2]);
+                    xs = _mm_add_epi32(xs, four);
+                }
+            }
+            Some((covered as u64, passed as u64))
+        }
     }
-}
-
-/// [`small_depth_fused`] where SSE4.1 is not in the build's target: never applies, so the
-/// caller takes the general path (coverage, then depth spans), which gives the same pixels,
-/// depths, ids and counts.
-#[cfg(not(all(target_arch = "x86_64", target_feature = "sse4.1")))]
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(crate) fn small_depth_fused(
-    _tri: &SetupTri,
-    _rect: [i32; 4],
-    _depth: *mut f32,
-    _stride: usize,
-    _zrow_at: impl Fn(i32) -> f32,
-    _dzdx: f32,
-    _write: bool,
-    _less_equal: bool,
-    _ids: Option<(*mut u32, u32)>,
-) -> Option<(u64, u64)> {
-    None
 }
 
 /// Writes id `k` to the lanes of `p[0..4]` (a visibility buffer) that `mask` (all-ones or
