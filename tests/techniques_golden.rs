@@ -140,7 +140,7 @@ contact hybrid [from=0;to=1] 60ac82a6b4d03761
 contact hybrid [from=2;to=12] e00e0e1d4d817126
 contact pvm [] 5a69ccd88931b9e2
 contact pvm [size=512] c79163c19f0fc7d4
-contact pvm [smooth=false] 482d189f714bef20
+contact pvm [smooth=false] ae57b06d69c32c78
 contact pvm [size=4096] 2715482169b78ebf
 contact pvm [light=2] 0faae813912b8a0e
 contact pvmf [] d214eed18fe79f4c

@@ -262,7 +262,15 @@ pub fn disk_visibility(h0: Vec3, h1: Vec3, p: Vec3, l: Vec3, r: f32) -> (f32, f3
     }
     let n = n / len;
     let s = n.dot(l) - n.dot(h0);
-    let x = (s / r).clamp(-1.0, 1.0);
+    let x = s / r;
+    // A disk wholly on one side is wholly lit or blocked, exactly (acos(-1) is not exactly
+    // the float pi in every libm).
+    if x <= -1.0 {
+        return (1.0, s);
+    }
+    if x >= 1.0 {
+        return (0.0, s);
+    }
     // 2a / (pi r^2) with a from eq. 4.1, r factored out.
     let k = (math::acos(x) - x * (1.0 - x * x).max(0.0).sqrt()) / std::f32::consts::PI;
     (k.clamp(0.0, 1.0), s)
