@@ -115,6 +115,16 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
             .into());
         }
     }
+    // Runs whose technique does not work on their scene (terrain occlusion height without a
+    // heightfield): left out, and listed as such.
+    let mut skipped = Vec::new();
+    for (si, (s, _)) in loaded.iter().enumerate() {
+        for (ji, (name, _)) in jobs.iter().enumerate() {
+            if reg.iter().any(|t| t.name == *name && !t.applies_to(s)) {
+                skipped.push(si * jobs.len() + ji);
+            }
+        }
+    }
     let total = loaded.len() * jobs.len();
     let mine = shard_range(total, o.shard);
     let thumbs_dir = o.out.join("images");
@@ -131,6 +141,10 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
         for (ji, (name, sets)) in jobs.iter().enumerate() {
             let index = si * jobs.len() + ji;
             if !mine.contains(&index) {
+                continue;
+            }
+            if skipped.contains(&index) {
+                bar.inc(1);
                 continue;
             }
             bar.set_message(format!("{} / {name}", s.name));
@@ -156,6 +170,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
                 class: s.class(),
             })
             .collect(),
+        skipped,
     };
     if o.shard.1 > 1 {
         write_sweep_data(&o.out, &results, &manifest)?;
@@ -234,7 +249,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), CliError> {
         }
     }
     let missing: Vec<usize> = (0..m.runs())
-        .filter(|i| all.binary_search_by_key(i, |r| r.index).is_err())
+        .filter(|i| all.binary_search_by_key(i, |r| r.index).is_err() && !m.skipped.contains(i))
         .collect();
     if !missing.is_empty() {
         return Err(format!(

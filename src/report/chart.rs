@@ -94,6 +94,7 @@ pub fn family_colour(f: Family) -> &'static str {
         Family::Exact => "#2ca02c",
         Family::Penumbra => "#9467bd",
         Family::Volumetric => "#ff7f0e",
+        Family::Screen => "#17becf",
     }
 }
 

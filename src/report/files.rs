@@ -21,6 +21,10 @@ pub struct Manifest {
     pub shard: String,
     /// The scenes.
     pub scenes: Vec<SceneInfo>,
+    /// The runs (by index) whose technique does not work on their scene
+    /// ([`crate::shadow::TechniqueInfo::applies`]): left out, not missing.
+    #[serde(default)]
+    pub skipped: Vec<usize>,
 }
 
 fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result<(), Error> {

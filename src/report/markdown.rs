@@ -86,8 +86,22 @@ pub fn summary_markdown(results: &[RunResult], rows: Rows) -> String {
         count(SceneClass::Area),
         count(SceneClass::Transparent)
     );
+    let scenes_of = |rs: &[&RunResult]| {
+        let mut v: Vec<&str> = rs.iter().map(|r| r.scene.as_str()).collect();
+        v.sort();
+        v.dedup();
+        v.len()
+    };
+    let all_scenes = scenes_of(&results.iter().collect::<Vec<_>>());
     for label in labels {
         let rs: Vec<&RunResult> = results.iter().filter(|r| r.label() == label).collect();
+        // A technique that works on some scenes only (terrain occlusion height) says so.
+        let ran = scenes_of(&rs);
+        let label = if ran < all_scenes {
+            format!("{label} (on {ran} of {all_scenes} scenes)")
+        } else {
+            label
+        };
         let class_mean = |c: SceneClass, digits: usize| -> String {
             let v: Vec<f64> = rs.iter().filter(|r| r.class == c).map(|r| r.class_error()).collect();
             if v.is_empty() {

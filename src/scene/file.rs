@@ -17,7 +17,7 @@
 //! albedo = [0.8, 0.8, 0.8] # also: opacity = 1, two_sided = false, transmittance = [r, g, b]
 //!
 //! [[object]]
-//! mesh = "plane"          # plane | box | sphere | cylinder | heightfield | pleated | file.obj
+//! mesh = "plane"          # plane | box | sphere | cylinder | cone | heightfield | pleated | file.obj
 //! size = [10, 10]
 //! material = "ground"     # also: translate, rotate (degrees x, y, z), scale, and per-mesh
 //!                         # subdivisions, stacks, slices, segments, radius, height, amplitude,
@@ -427,6 +427,7 @@ impl Ctx<'_> {
                 "box" => 12,
                 "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
                 "cylinder" => 4 * param(o.segments, 32, 4096),
+                "cone" => 2 * param(o.segments, 32, 4096),
                 "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
                 "pleated" => {
                     let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
@@ -460,6 +461,11 @@ impl Ctx<'_> {
                     count(o.slices, "slices", 48, 4096)?,
                 ),
                 "cylinder" => mesh::cylinder(
+                    num(o.radius, "radius", 0.5)?,
+                    num(o.height, "height", 1.0)?,
+                    count(o.segments, "segments", 32, 4096)?,
+                ),
+                "cone" => mesh::cone(
                     num(o.radius, "radius", 0.5)?,
                     num(o.height, "height", 1.0)?,
                     count(o.segments, "segments", 32, 4096)?,
@@ -507,7 +513,7 @@ impl Ctx<'_> {
                         &what,
                         "mesh",
                         format!(
-                            "unknown mesh '{other}' (plane, box, sphere, cylinder, heightfield, pleated, or a .obj, .gltf or .glb path)"
+                            "unknown mesh '{other}' (plane, box, sphere, cylinder, cone, heightfield, pleated, or a .obj, .gltf or .glb path)"
                         ),
                     )
                 }
@@ -573,7 +579,13 @@ impl Ctx<'_> {
                     format!("a vertex lands at {p} after the transform, beyond ±{MAX_COORDINATE:e} (the largest coordinate a scene may use)"),
                 );
             }
-            objects.push(Object { name, mesh, material });
+            let heightfield = o.mesh == "heightfield";
+            objects.push(Object {
+                name,
+                mesh,
+                material,
+                heightfield,
+            });
         }
         Ok(objects)
     }
@@ -624,6 +636,7 @@ impl Ctx<'_> {
                     name,
                     mesh: o.mesh,
                     material: base + o.material,
+                    heightfield: false,
                 });
             }
             Ok(g.lights)

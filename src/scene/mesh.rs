@@ -151,6 +151,43 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
     m
 }
 
+/// A closed cone of base `radius` from y = 0 to its apex at y = `height` with `segments`
+/// sides (a tree's crown in the `forest_floor` fixture); side normals are the surface's.
+pub fn cone(radius: f32, height: f32, segments: u32) -> Mesh {
+    let n = segments.max(3);
+    let mut m = Mesh::default();
+    // The side: one triangle per segment, the apex repeated with each segment's normal.
+    let slope = Vec3::new(height, radius, height);
+    for k in 0..n {
+        let (c0, s0) = circle(k, n);
+        let (c1, s1) = circle(k + 1, n);
+        let (cm, sm) = circle(2 * k + 1, 2 * n);
+        let b = m.positions.len() as u32;
+        m.positions.extend_from_slice(&[
+            Vec3::new(c0 * radius, 0.0, -s0 * radius),
+            Vec3::new(c1 * radius, 0.0, -s1 * radius),
+            Vec3::Y * height,
+        ]);
+        for (c, sn) in [(c0, s0), (c1, s1), (cm, sm)] {
+            m.normals.push((Vec3::new(c, 1.0, -sn) * slope).normalize());
+        }
+        m.indices.extend_from_slice(&[b, b + 1, b + 2]);
+    }
+    // The base.
+    let c = m.positions.len() as u32;
+    m.positions.push(Vec3::ZERO);
+    m.normals.push(-Vec3::Y);
+    for k in 0..=n {
+        let (co, sn) = circle(k, n);
+        m.positions.push(Vec3::new(co * radius, 0.0, -sn * radius));
+        m.normals.push(-Vec3::Y);
+    }
+    for k in 0..n {
+        m.indices.extend_from_slice(&[c, c + 2 + k, c + 1 + k]);
+    }
+    m
+}
+
 /// A heightfield over `size` (x, z) in `n` x `n` quads: a sum of seeded sine waves of peak
 /// amplitude `amplitude` (deterministic for a seed), normals from central differences.
 pub fn heightfield(size: Vec2, n: u32, amplitude: f32, seed: u64) -> Mesh {

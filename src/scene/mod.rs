@@ -112,6 +112,9 @@ pub struct Object {
     pub mesh: Mesh,
     /// Index into [`Scene::materials`].
     pub material: usize,
+    /// Made as a heightfield (`mesh = "heightfield"`): a height function `y(x, z)` that
+    /// terrain techniques build on.
+    pub heightfield: bool,
 }
 
 /// The camera.

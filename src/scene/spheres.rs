@@ -102,6 +102,7 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
             indices: m.indices[tris].iter().map(|&i| i - verts.start as u32).collect(),
         },
         material: 0,
+        heightfield: false,
     };
     let (nv, ni) = (stacks * (slices + 1), 6 * slices * (stacks - 1));
     let mut objects = vec![object("ground".into(), 0..4, 0..6)];

@@ -10,7 +10,7 @@
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
 //! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
 //! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, deep shadow
-//! maps, AVSM), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
+//! maps, AVSM), [`screen`] (screen-space shadows, terrain occlusion height), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
 //!
 //! Under every technique: [`light`] owns the light side (the map pass, [`light::locate`] with
@@ -31,6 +31,7 @@ pub mod penumbra;
 pub mod pixels;
 pub mod planar;
 pub mod reference;
+pub mod screen;
 pub mod timing;
 pub mod volume;
 pub mod volumetric;
@@ -41,6 +42,7 @@ pub use options::{Declaration, Field, OptionInfo};
 
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8, Surface};
+use crate::scene::Scene;
 pub use crate::visibility::Visibility;
 
 /// An intermediate buffer of a technique, for `dump`.
@@ -134,11 +136,13 @@ pub enum Family {
     Penumbra,
     /// Volumetric shadows ([`volumetric`]).
     Volumetric,
+    /// Screen-space shadows and terrain occlusion height ([`screen`]).
+    Screen,
 }
 
 impl Family {
     /// Every family, in legend order.
-    pub const ALL: [Family; 7] = [
+    pub const ALL: [Family; 8] = [
         Family::Reference,
         Family::Map,
         Family::Volume,
@@ -146,6 +150,7 @@ impl Family {
         Family::Exact,
         Family::Penumbra,
         Family::Volumetric,
+        Family::Screen,
     ];
 
     /// The folder name (`map`, `volume`...), as the CSV writes it.
@@ -158,6 +163,7 @@ impl Family {
             Family::Exact => "exact",
             Family::Penumbra => "penumbra",
             Family::Volumetric => "volumetric",
+            Family::Screen => "screen",
         }
     }
 
@@ -171,6 +177,7 @@ impl Family {
             Family::Exact => "exact hard (IZB)",
             Family::Penumbra => "penumbra volumes",
             Family::Volumetric => "volumetric",
+            Family::Screen => "screen-space and terrain",
         }
     }
 
@@ -201,6 +208,17 @@ pub struct TechniqueInfo {
     pub extended: &'static [&'static [(&'static str, &'static str)]],
     /// Constructor from `key=value` settings (parsed by the technique's [`Declaration`]).
     pub create: Constructor,
+    /// The scenes the technique works on, for harnesses that run every technique on every
+    /// scene (the sweep, the golden hashes): `None` for every scene. On another scene its
+    /// `visibility` is an error that says what is missing.
+    pub applies: Option<fn(&Scene) -> bool>,
+}
+
+impl TechniqueInfo {
+    /// Whether the technique works on `scene` ([`TechniqueInfo::applies`]).
+    pub fn applies_to(&self, scene: &Scene) -> bool {
+        self.applies.is_none_or(|f| f(scene))
+    }
 }
 
 /// A technique's constructor from `key=value` settings.
@@ -225,6 +243,9 @@ pub fn registry() -> Vec<TechniqueInfo> {
         volumetric::opacity_maps::info(),
         volumetric::deep_shadow_map::info(),
         volumetric::avsm::info(),
+        screen::screen_space::info(),
+        screen::contact::info(),
+        screen::terrain::info(),
     ]
 }
 

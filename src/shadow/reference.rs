@@ -57,6 +57,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[]],
         extended: &[],
         create: |pairs| Ok(Box::new(RefTechnique::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -103,6 +103,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("units", "100000")]],
         extended: &[&[("from", "0"), ("to", "1")], &[("from", "2"), ("to", "12")]],
         create: |pairs| Ok(Box::new(Hybrid::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

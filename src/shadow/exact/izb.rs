@@ -60,6 +60,7 @@ pub fn info() -> TechniqueInfo {
         ],
         extended: &[],
         create: |pairs| Ok(Box::new(Izb::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -111,6 +111,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("size", "512")]],
         extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
         create: |pairs| Ok(Box::new(Chs::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -120,6 +120,7 @@ pub fn info() -> TechniqueInfo {
             &[("samples", "64"), ("method", "volumes")],
         ],
         create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -65,6 +65,7 @@ pub fn info() -> TechniqueInfo {
             &[("angle", "1")],
         ],
         create: |pairs| Ok(Box::new(Pcss::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -212,6 +212,7 @@ pub fn info() -> TechniqueInfo {
             &[("filter", "poisson"), ("world", "0.1")],
         ],
         create: |pairs| Ok(Box::new(ShadowMap::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -113,6 +113,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("smooth", "false")]],
         extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
         create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -229,6 +229,7 @@ pub fn info() -> TechniqueInfo {
             &[("ids", "group")],
         ],
         create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -91,6 +91,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("filter", "bilinear")]],
         extended: &[],
         create: |pairs| Ok(Box::new(Cookie::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -100,6 +100,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
         extended: &[],
         create: |pairs| Ok(Box::new(Planar::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

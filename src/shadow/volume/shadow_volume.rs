@@ -63,6 +63,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],
         extended: &[],
         create: |pairs| Ok(Box::new(ShadowVolume::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

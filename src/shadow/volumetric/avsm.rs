@@ -123,6 +123,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
         extended: &[],
         create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -132,6 +132,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[]],
         extended: &[&[("filter", "nearest")]],
         create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

@@ -120,6 +120,7 @@ pub fn info() -> TechniqueInfo {
         ],
         extended: &[],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 

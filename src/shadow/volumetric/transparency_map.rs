@@ -76,6 +76,7 @@ pub fn info() -> TechniqueInfo {
         sweep: &[&[], &[("size", "512")]],
         extended: &[],
         create: |pairs| Ok(Box::new(TransparencyMap::new(declaration().parse(pairs)?)?)),
+        applies: None,
     }
 }
 
