@@ -146,9 +146,10 @@ fn contact_shadows_fix_the_maps_contact_region() {
     let s = scene("contact");
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let r = hard(&p, &f, &s);
-    let region = contact_region(&f, 0.15);
+    // Within the short march's reach of the box.
+    let region = contact_region(&f, 0.06);
     let n = region.iter().filter(|&&x| x).count();
-    assert!(n > 500, "{n} contact pixels");
+    assert!(n > 200, "{n} contact pixels");
     let wrong = |v: &[f32]| {
         let w = (0..v.len())
             .filter(|&i| region[i] && (v[i] - r[i]).abs() > 0.5)
@@ -226,7 +227,12 @@ fn terrain_height_misses_what_is_not_terrain_and_the_map_adds_it() {
         on_trees.len(),
         shaded
     );
-    assert!(shaded > 200, "trees stand in the terrain's shadow");
+    let wrong_shaded = on_trees
+        .iter()
+        .filter(|&&i| terrain_only[i] < 0.5 && v[i] > 0.5)
+        .count();
+    assert!(shaded > 100, "trees stand in the terrain's shadow");
+    assert!(wrong_shaded * 10 < shaded, "{wrong_shaded} of {shaded} shadowed tree pixels lit");
     assert!((wrong as f64) < 0.03 * on_trees.len() as f64, "{wrong} tree pixels wrong");
 }
 
@@ -304,6 +310,12 @@ fn bad_input_is_a_clear_error() {
         .find(|t| t.name == "terrain-height")
         .unwrap()
         .applies_to(&s));
+    // ... and of a scene whose light is not the sun, names the light.
+    let mut s = scene("terrain");
+    s.lights[0].kind = penumbra::scene::LightKind::Point;
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let e = t.visibility(&p, &f).err().unwrap().to_string();
+    assert!(e.contains("directional") && e.contains("Point"), "{e}");
 }
 
 #[test]

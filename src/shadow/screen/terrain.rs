@@ -481,12 +481,13 @@ impl ShadowTechnique for TerrainHeight {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
-        if frame.light.kind != LightKind::Directional {
-            return Err(Error::technique(
-                "terrain occlusion height needs a directional light (the sun); the scene's light is not one".to_string(),
-            ));
-        }
         let keep = Self::terrain(frame)?;
+        if frame.light.kind != LightKind::Directional {
+            return Err(Error::technique(format!(
+                "terrain occlusion height needs a directional light (the sun), and the light of scene '{}' is {:?}",
+                frame.scene.name, frame.light.kind
+            )));
+        }
         (self.grid, self.terrain_map, self.objects_map) = (None, None, None);
         self.locations.clear();
         // A sun at or below the horizon lights nothing.
