@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the pipeline: the spheres frame per mode and triangle count, and
 //! random triangles per size, depth-only and colour + depth; shadow techniques on the spheres
-//! scene; the volumetric techniques on the smoke scene. Throughput is reported in triangles (elements) per second; pixels/s are printed by
+//! scene; the volumetric techniques on the smoke scene; the screen-space family on spheres and
+//! terrain. Throughput is reported in triangles (elements) per second; pixels/s are printed by
 //! `penumbra bench raster`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -213,5 +214,43 @@ fn soft(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random, techniques, volumetric, soft);
+/// Screen-space shadows on the spheres scene at 1920x1080 (16 and 32 steps, and the shadow
+/// map with the contact march, against the plain map), and terrain occlusion height on
+/// `terrain` at 1920x1080 with a 512² grid (build and lookup).
+fn screen(c: &mut Criterion) {
+    use penumbra::shadow;
+    let p = Pipeline::new(threads()).unwrap();
+    let kv = |k: &str, v: &str| (k.to_string(), v.to_string());
+    let mut g = c.benchmark_group(format!("spheres_screen_{}t", p.threads()));
+    g.sample_size(10);
+    let scene = spheres_as_scene(100_000);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    g.throughput(Throughput::Elements(u64::from(f.width() * f.height())));
+    for (id, name, sets) in [
+        ("shadow-map", "shadow-map", vec![]),
+        ("screen-space-16", "screen-space", vec![]),
+        ("screen-space-32", "screen-space", vec![kv("steps", "32")]),
+        ("contact-map", "contact-map", vec![]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+    let mut g = c.benchmark_group(format!("terrain_screen_{}t", p.threads()));
+    g.sample_size(10);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/terrain.toml");
+    let mut scene = penumbra::scene::file::load(&path).unwrap();
+    (scene.camera.width, scene.camera.height) = (1920, 1080);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    for (id, name, sets) in [
+        ("shadow-map", "shadow-map", vec![]),
+        ("terrain-height-512", "terrain-height", vec![]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques, volumetric, soft, screen);
 criterion_main!(benches);

@@ -92,6 +92,10 @@ impl March {
 pub struct DepthField {
     /// Linear view depth per pixel (the camera's far distance where no geometry).
     pub linear: Surface<f32>,
+    /// Per pixel, row-major: the linear depth and the buffer's tolerance
+    /// ([`DepthField::slope`]), side by side so that a step reads one place.
+    texels: Vec<[f32; 2]>,
+    width: usize,
     view: Mat4,
     view_projection: Mat4,
     size: Vec2,
@@ -122,8 +126,14 @@ impl DepthField {
             }
             f * n / (f - depth.at(x, y) * (f - n))
         });
+        let linear = Surface::from_vec(frame.width(), frame.height(), lin)?;
+        let texels = per_pixel_map(p, frame, |x, y| {
+            [linear.at(x as u32, y as u32), Self::slope(&linear, x, y)]
+        });
         Ok(DepthField {
-            linear: Surface::from_vec(frame.width(), frame.height(), lin)?,
+            texels,
+            width: frame.width() as usize,
+            linear,
             view: cam.view(),
             view_projection: cam.view_projection(),
             size: Vec2::new(frame.width() as f32, frame.height() as f32),
@@ -134,14 +144,21 @@ impl DepthField {
     /// side of each axis that stays on the surface (the smaller one-sided difference), the
     /// larger of the two axes. A step closer behind the buffer than this is the surface itself
     /// seen at another point of its pixel, not an occluder.
-    fn slope(&self, x: i64, y: i64) -> f32 {
-        let d = self.linear.at_clamped(x, y);
-        // A side past the image's edge does not count (the other one does).
-        let diff = |x: i64, y: i64| self.linear.get(x, y).map_or(f32::INFINITY, |a| (a - d).abs());
-        let sx = diff(x - 1, y).min(diff(x + 1, y));
-        let sy = diff(x, y - 1).min(diff(x, y + 1));
-        let finite = |s: f32| if s.is_finite() { s } else { 0.0 };
-        finite(sx).max(finite(sy))
+    fn slope(linear: &Surface<f32>, x: usize, y: usize) -> f32 {
+        let (w, h) = (linear.width() as usize, linear.height() as usize);
+        let l = linear.data();
+        let i = y * w + x;
+        let d = l[i];
+        // The smaller difference of the two sides of an axis; a side past the image's edge
+        // does not count (the other one does), an axis of one pixel gives 0.
+        let side = |a: Option<f32>, b: Option<f32>| match (a, b) {
+            (Some(a), Some(b)) => (a - d).abs().min((b - d).abs()),
+            (Some(a), None) | (None, Some(a)) => (a - d).abs(),
+            (None, None) => 0.0,
+        };
+        let sx = side((x > 0).then(|| l[i - 1]), (x + 1 < w).then(|| l[i + 1]));
+        let sy = side((y > 0).then(|| l[i - w]), (y + 1 < h).then(|| l[i + w]));
+        sx.max(sy)
     }
 
     /// The march from pixel `(x, y)`'s surface point `p` towards `frame`'s light, each step
@@ -177,12 +194,18 @@ impl DepthField {
             steps: 0,
             at: f32::NAN,
         };
+        // The ray is a line in clip space and in view depth: each step is the start plus `s`
+        // times the direction's image, four multiply-adds instead of two matrix products.
+        let (c0, cd) = (
+            self.view_projection * p.extend(1.0),
+            self.view_projection * dir.extend(0.0),
+        );
+        let (v0, vd) = (-(self.view * p.extend(1.0)).z, -(self.view * dir.extend(0.0)).z);
         for i in 0..m.steps {
             let s = (i as f32 + jitter) * step;
-            let q = p + dir * s;
             hit.steps += 1;
             // The step on the screen: behind the eye or outside the image ends the march (lit).
-            let c = self.view_projection * q.extend(1.0);
+            let c = c0 + cd * s;
             if c.w <= 0.0 {
                 t.step(|| Step::new("step", "behind the camera: the march ends, lit").num("t", s));
                 break;
@@ -198,17 +221,18 @@ impl DepthField {
                 break;
             }
             let (sx, sy) = (px.x as i64, px.y as i64);
-            let buffer = self.linear.at(sx as u32, sy as u32);
-            let depth = -(self.view * q.extend(1.0)).z;
+            let [buffer, tol] = self.texels[sy as usize * self.width + sx as usize];
+            let depth = v0 + vd * s;
             let behind = depth - buffer;
-            let tol = self.slope(sx, sy);
-            let blocked = behind > tol && behind < m.thickness;
+            // One branch, taken once: both comparisons evaluated (no short circuit).
+            let blocked = (behind > tol) & (behind < m.thickness);
             t.step(|| {
                 Step::new(
                     "step",
                     "blocked where the step is behind the buffer by more than its slope and less than the thickness",
                 )
                 .num("t", s)
+                .vec3("point", p + dir * s)
                 .vec2("pixel", Vec2::new(sx as f32, sy as f32))
                 .num("step depth", depth)
                 .num("buffer depth", buffer)
