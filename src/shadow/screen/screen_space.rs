@@ -55,7 +55,7 @@ pub fn info() -> TechniqueInfo {
             &[("thickness", "0.05")],
             &[("thickness", "5")],
         ],
-        extended: &[&[("steps", "64"), ("length", "4")], &[("length", "0.5")]],
+        extended: &[&[("steps", "64")], &[("length", "0.5")]],
         create: |pairs| Ok(Box::new(ScreenSpace::new(declaration().parse(pairs)?)?)),
         applies: None,
     }
