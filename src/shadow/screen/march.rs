@@ -64,7 +64,9 @@ impl March {
     /// [`crate::shadow::options::within`].
     pub fn fields() -> Vec<Field<March>> {
         vec![
-            Field::range("steps", "march steps per pixel", 1, MAX_STEPS, |o: &mut March| &mut o.steps),
+            Field::range("steps", "march steps per pixel", 1, MAX_STEPS, |o: &mut March| {
+                &mut o.steps
+            }),
             Field::range(
                 "length",
                 "march length towards the light, world units",
@@ -279,7 +281,14 @@ pub fn march_all(
             steps: 0,
             at: f32::NAN,
         },
-        Some(s) => field.march(frame, m, x as u32, y as u32, s.position, &mut crate::shadow::inspect::NoTrace),
+        Some(s) => field.march(
+            frame,
+            m,
+            x as u32,
+            y as u32,
+            s.position,
+            &mut crate::shadow::inspect::NoTrace,
+        ),
     })
 }
 
@@ -293,5 +302,11 @@ pub fn counters(hits: &[Hit]) -> Vec<(&'static str, f64)> {
 /// The distance along each pixel's ray at which its march was blocked, as a stage (0 black,
 /// `length` white, NaN where nothing blocked it).
 pub fn hit_stage(frame: &Frame, hits: &[Hit], length: f32) -> Result<Stage, Error> {
-    Stage::pixels(frame, "march_blocked_at", hits.iter().map(|h| h.at).collect(), 0.0, length)
+    Stage::pixels(
+        frame,
+        "march_blocked_at",
+        hits.iter().map(|h| h.at).collect(),
+        0.0,
+        length,
+    )
 }

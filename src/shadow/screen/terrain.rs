@@ -23,12 +23,14 @@
 //! heights, so they shadow nothing; `objects=true` adds a shadow map of the other objects.
 
 use crate::frame::Frame;
-use crate::pipeline::{PolygonOffset, Surface, MAX_DIMENSION};
 use crate::pipeline::{DepthFormat, Pipeline};
+use crate::pipeline::{PolygonOffset, Surface, MAX_DIMENSION};
 use crate::reference::bvh::{Bvh, Tri};
 use crate::scene::{LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
-use crate::shadow::light::{corners, directional_view, inside, merged_casters, scene_depth, texel, DepthPass, LightView};
+use crate::shadow::light::{
+    corners, directional_view, inside, merged_casters, scene_depth, texel, DepthPass, LightView,
+};
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::Error;
@@ -72,8 +74,12 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "terrain-height",
         fields: vec![
-            Field::range("grid", "grid locations per side", 2, 8192, |o: &mut Options| &mut o.grid),
-            Field::range("step", "march-up step, world units", 1e-4, 1e6, |o: &mut Options| &mut o.step),
+            Field::range("grid", "grid locations per side", 2, 8192, |o: &mut Options| {
+                &mut o.grid
+            }),
+            Field::range("step", "march-up step, world units", 1e-4, 1e6, |o: &mut Options| {
+                &mut o.step
+            }),
             Field::range(
                 "iterations",
                 "binary-search iterations after the march",
@@ -88,9 +94,13 @@ pub fn declaration() -> Declaration<Options> {
                 1e6,
                 |o: &mut Options| &mut o.band,
             ),
-            Field::range("size", "sun shadow-map side, texels", 16, MAX_DIMENSION, |o: &mut Options| {
-                &mut o.size
-            }),
+            Field::range(
+                "size",
+                "sun shadow-map side, texels",
+                16,
+                MAX_DIMENSION,
+                |o: &mut Options| &mut o.size,
+            ),
             Field::new(
                 "objects",
                 "also shadow by a shadow map of the objects that are not terrain",
@@ -191,7 +201,12 @@ impl Grid {
             Vec4::new(2.0 / d.x, 0.0, 0.0, 0.0),
             Vec4::new(0.0, 0.0, -1.0 / d.y, 0.0),
             Vec4::new(0.0, -2.0 / d.z, 0.0, 0.0),
-            Vec4::new(-2.0 * self.lo.x / d.x - 1.0, 1.0 + 2.0 * self.lo.z / d.z, self.hi.y / d.y, 1.0),
+            Vec4::new(
+                -2.0 * self.lo.x / d.x - 1.0,
+                1.0 + 2.0 * self.lo.z / d.z,
+                self.hi.y / d.y,
+                1.0,
+            ),
         )
     }
 
@@ -362,15 +377,21 @@ impl TerrainHeight {
             0.0
         };
         t.step(|| {
-            Step::new("band", "lit above the occlusion height, shadowed below it, linear over a band centred on it")
-                .num("point height", q.y)
-                .num("band", band)
-                .num("terrain visibility", v)
+            Step::new(
+                "band",
+                "lit above the occlusion height, shadowed below it, linear over a band centred on it",
+            )
+            .num("point height", q.y)
+            .num("band", band)
+            .num("terrain visibility", v)
         });
         match &self.objects_map {
             Some(m) if v > 0.0 => {
                 let shadowed = m.shadows(q);
-                t.step(|| Step::new("objects", "the shadow map of the objects that are not terrain").flag("shadowed", shadowed));
+                t.step(|| {
+                    Step::new("objects", "the shadow map of the objects that are not terrain")
+                        .flag("shadowed", shadowed)
+                });
                 if shadowed {
                     0.0
                 } else {
@@ -560,8 +581,18 @@ impl ShadowTechnique for TerrainHeight {
             .map(|(l, e)| (l.height.max(l.surface) - e).abs())
             .collect();
         let mut v = vec![
-            scalar("surface_height", self.locations.iter().map(|l| l.surface).collect(), lo, hi)?,
-            scalar("occlusion_height", self.locations.iter().map(|l| l.height).collect(), lo, hi)?,
+            scalar(
+                "surface_height",
+                self.locations.iter().map(|l| l.surface).collect(),
+                lo,
+                hi,
+            )?,
+            scalar(
+                "occlusion_height",
+                self.locations.iter().map(|l| l.height).collect(),
+                lo,
+                hi,
+            )?,
             scalar(
                 "occlusion_above_surface",
                 self.locations.iter().map(|l| (l.height - l.surface).max(0.0)).collect(),
@@ -571,7 +602,10 @@ impl ShadowTechnique for TerrainHeight {
             scalar("exact_occlusion_height", exact, lo, hi)?,
             scalar("occlusion_height_error", error, 0.0, self.opts.step)?,
         ];
-        for (name, m) in [("terrain_sun_map", &self.terrain_map), ("objects_sun_map", &self.objects_map)] {
+        for (name, m) in [
+            ("terrain_sun_map", &self.terrain_map),
+            ("objects_sun_map", &self.objects_map),
+        ] {
             if let Some(m) = m {
                 v.push(Stage::Scalar {
                     name: name.into(),
