@@ -392,5 +392,6 @@ fn occlusion_heights_follow_the_sun() {
         "half a degree of sun: occlusion heights move by {mean:.4} on average, {max:.4} at most, over {} locations",
         moved.len()
     );
-    assert!(mean > 0.0 && max < 2.0, "mean {mean}, max {max}");
+    // Measured 0.0105 and 0.31 (forest_floor, 256² grid, 2026-12-05).
+    assert!(mean > 0.002 && mean < 0.05 && max < 1.0, "mean {mean}, max {max}");
 }
