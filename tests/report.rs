@@ -426,3 +426,49 @@ fn export_writes_materials_and_structured_json() {
     assert_eq!(j["scene"], "q\"uote, a\\b");
     assert_eq!(j["objects"][0]["name"], "a_\"b\"_<c>");
 }
+
+#[test]
+fn a_technique_left_out_of_a_scene_is_skipped_not_missing() {
+    // Terrain occlusion height needs a heightfield: the sweep skips it on `contact`, lists it as
+    // skipped, and the merge of shards accepts its absence.
+    let dir = temp_dir("skipped");
+    let scenes = ["fixtures/scenes/contact.toml", "fixtures/scenes/terrain.toml"];
+    let sweep = |extra: &[&str], out: &Path| {
+        let mut args = vec![
+            "sweep",
+            scenes[0],
+            scenes[1],
+            "--techniques",
+            "reference,terrain-height",
+        ];
+        args.extend(["--reps", "1", "--out", out.to_str().unwrap()]);
+        args.extend(extra);
+        let (ok, text) = cli(&args);
+        assert!(ok, "{text}");
+    };
+    let whole = dir.join("whole");
+    sweep(&[], &whole);
+    let rows = rows_without_timings(&whole.join("results.csv"));
+    let terrain_rows = rows.iter().filter(|r| r.iter().any(|c| c == "terrain-height")).count();
+    let sets = penumbra::shadow::registry()
+        .into_iter()
+        .find(|t| t.name == "terrain-height")
+        .unwrap()
+        .sweep
+        .len();
+    assert_eq!(terrain_rows, sets, "terrain-height runs on `terrain` only: {rows:?}");
+    let summary = std::fs::read_to_string(whole.join("summary.md")).unwrap();
+    assert!(summary.contains("terrain-height (on 1 of 2 scenes)"), "{summary}");
+    let mut parts = Vec::new();
+    for i in 0..2 {
+        let out = dir.join(format!("part{i}"));
+        sweep(&["--shard", &format!("{i}/2")], &out);
+        parts.push(out.to_str().unwrap().to_string());
+    }
+    let merged = dir.join("merged");
+    let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
+    args.extend(parts.iter().map(String::as_str));
+    let (ok, text) = cli(&args);
+    assert!(ok, "{text}");
+    assert_eq!(rows, rows_without_timings(&merged.join("results.csv")));
+}
