@@ -415,6 +415,15 @@ mod tests {
         assert!((s - 4.0 / 3.0 * PI).abs() < 0.02, "{s}");
         let c = volume(&cylinder(1.0, 2.0, 96));
         assert!((c - 2.0 * PI).abs() < 0.01, "{c}");
+        // A cone: a third of its cylinder, and vertex normals on the faces' side.
+        let m = cone(1.0, 2.0, 96);
+        let k = volume(&m);
+        assert!((k - 2.0 * PI / 3.0).abs() < 0.01, "{k}");
+        for t in m.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+            let f = (b - a).cross(c - a);
+            assert!(t.iter().all(|&i| m.normals[i as usize].dot(f) > 0.0));
+        }
     }
 
     #[test]
