@@ -43,6 +43,16 @@ fn rows_without_timings(csv_path: &Path) -> Vec<Vec<String>> {
         .collect()
 }
 
+/// `sweep --merge` of the shard folders `parts` into `dir/merged`, which it returns.
+fn merge_shards(dir: &Path, parts: &[String]) -> PathBuf {
+    let merged = dir.join("merged");
+    let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
+    args.extend(parts.iter().map(String::as_str));
+    let (ok, text) = cli(&args);
+    assert!(ok, "{text}");
+    merged
+}
+
 fn files(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = walk(dir)
         .into_iter()
@@ -103,11 +113,7 @@ fn sharded_and_merged_sweep_equals_one_run() {
         sweep("1", Some(format!("{i}/3")), &out);
         parts.push(out.to_str().unwrap().to_string());
     }
-    let merged = dir.join("merged");
-    let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
-    args.extend(parts.iter().map(String::as_str));
-    let (ok, text) = cli(&args);
-    assert!(ok, "{text}");
+    let merged = merge_shards(&dir, &parts);
     let rows = rows_without_timings(&whole.join("results.csv"));
     assert!(rows.len() > 8, "{rows:?}");
     let merged_rows = rows_without_timings(&merged.join("results.csv"));
@@ -465,10 +471,6 @@ fn a_technique_left_out_of_a_scene_is_skipped_not_missing() {
         sweep(&["--shard", &format!("{i}/2")], &out);
         parts.push(out.to_str().unwrap().to_string());
     }
-    let merged = dir.join("merged");
-    let mut args = vec!["sweep", "--out", merged.to_str().unwrap(), "--merge"];
-    args.extend(parts.iter().map(String::as_str));
-    let (ok, text) = cli(&args);
-    assert!(ok, "{text}");
+    let merged = merge_shards(&dir, &parts);
     assert_eq!(rows, rows_without_timings(&merged.join("results.csv")));
 }
