@@ -4,7 +4,8 @@
 //! The family's shared modules, which every map-based technique calls with its own options:
 //! [`lookup`] (from a camera pixel to the maps, the reference depth with every bias, and the
 //! comparisons and kernels), [`bias`] (normal offset, receiver plane), [`kernel`] (the PCF
-//! kernels) and [`planes`] (the min/max hierarchy). The light's maps themselves are
+//! kernels), [`planes`] (the min/max hierarchy) and [`plain`] (the plain map's pass, which
+//! `shadow-map` and `contact-map` both run). The light's maps themselves are
 //! [`crate::shadow::light`]'s. No technique here holds another.
 
 pub mod bias;
@@ -13,6 +14,7 @@ pub mod kernel;
 pub mod lookup;
 pub mod multi_sample;
 pub mod pcss;
+pub mod plain;
 pub mod planes;
 pub mod shadow_map;
 pub mod soft;

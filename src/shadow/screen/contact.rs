@@ -12,8 +12,10 @@ use super::march::{self, DepthField, Hit, March};
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::shadow::inspect::{explain, Trace};
-use crate::shadow::map::shadow_map::{self, ShadowMap};
+use crate::shadow::map::plain::{self, MapPass};
+use crate::shadow::map::shadow_map;
 use crate::shadow::options::within;
+use crate::shadow::pass::Pass;
 use crate::shadow::timing::Passes;
 use crate::shadow::{Declaration, Family, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::Error;
@@ -70,7 +72,7 @@ pub fn info() -> TechniqueInfo {
 /// The shadow map with contact shadows (see the module docs).
 pub struct ContactMap {
     opts: Options,
-    map: ShadowMap,
+    map: MapPass,
     /// Last run: the map's visibility, the depth field and each pixel's march.
     map_v: Vec<f32>,
     field: Option<DepthField>,
@@ -82,8 +84,11 @@ impl ContactMap {
     /// The technique with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<ContactMap, Error> {
         declaration().check(&opts)?;
+        if let Some((key, value, message)) = plain::beyond_ranges(&opts.map) {
+            return Err(declaration().error(key, &value, message));
+        }
         Ok(ContactMap {
-            map: ShadowMap::new(opts.map.clone())?,
+            map: MapPass::new(opts.map.clone()),
             opts,
             map_v: Vec::new(),
             field: None,
@@ -121,13 +126,7 @@ impl ShadowTechnique for ContactMap {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         let mut passes = Passes::start();
-        let Visibility::Scalar(map_v) = self.map.visibility(p, frame)? else {
-            unreachable!("the shadow map's visibility is one value per pixel")
-        };
-        passes.skip();
-        for (name, ms) in self.map.timings() {
-            passes.add(name, ms);
-        }
+        let map_v = self.map.run(p, frame, &mut passes)?;
         let field = DepthField::new(p, frame)?;
         passes.end("linear depth");
         let w = frame.width() as usize;
@@ -169,9 +168,5 @@ impl ShadowTechnique for ContactMap {
         let mut c = self.map.counters();
         c.extend(march::counters(&self.hits));
         c
-    }
-
-    fn notes(&self) -> Vec<String> {
-        self.map.notes()
     }
 }

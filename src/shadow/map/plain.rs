@@ -1,0 +1,373 @@
+//! The plain shadow map's pass (Williams 1978; RTR 7.4), shared by the techniques that look
+//! up one map per pixel with the options of `shadow-map`: the `shadow-map` technique itself
+//! ([`super::shadow_map`], which documents the options and failures) and the map under the
+//! contact march of `contact-map` ([`crate::shadow::screen::contact`]).
+
+use super::kernel::{Kernel, Pattern, MAX_TAPS};
+use super::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
+use crate::frame::Frame;
+use crate::pipeline::*;
+use crate::shadow::inspect::{NoTrace, Step, Trace};
+pub use crate::shadow::light::{FitTo, Layer};
+use crate::shadow::light::{LightView, MapOptions};
+use crate::shadow::options::OptionValue;
+use crate::shadow::pass::Pass;
+use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
+use crate::shadow::timing::Passes;
+use crate::shadow::{Declaration, Field, Stage};
+use crate::Error;
+
+/// How the map is sampled: one comparison, hardware 2x2 PCF, or a kernel of 2x2 comparisons
+/// (its option names are the [`Pattern`]s': `grid`, `tent`, `poisson`, `rotated`, `spiral`,
+/// and `depth-bilinear`, the wrong order shown for contrast).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Filter {
+    /// One comparison of the nearest texel (`none`).
+    None,
+    /// Hardware-style 2x2 PCF: four comparisons, bilinearly weighted (`pcf2`).
+    Pcf2,
+    /// A kernel of `pattern`, `kernel` texels wide, of `taps` taps where the pattern has a
+    /// tap count.
+    Kernel(Pattern),
+}
+
+impl Filter {
+    /// The PCF kernel pattern of the wide filters.
+    pub fn pattern(self) -> Option<Pattern> {
+        match self {
+            Filter::Kernel(p) => Some(p),
+            Filter::None | Filter::Pcf2 => None,
+        }
+    }
+}
+
+impl OptionValue for Filter {
+    fn type_name() -> String {
+        format!("none|pcf2|{}", Pattern::type_name())
+    }
+
+    fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(Filter::None),
+            "pcf2" => Ok(Filter::Pcf2),
+            _ => Pattern::parse(s)
+                .map(Filter::Kernel)
+                .map_err(|_| format!("is not one of none, pcf2, {}", Pattern::NAMES.join(", "))),
+        }
+    }
+
+    fn show(&self) -> String {
+        match self {
+            Filter::None => "none".into(),
+            Filter::Pcf2 => "pcf2".into(),
+            Filter::Kernel(p) => p.show(),
+        }
+    }
+}
+
+/// Options of the shadow map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The map pass (size, format, polygon offset, fitting, snapping). Default: its defaults
+    /// (2048 texels, f32, 4 units, slope 1.1, fitted to the scene, not snapped).
+    pub map: MapOptions,
+    /// Normal-offset and receiver-plane bias. Default: none.
+    pub bias: Bias,
+    /// What the map stores. Default: first.
+    pub layer: Layer,
+    /// Lookup filter. Default: none.
+    pub filter: Filter,
+    /// Wide filters: kernel width in texels (grid and tent: taps per axis, made odd). Default: 5.
+    pub kernel: f32,
+    /// Wide filters: kernel width in world units at the receiver instead (0: use `kernel`).
+    /// Default: 0.
+    pub world: f32,
+    /// Poisson, rotated and spiral filters: taps (1 to 256). Default: 16.
+    pub taps: u32,
+    /// Wide filters: the bias cone and the hierarchy. Default: no cone, no hierarchy.
+    pub wide: Wide,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            map: MapOptions::default(),
+            bias: Bias::default(),
+            layer: Layer::First,
+            filter: Filter::None,
+            kernel: 5.0,
+            world: 0.0,
+            taps: 16,
+            wide: Wide::default(),
+        }
+    }
+}
+
+/// The option declaration (`--set`, `penumbra list`, the constructor's check).
+pub fn declaration() -> Declaration<Options> {
+    let mut fields = lookup_fields(
+        |o: &mut Options| &mut o.map,
+        |o: &mut Options| &mut o.bias,
+        |o: &mut Options| &mut o.wide,
+    );
+    fields.extend([
+        Field::new(
+            "layer",
+            "first, second (back faces), midpoint (two nearest layers) or id (object ids)",
+            |o: &mut Options| &mut o.layer,
+        ),
+        Field::new(
+            "filter",
+            "none (one comparison), pcf2 (2x2 hardware PCF), depth-bilinear (depths filtered, then compared: wrong), grid, tent, poisson, rotated or spiral (wide PCF kernels)",
+            |o: &mut Options| &mut o.filter,
+        ),
+        Field::range(
+            "kernel",
+            "wide filters: kernel width in texels (grid and tent: taps per axis, made odd)",
+            1.0,
+            MAX_DIMENSION as f32,
+            |o: &mut Options| &mut o.kernel,
+        ),
+        Field::range(
+            "world",
+            "wide filters: kernel width in world units at the receiver (0: use kernel)",
+            0.0,
+            1e6,
+            |o: &mut Options| &mut o.world,
+        ),
+        Field::range("taps", "poisson, rotated and spiral filters: taps", 1, MAX_TAPS, |o: &mut Options| {
+            &mut o.taps
+        }),
+    ]);
+    Declaration {
+        technique: "shadow-map",
+        fields,
+    }
+}
+
+/// The plain shadow map as a pass: the light pass of [`crate::shadow::light`], then one
+/// lookup per pixel through [`MapLookup`] with the options' filter (the `shadow-map`
+/// technique, and the map under the contact march of `contact-map`).
+pub struct MapPass {
+    opts: Options,
+    /// The maps and the lookups into them.
+    lookup: MapLookup,
+    /// Last run: bilinear taps of all lookups, and lookups the hierarchy classified.
+    pub(crate) taps: u64,
+}
+
+/// What is wrong with `opts` beyond each field's range (a wide kernel wider than the map), as
+/// `(key, value, message)` for the holding technique's [`Declaration::error`].
+pub fn beyond_ranges(opts: &Options) -> Option<(&'static str, String, String)> {
+    (opts.filter.pattern().is_some() && opts.kernel > opts.map.size as f32).then(|| {
+        (
+            "kernel",
+            opts.kernel.to_string(),
+            format!("is wider than the map (size={})", opts.map.size),
+        )
+    })
+}
+
+impl MapPass {
+    /// The pass with `opts` (checked by the technique that holds it).
+    pub fn new(opts: Options) -> MapPass {
+        let lookup = MapLookup::new(Setup {
+            map: opts.map.clone(),
+            layer: opts.layer,
+            bias: opts.bias,
+            wide: opts.filter.pattern().map(|_| opts.wide),
+            min_max: false,
+        });
+        MapPass { opts, lookup, taps: 0 }
+    }
+
+    /// Casters culled by fitting in the last run.
+    pub fn culled(&self) -> usize {
+        self.lookup.light_maps().culled()
+    }
+
+    /// Texels of the last run's maps, all views.
+    pub fn texels(&self) -> usize {
+        self.lookup.texels()
+    }
+
+    /// The maps of the last run, one per light view (six for point lights).
+    pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
+        self.lookup.maps()
+    }
+
+    /// Pass 2 at one pixel: the lookup and its bilinear taps, every step reported to `t`.
+    #[inline(always)]
+    pub(crate) fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        match self.lookup.prepare(frame, x, y, t) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(at) => self.lookup_at(frame, &at, x, y, t),
+        }
+    }
+
+    /// The kernel of a wide filter at a prepared lookup (its width from world units at the
+    /// point if asked).
+    #[inline(always)]
+    fn kernel_at(&self, frame: &Frame, at: &At, pattern: Pattern) -> Kernel {
+        let o = &self.opts;
+        let (map, view) = self.lookup.light_maps().get(at.face);
+        let width = if o.world > 0.0 {
+            (o.world / view.texel_at(&frame.light, at.pos)).clamp(1.0, map.width() as f32)
+        } else {
+            o.kernel
+        };
+        Kernel {
+            pattern,
+            taps: o.taps,
+            width,
+        }
+    }
+
+    /// [`MapPass::lookup`] of pixels `x .. x + n` of row `y` (`n` at most 4): each pixel is
+    /// prepared alone, then the wide filters (disks, and flat grids and tents of one size) of
+    /// the pixels that look up the same view run on four lanes, with the one-pixel operations
+    /// per lane, so every value and count is the one-pixel lookup's.
+    #[inline(always)]
+    fn lookup4(&self, frame: &Frame, x: usize, y: usize, n: usize) -> ([f32; 4], u64) {
+        let mut out = [f32::NAN; 4];
+        let mut count = 0u64;
+        let pattern = match self.opts.filter.pattern() {
+            Some(p) if p != Pattern::DepthBilinear => p,
+            _ => {
+                for (l, o) in out.iter_mut().enumerate().take(n) {
+                    let (v, c) = self.lookup(frame, x + l, y, &mut NoTrace);
+                    (*o, count) = (v, count + c);
+                }
+                return (out, count);
+            }
+        };
+        let mut ats = [None; 4];
+        let Some(face) = self.lookup.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
+            return (out, count);
+        };
+        // Pixels on another view (a cube map's edge): one at a time.
+        for (l, a) in ats.iter_mut().enumerate() {
+            if let Some(at) = a.filter(|at| at.face != face) {
+                let (v, c) = self.lookup_at(frame, &at, x + l, y, &mut NoTrace);
+                (out[l], count) = (v, count + c);
+                *a = None;
+            }
+        }
+        let mut kernels = [None; 4];
+        for (k, a) in kernels.iter_mut().zip(&ats) {
+            *k = a.map(|at| self.kernel_at(frame, &at, pattern));
+        }
+        self.lookup.filter4(face, &ats, kernels, x, y, &mut out, &mut count);
+        (out, count)
+    }
+
+    /// [`MapPass::lookup`] of every pixel of row `y` into `row`, for wide filters with the
+    /// hierarchy: each pixel is prepared and classified, and the pixels the hierarchy leaves
+    /// mixed are queued per light view and filtered four at a time, so that every group of
+    /// lanes is full (a pixel the hierarchy decides frees its lane for the next mixed one)
+    /// and each lane runs the one-pixel operations. Returns the row's count.
+    fn lookup_row(&self, frame: &Frame, y: usize, pattern: Pattern, row: &mut [f32]) -> u64 {
+        let mut count = 0u64;
+        let mut queues = vec![Queued::default(); self.lookup.maps().len()];
+        let flush = |face: usize, q: &mut Queued, row: &mut [f32], count: &mut u64| {
+            let mut out = [f32::NAN; 4];
+            self.lookup
+                .filter_lanes(face, &q.ats, q.kernels, q.xs, y, &mut out, count);
+            for l in 0..q.n {
+                row[q.xs[l] as usize] = out[l];
+            }
+            *q = Queued::default();
+        };
+        for x in (0..row.len()).step_by(4) {
+            let n = (row.len() - x).min(4);
+            let (mut ats, mut out) = ([None; 4], [f32::NAN; 4]);
+            self.lookup.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count);
+            for l in 0..n {
+                let Some(at) = ats[l] else {
+                    row[x + l] = out[l];
+                    continue;
+                };
+                let kernel = self.kernel_at(frame, &at, pattern);
+                if let Some((v, c)) = self.lookup.decide(&at, &kernel) {
+                    (row[x + l], count) = (v, count + c);
+                    continue;
+                }
+                let q = &mut queues[at.face];
+                (q.ats[q.n], q.kernels[q.n], q.xs[q.n]) = (Some(at), Some(kernel), (x + l) as u32);
+                q.n += 1;
+                if q.n == 4 {
+                    flush(at.face, q, row, &mut count);
+                }
+            }
+        }
+        for (face, q) in queues.iter_mut().enumerate() {
+            if q.n > 0 {
+                flush(face, q, row, &mut count);
+            }
+        }
+        count
+    }
+
+    /// [`MapPass::lookup`] from its prepared position on.
+    #[inline(always)]
+    fn lookup_at(&self, frame: &Frame, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let at = *at;
+        let Some(pattern) = self.opts.filter.pattern() else {
+            return (self.lookup.compare(&at, self.opts.filter == Filter::Pcf2, t), 1);
+        };
+        // Wide kernels (RTR 7.5): the width in texels (from world units at the point if asked),
+        // then the hierarchy or the taps.
+        let kernel = self.kernel_at(frame, &at, pattern);
+        self.lookup.filter(&at, &kernel, x, y, t)
+    }
+}
+
+/// Pixels of a row queued for one four-lane filter ([`ShadowMap::lookup_row`]): how many,
+/// their prepared lookups, kernels and columns.
+#[derive(Copy, Clone, Default)]
+struct Queued {
+    n: usize,
+    ats: [Option<At>; 4],
+    kernels: [Option<Kernel>; 4],
+    xs: [u32; 4],
+}
+
+impl Pass for MapPass {
+    type Output = Vec<f32>;
+
+    fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
+        self.lookup.light_pass(p, frame)?;
+        passes.end("light pass");
+        // Pass 2: one lookup per camera pixel.
+        let this = &*self;
+        let (out, taps) = match self.opts.filter.pattern() {
+            // The hierarchy decides some pixels of a row: the others fill the lanes.
+            Some(pattern) if self.lookup.planes(0).is_some() && pattern != Pattern::DepthBilinear => {
+                per_row_counted(p, frame, f32::NAN, |y, row| this.lookup_row(frame, y, pattern, row))
+            }
+            _ => per_pixel4_counted(p, frame, f32::NAN, |x, y, n| this.lookup4(frame, x, y, n)),
+        };
+        self.taps = taps;
+        passes.end("lookup pass");
+        Ok(out)
+    }
+
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        let header = || self.lookup.pass_step();
+        self.lookup
+            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
+    }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("map texels", self.texels() as f64),
+            ("casters culled", self.culled() as f64),
+            // Bilinear taps (a hardware 2x2 comparison each; one per classified kernel).
+            ("taps", self.taps as f64),
+        ]
+    }
+
+    fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
+        self.lookup.stages(p, frame)
+    }
+}
