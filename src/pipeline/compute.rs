@@ -262,6 +262,104 @@ pub fn separable_blur<T: Filterable + Default>(
     Surface::from_vec(s.width(), s.height(), out)
 }
 
+/// Normalized box weights for a kernel of `radius` taps each side (all `1 / (2r + 1)`).
+pub fn box_weights(radius: usize) -> Vec<f32> {
+    vec![1.0 / (2 * radius + 1) as f32; 2 * radius + 1]
+}
+
+/// Summed-area table accumulated in `f32`, with no care for precision (running sums of
+/// rows, then of columns, each in one `f32`): what a naive GPU implementation stores, kept to
+/// show what [`summed_area_table`]'s `f64` sums avoid (Lauritzen 2007: at 4096² the sums of
+/// depths near 1 reach 1.6e7, where an `f32` step is 1 and the box differences of a few
+/// texels lose every digit). The values are returned widened to `f64`, bit for bit those of
+/// the `f32` sums, so one box lookup ([`sat_box`]) serves both.
+pub fn summed_area_table_f32(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
+    let (w, h) = (s.width() as usize, s.height() as usize);
+    let mut out = vec![Vec4::ZERO; w * h];
+    p.install(|| {
+        out.par_chunks_mut(w).zip(s.data().par_chunks(w)).for_each(|(o, i)| {
+            let mut acc = Vec4::ZERO;
+            for (o, v) in o.iter_mut().zip(i) {
+                acc += *v;
+                *o = acc;
+            }
+        });
+    });
+    for y in 1..h {
+        let (prev, cur) = out.split_at_mut(y * w);
+        let prev = &prev[(y - 1) * w..];
+        for (c, p) in cur[..w].iter_mut().zip(prev) {
+            *c += *p;
+        }
+    }
+    let wide = out.into_iter().map(|v| v.as_dvec4()).collect();
+    Surface::from_vec_derived(s.width(), s.height(), wide).expect("same size as input")
+}
+
+/// `ln(wa e^a + wb e^b)` without overflow (either weight may be zero; `-inf` is the log of
+/// zero): the one operation of log-space filtering.
+#[inline(always)]
+pub fn log_mix(a: f32, wa: f32, b: f32, wb: f32) -> f32 {
+    let m = a.max(b);
+    if m == f32::NEG_INFINITY {
+        return m;
+    }
+    let sa = if wa > 0.0 { wa * math::exp(a - m) } else { 0.0 };
+    let sb = if wb > 0.0 { wb * math::exp(b - m) } else { 0.0 };
+    m + math::ln(sa + sb)
+}
+
+/// `ln(sum_i w_i e^(v_i))` of one kernel's values `v` and weights `w` (largest value taken
+/// out first, so nothing overflows; Salvi 2008's log-space filtering of ESM).
+#[inline(always)]
+pub fn log_sum(v: &[f32], w: &[f32]) -> f32 {
+    let m = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    if m == f32::NEG_INFINITY {
+        return m;
+    }
+    let s: f32 = v.iter().zip(w).map(|(&v, &w)| w * math::exp(v - m)).sum();
+    m + math::ln(s)
+}
+
+/// Separable blur in log space (Salvi 2008): each output is `ln(sum w_k e^(v_k))` of its
+/// kernel's texels, rows then columns, edges clamped. Values are logarithms (`c z` of an
+/// exponential shadow map), so the exponentials are never formed and cannot overflow.
+pub fn log_space_blur(p: &Pipeline, s: &Surface<f32>, weights: &[f32]) -> Result<Surface<f32>, PipelineError> {
+    if weights.len().is_multiple_of(2) {
+        return Err(PipelineError::BadArgument(format!(
+            "blur kernel length {} must be odd",
+            weights.len()
+        )));
+    }
+    let r = (weights.len() / 2) as i64;
+    let (w, h) = (s.width() as usize, s.height() as usize);
+    let mut tmp = vec![0.0f32; w * h];
+    let mut out = vec![0.0f32; w * h];
+    p.install(|| {
+        tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let src = s.row(y as u32);
+            let mut v = vec![0.0f32; weights.len()];
+            for (x, o) in row.iter_mut().enumerate() {
+                for (k, t) in v.iter_mut().enumerate() {
+                    *t = src[(x as i64 + k as i64 - r).clamp(0, w as i64 - 1) as usize];
+                }
+                *o = log_sum(&v, weights);
+            }
+        });
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let mut v = vec![0.0f32; weights.len()];
+            for (x, o) in row.iter_mut().enumerate() {
+                for (k, t) in v.iter_mut().enumerate() {
+                    let yy = (y as i64 + k as i64 - r).clamp(0, h as i64 - 1) as usize;
+                    *t = tmp[yy * w + x];
+                }
+                *o = log_sum(&v, weights);
+            }
+        });
+    });
+    Surface::from_vec(s.width(), s.height(), out)
+}
+
 /// Writes to distinct elements of a slice from many threads: the scatter of a parallel
 /// counting sort, where a prefix sum has given every element exactly one writer.
 ///
@@ -384,6 +482,48 @@ mod tests {
         let c = Surface::new(9, 9, 2.0f32).unwrap();
         let b = separable_blur(&p, &c, &gaussian_weights(3)).unwrap();
         assert!(b.data().iter().all(|v| (v - 2.0).abs() < 1e-5));
+    }
+
+    #[test]
+    fn log_space_blur_is_the_log_of_the_blurred_exponentials() {
+        // Small exponents, where the plain blur of e^v is exact enough to compare with.
+        let mut rng = crate::hash::SplitMix(5);
+        let data: Vec<f32> = (0..13 * 7).map(|_| 3.0 * rng.next_f32()).collect();
+        let s = Surface::from_vec(13, 7, data).unwrap();
+        let wts = gaussian_weights(2);
+        let ex = s.map(math::exp);
+        let want = separable_blur(&Pipeline::new(1).unwrap(), &ex, &wts).unwrap();
+        for t in [1, 2, 4] {
+            let got = log_space_blur(&Pipeline::new(t).unwrap(), &s, &wts).unwrap();
+            for (g, w) in got.data().iter().zip(want.data()) {
+                assert!((math::exp(*g) - w).abs() < 1e-4 * w, "{} vs {w}", math::exp(*g));
+            }
+        }
+        // Values whose exponentials overflow f32 (e^200) filter without overflow.
+        let big = Surface::new(5, 5, 200.0f32).unwrap();
+        let b = log_space_blur(&Pipeline::new(2).unwrap(), &big, &box_weights(1)).unwrap();
+        assert!(b.data().iter().all(|v| (v - 200.0).abs() < 1e-4), "{:?}", b.data());
+        assert_eq!(log_mix(f32::NEG_INFINITY, 0.0, 2.0, 0.5), 2.0 + math::ln(0.5));
+    }
+
+    #[test]
+    fn the_f32_summed_area_table_loses_what_the_f64_one_keeps() {
+        // 4096 x 4096 depths near 1: a 3x3 box far from the origin.
+        let p = Pipeline::new(2).unwrap();
+        let n = 4096u32;
+        let data: Vec<Vec4> = (0..n * n)
+            .map(|i| Vec4::splat(0.9 + 0.05 * ((i % 7) as f32 / 7.0)))
+            .collect();
+        let s = Surface::from_vec(n, n, data).unwrap();
+        let (x, y) = (4000i64, 4000i64);
+        let direct: f64 = (y - 1..=y + 1)
+            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (yy, xx)))
+            .map(|(yy, xx)| s.at(xx as u32, yy as u32).x as f64)
+            .sum();
+        let wide = sat_box(&summed_area_table(&p, &s), x - 1, y - 1, x + 1, y + 1).x;
+        let narrow = sat_box(&summed_area_table_f32(&p, &s), x - 1, y - 1, x + 1, y + 1).x;
+        assert!((wide - direct).abs() < 1e-6 * direct, "f64: {wide} vs {direct}");
+        assert!((narrow - direct).abs() > 0.5, "f32: {narrow} vs {direct}");
     }
 
     #[test]

@@ -95,6 +95,7 @@ pub fn family_colour(f: Family) -> &'static str {
         Family::Penumbra => "#9467bd",
         Family::Volumetric => "#ff7f0e",
         Family::Screen => "#17becf",
+        Family::Filtered => "#bcbd22",
     }
 }
 

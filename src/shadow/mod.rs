@@ -8,7 +8,7 @@
 //! [`Stage`]s for `penumbra dump` and explains one pixel as [`Step`]s for `penumbra inspect`.
 //!
 //! Families (DESIGN.md section 3): [`light`] (shared light-space machinery), [`map`] (shadow
-//! maps), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
+//! maps), [`filtered`] (VSM, convolution maps, ESM, EVSM, MSM), [`volume`] (shadow volumes and silhouettes), [`planar`] (planar shadows and
 //! cookies), [`exact`] (the irregular z-buffer), [`volumetric`] (coloured transparency maps, opacity and deep opacity maps, deep shadow
 //! maps, AVSM), [`screen`] (screen-space shadows, terrain occlusion height), [`mod@reference`] (the ray tracer as a technique). Options are declared once per
 //! field ([`options`]); the registry below maps names and `key=value` settings onto them.
@@ -21,6 +21,7 @@
 //! stencil volumes) a technique, so that no technique holds another.
 
 pub mod exact;
+pub mod filtered;
 pub mod inspect;
 pub mod light;
 pub mod map;
@@ -138,13 +139,16 @@ pub enum Family {
     Volumetric,
     /// Screen-space shadows and terrain occlusion height ([`screen`]).
     Screen,
+    /// Filtered shadow maps: VSM, convolution maps, ESM, EVSM, MSM ([`filtered`]).
+    Filtered,
 }
 
 impl Family {
     /// Every family, in legend order.
-    pub const ALL: [Family; 8] = [
+    pub const ALL: [Family; 9] = [
         Family::Reference,
         Family::Map,
+        Family::Filtered,
         Family::Volume,
         Family::Planar,
         Family::Exact,
@@ -164,6 +168,7 @@ impl Family {
             Family::Penumbra => "penumbra",
             Family::Volumetric => "volumetric",
             Family::Screen => "screen",
+            Family::Filtered => "filtered",
         }
     }
 
@@ -178,6 +183,7 @@ impl Family {
             Family::Penumbra => "penumbra volumes",
             Family::Volumetric => "volumetric",
             Family::Screen => "screen-space and terrain",
+            Family::Filtered => "filtered shadow maps",
         }
     }
 
@@ -232,6 +238,11 @@ pub fn registry() -> Vec<TechniqueInfo> {
         map::pcss::info(),
         map::chs::info(),
         map::multi_sample::info(),
+        filtered::vsm::info(),
+        filtered::convolution::info(),
+        filtered::esm::info(),
+        filtered::evsm::info(),
+        filtered::msm::info(),
         volume::shadow_volume::info(),
         planar::projected::info(),
         planar::cookie::info(),

@@ -1,0 +1,206 @@
+//! Convolution shadow maps (Annen et al. 2007; RTR 7.7).
+//!
+//! The depth test `H(z - t)` (lit when the occluder depth `z` is at or beyond the receiver's
+//! `t`, both linear in `[0, 1]`) is expanded as the Fourier series of a square wave of period
+//! 2, truncated after `M` terms (Annen et al. 2007, eqs. 5-6):
+//!
+//! `H(z - t) ~ 1/2 + 2 sum_k (1 / c_k) sin(c_k (z - t))`, `c_k = pi (2k - 1)`, `k = 1..M`,
+//!
+//! and `sin(c_k (z - t)) = sin(c_k z) cos(c_k t) - cos(c_k z) sin(c_k t)` separates the
+//! occluder from the receiver: the map stores the `2M` basis values `sin(c_k z)` and
+//! `cos(c_k z)` (`M/2` planes of four channels), which filter linearly, and the lookup
+//! weighs the filtered values with the receiver's `cos(c_k t)` and `sin(c_k t)`.
+//!
+//! - `damping`: each term's weight times `e^(-damping (k / M)^2)`, Annen et al.'s
+//!   attenuation against ringing (0: none), which widens the step.
+//! - `offset`: the truncated step rises over about `1 / M` of depth around `z = t`, so a
+//!   receiver on its own occluder would be half lit; the receiver is moved toward the light by
+//!   `offset / M` (in linear depth, the series' own transition width, not a scene's).
+//!
+//! Known failure: ringing. The truncated series overshoots and undershoots around the step
+//! (the Gibbs phenomenon), so receivers just behind an occluder get some light back, and the
+//! error falls slowly as `M` grows (on `overlap`).
+
+use super::{check, check_storage, FilteredPass, Filtering, Moments, Storage, MAX_PLANES};
+use crate::math;
+use crate::shadow::inspect::{Step, Trace};
+use crate::shadow::options::within;
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::Error;
+use glam::{Vec2, Vec4};
+use std::f32::consts::PI;
+
+/// Options of the convolution shadow map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The map pass and the prefilter. Default: their defaults, at 512 texels (the map holds
+    /// `2 terms` channels).
+    pub filtering: Filtering,
+    /// Channel storage: f32 or f16. Default: f32.
+    pub storage: Storage,
+    /// Fourier terms `M` (1 to 16; an even number fills the planes). Default: 8.
+    pub terms: u32,
+    /// Attenuation of the higher terms against ringing (0: none). Default: 0.
+    pub damping: f32,
+    /// The receiver moved toward the light by `offset / terms` of linear depth. Default: 1.
+    pub offset: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        let mut filtering = Filtering::default();
+        filtering.map.size = 512;
+        Options {
+            filtering,
+            storage: Storage::F32,
+            terms: 8,
+            damping: 0.0,
+            offset: 1.0,
+        }
+    }
+}
+
+/// The option declaration.
+pub fn declaration() -> Declaration<Options> {
+    let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
+    fields.extend([
+        Field::new("storage", "channel storage: f32 or f16", |o: &mut Options| {
+            &mut o.storage
+        }),
+        Field::range(
+            "terms",
+            "Fourier terms M of the depth test (2M channels a texel)",
+            1,
+            2 * MAX_PLANES as u32,
+            |o: &mut Options| &mut o.terms,
+        ),
+        Field::range(
+            "damping",
+            "attenuation e^(-damping (k/M)^2) of term k against ringing",
+            0.0,
+            100.0,
+            |o: &mut Options| &mut o.damping,
+        ),
+        Field::range(
+            "offset",
+            "receiver moved toward the light by offset / M of linear depth",
+            0.0,
+            100.0,
+            |o: &mut Options| &mut o.offset,
+        ),
+    ]);
+    Declaration {
+        technique: "convolution",
+        fields,
+    }
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "convolution",
+        family: Family::Filtered,
+        summary: "convolution shadow map (Annen et al. 2007): the depth test as a Fourier series, filtered: rings around the step",
+        options: declaration().infos(),
+        sweep: &[&[], &[("terms", "4")], &[("terms", "16")]],
+        extended: &[&[("damping", "2")], &[("storage", "f16")], &[("prefilter", "sat")]],
+        create: |pairs| Ok(Box::new(Convolution::new(declaration().parse(pairs)?)?)),
+        applies: None,
+    }
+}
+
+/// The Fourier basis of the depth test.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fourier {
+    storage: Storage,
+    terms: usize,
+    /// Per term: `c_k` and its weight `2 / c_k` (times the damping).
+    c: Vec<(f32, f32)>,
+    offset: f32,
+}
+
+impl Fourier {
+    fn new(storage: Storage, terms: u32, damping: f32, offset: f32) -> Fourier {
+        let m = terms as f32;
+        let c = (1..=terms)
+            .map(|k| {
+                let ck = PI * (2 * k - 1) as f32;
+                let att = math::exp(-damping * (k as f32 / m) * (k as f32 / m));
+                (ck, 2.0 / ck * att)
+            })
+            .collect();
+        Fourier {
+            storage,
+            terms: terms as usize,
+            c,
+            offset: offset / m,
+        }
+    }
+}
+
+impl Moments for Fourier {
+    fn planes(&self) -> usize {
+        self.terms.div_ceil(2)
+    }
+
+    fn channels(&self) -> Vec<String> {
+        (1..=self.terms)
+            .flat_map(|k| [format!("sin{k}"), format!("cos{k}")])
+            .collect()
+    }
+
+    fn storage(&self) -> Storage {
+        self.storage
+    }
+
+    fn encode(&self, t: f32, _: Vec2, out: &mut [Vec4]) {
+        for o in out.iter_mut() {
+            *o = Vec4::ZERO;
+        }
+        for (k, &(ck, _)) in self.c.iter().enumerate() {
+            let (s, c) = math::sin_cos(ck * t);
+            let (p, l) = (k / 2, (k % 2) * 2);
+            out[p][l] = s;
+            out[p][l + 1] = c;
+        }
+    }
+
+    fn visibility(&self, m: &[Vec4], t: f32, tr: &mut impl Trace) -> f32 {
+        // Annen et al. 2007, eq. 6: 1/2 + sum_k w_k (E[sin c_k z] cos c_k t - E[cos c_k z] sin c_k t).
+        let d = t - self.offset;
+        let mut v = 0.5f32;
+        for (k, &(ck, wk)) in self.c.iter().enumerate() {
+            let (s, c) = math::sin_cos(ck * d);
+            let (p, l) = (k / 2, (k % 2) * 2);
+            v += wk * (m[p][l] * c - m[p][l + 1] * s);
+        }
+        tr.step(|| {
+            Step::new(
+                "fourier series",
+                "1/2 plus the terms' filtered basis weighed by the receiver's (Annen et al. 2007, eq. 6), then clamped to [0, 1]",
+            )
+            .int("terms", self.terms)
+            .num("receiver depth (moved by the offset)", d)
+            .num("series", v)
+        });
+        v
+    }
+}
+
+/// The convolution shadow map (see the module docs).
+pub type Convolution = PassTechnique<FilteredPass<Fourier>>;
+
+impl Convolution {
+    /// A convolution shadow map with `opts`; an option out of its range is an error.
+    pub fn new(opts: Options) -> Result<Convolution, Error> {
+        let d = declaration();
+        check(&d, &opts, &opts.filtering)?;
+        check_storage(&d, opts.storage, &[Storage::F32, Storage::F16])?;
+        let m = Fourier::new(opts.storage, opts.terms, opts.damping, opts.offset);
+        Ok(PassTechnique::with(
+            "convolution",
+            FilteredPass::new(m, opts.filtering, None),
+        ))
+    }
+}
