@@ -174,7 +174,7 @@ fn esm_lets_light_through_near_contact_and_a_larger_exponent_narrows_it() {
     let s = scene("contact");
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let r = reference(&p, "contact", &f);
-    let (sn, cs) = (25f32.to_radians().sin(), 25f32.to_radians().cos());
+    let (sn, cs) = penumbra::math::sin_cos(25f32.to_radians());
     let mask = f.metric_mask();
     let region: Vec<bool> = f
         .points()

@@ -34,8 +34,8 @@ use std::f32::consts::PI;
 /// Options of the convolution shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults, at 512 texels (the map holds
-    /// `2 terms` channels).
+    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian;
+    /// the map holds `2 terms` channels).
     pub filtering: Filtering,
     /// Channel storage: f32 or f16. Default: f32.
     pub storage: Storage,
@@ -49,10 +49,8 @@ pub struct Options {
 
 impl Default for Options {
     fn default() -> Self {
-        let mut filtering = Filtering::default();
-        filtering.map.size = 512;
         Options {
-            filtering,
+            filtering: Filtering::default(),
             storage: Storage::F32,
             terms: 8,
             damping: 0.0,
@@ -104,7 +102,7 @@ pub fn info() -> TechniqueInfo {
         summary: "convolution shadow map (Annen et al. 2007): the depth test as a Fourier series, filtered: rings around the step",
         options: declaration().infos(),
         sweep: &[&[], &[("terms", "4")], &[("terms", "16")]],
-        extended: &[&[("damping", "2")], &[("storage", "f16")], &[("prefilter", "sat")]],
+        extended: &[&[("damping", "2")]],
         create: |pairs| Ok(Box::new(Convolution::new(declaration().parse(pairs)?)?)),
         applies: None,
     }

@@ -37,7 +37,7 @@ pub const F16_LIMIT: f32 = 11.09;
 /// Options of the exponential shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (1024 texels, 9x9 Gaussian).
+    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
     pub filtering: Filtering,
     /// Channel storage: f32 or f16. Default: f32.
     pub storage: Storage,
@@ -92,12 +92,7 @@ pub fn info() -> TechniqueInfo {
         summary: "exponential shadow map (Salvi 2008; Annen et al. 2008): e^(c z) prefiltered in log space: too much light near contact",
         options: declaration().infos(),
         sweep: &[&[], &[("exponent", "30")], &[("log", "false"), ("prefilter", "sat")]],
-        extended: &[
-            &[("prefilter", "mips")],
-            &[("log", "false")],
-            &[("storage", "f16"), ("exponent", "10"), ("log", "false")],
-            &[("exponent", "88")],
-        ],
+        extended: &[&[("prefilter", "mips")], &[("storage", "f16"), ("exponent", "10"), ("log", "false")]],
         create: |pairs| Ok(Box::new(Esm::new(declaration().parse(pairs)?)?)),
         applies: None,
     }

@@ -38,7 +38,7 @@ pub const F16_LIMIT: f32 = 5.54;
 /// Options of the exponential variance shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (1024 texels, 9x9 Gaussian).
+    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
     pub filtering: Filtering,
     /// Channel storage: f32 or f16. Default: f32.
     pub storage: Storage,
@@ -119,12 +119,7 @@ pub fn info() -> TechniqueInfo {
         summary: "exponential variance shadow map (Lauritzen and McCool 2008): VSM of two exponential warps: less bleeding, exponent limits of the storage",
         options: declaration().infos(),
         sweep: &[&[], &[("components", "2")], &[("storage", "f16"), ("positive", "5.54")]],
-        extended: &[
-            &[("prefilter", "sat")],
-            &[("prefilter", "mips")],
-            &[("positive", "80")],
-            &[("bleeding", "0.2")],
-        ],
+        extended: &[&[("positive", "80")]],
         create: |pairs| Ok(Box::new(Evsm::new(declaration().parse(pairs)?)?)),
         applies: None,
     }

@@ -155,9 +155,10 @@ pub trait Moments: Send + Sync + 'static {
 /// The options every filtered technique has: the map pass, the prefilter and its width.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Filtering {
-    /// The map pass (size, depth format, polygon offset, fitting, snapping). Default: 1024
-    /// texels, f32, no polygon offset (a filtered map's bias is in its representation),
-    /// fitted to the scene, not snapped.
+    /// The map pass (size, depth format, polygon offset, fitting, snapping). Default: 512
+    /// texels (a cube map is six faces of four or more channels, all blurred: at 1024 the
+    /// family would double the default sweep's time), f32, no polygon offset (a filtered
+    /// map's bias is in its representation), fitted to the scene, not snapped.
     pub map: MapOptions,
     /// How the stored map is filtered. Default: gaussian.
     pub prefilter: Prefilter,
@@ -174,7 +175,7 @@ impl Default for Filtering {
     fn default() -> Self {
         Filtering {
             map: MapOptions {
-                size: 1024,
+                size: 512,
                 units: 0.0,
                 slope: 0.0,
                 ..MapOptions::default()

@@ -41,7 +41,7 @@ use glam::{Mat4, Vec2, Vec4};
 /// Options of the moment shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (1024 texels, 9x9 Gaussian).
+    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
     pub filtering: Filtering,
     /// Storage: f32 (128 bits a texel) or u16 (the paper's 64-bit quantization). Default: f32.
     pub storage: Storage,
@@ -104,12 +104,7 @@ pub fn info() -> TechniqueInfo {
         summary: "moment shadow map (Peters and Klein 2015): four moments, Hamburger reconstruction: leaks with three or more layers in a kernel",
         options: declaration().infos(),
         sweep: &[&[], &[("storage", "u16"), ("bias", "0.00003")]],
-        extended: &[
-            &[("prefilter", "sat")],
-            &[("prefilter", "mips")],
-            &[("storage", "u16")],
-            &[("bleeding", "0.2")],
-        ],
+        extended: &[&[("prefilter", "sat")]],
         create: |pairs| Ok(Box::new(Msm::new(declaration().parse(pairs)?)?)),
         applies: None,
     }

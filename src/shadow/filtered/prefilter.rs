@@ -299,7 +299,8 @@ mod tests {
             Prefilter::Mips,
             Prefilter::Sat,
         ] {
-            let (f, _) = Prefiltered::build(&p, &[s.clone()], kind, 2, SatSums::F64, false, Storage::F32).unwrap();
+            let (f, _) =
+                Prefiltered::build(&p, std::slice::from_ref(&s), kind, 2, SatSums::F64, false, Storage::F32).unwrap();
             let mut out = [Vec4::ZERO];
             f.sample(Vec2::new(0.37, 0.81), 5.0, false, &mut out);
             assert!((out[0] - s.at(0, 0)).abs().max_element() < 1e-5, "{kind:?}: {}", out[0]);

@@ -35,7 +35,7 @@ use glam::{Vec2, Vec4};
 /// Options of the variance shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (1024 texels, 9x9 Gaussian).
+    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
     pub filtering: Filtering,
     /// Channel storage: f32, f16 or u16. Default: f32.
     pub storage: Storage,
@@ -117,15 +117,7 @@ pub fn info() -> TechniqueInfo {
             &[("prefilter", "box"), ("radius", "2")],
             &[("prefilter", "sat"), ("variable", "true")],
         ],
-        extended: &[
-            &[("prefilter", "none")],
-            &[("prefilter", "mips")],
-            &[("prefilter", "sat")],
-            &[("storage", "f16")],
-            &[("storage", "u16")],
-            &[("slope_bias", "false")],
-            &[("radius", "8"), ("size", "2048")],
-        ],
+        extended: &[&[("prefilter", "mips")], &[("storage", "f16")], &[("radius", "8"), ("size", "1024")]],
         create: |pairs| Ok(Box::new(Vsm::new(declaration().parse(pairs)?)?)),
         applies: None,
     }
