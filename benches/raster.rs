@@ -252,5 +252,43 @@ fn screen(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random, techniques, volumetric, soft, screen);
+/// Filtered shadow maps on the spheres scene at 1920x1080 with a 2048² map (the issue's
+/// speed setting): VSM with its 9x9 Gaussian, the summed-area VSM, ESM, EVSM, MSM and the
+/// convolution map, against the plain map; and the prefilter alone (a 9x9 separable
+/// Gaussian of a 2048² two-moment map, and its summed-area table).
+fn filtered(c: &mut Criterion) {
+    use penumbra::pipeline::compute::{gaussian_weights, separable_blur, summed_area_table};
+    use penumbra::shadow;
+    let p = Pipeline::new(threads()).unwrap();
+    let kv = |k: &str, v: &str| (k.to_string(), v.to_string());
+    let mut g = c.benchmark_group(format!("spheres_filtered_{}t", p.threads()));
+    g.sample_size(10);
+    let scene = spheres_as_scene(100_000);
+    let f = penumbra::frame::frame(&p, &scene, 0, 0).unwrap();
+    g.throughput(Throughput::Elements(u64::from(f.width() * f.height())));
+    let size = || kv("size", "2048");
+    for (id, name, sets) in [
+        ("shadow-map", "shadow-map", vec![]),
+        ("vsm-gaussian9", "vsm", vec![size()]),
+        ("vsm-sat", "vsm", vec![size(), kv("prefilter", "sat")]),
+        ("esm", "esm", vec![size()]),
+        ("evsm", "evsm", vec![size()]),
+        ("msm", "msm", vec![size()]),
+        ("convolution-8", "convolution", vec![size()]),
+    ] {
+        let mut t = shadow::create(name, &sets).unwrap();
+        g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
+    }
+    g.finish();
+    let mut g = c.benchmark_group(format!("prefilter_2048_{}t", p.threads()));
+    g.sample_size(10);
+    let map = Surface::new(2048, 2048, glam::Vec4::new(0.5, 0.25, 0.0, 0.0)).unwrap();
+    g.throughput(Throughput::Elements(2048 * 2048));
+    let w = gaussian_weights(4);
+    g.bench_function("gaussian9", |b| b.iter(|| separable_blur(&p, &map, &w).unwrap()));
+    g.bench_function("sat-f64", |b| b.iter(|| summed_area_table(&p, &map)));
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques, volumetric, soft, screen, filtered);
 criterion_main!(benches);

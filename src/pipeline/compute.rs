@@ -221,7 +221,10 @@ pub fn gaussian_weights(radius: usize) -> Vec<f32> {
 }
 
 /// Separable blur with an odd-length kernel (`weights.len() = 2r + 1`), edges clamped:
-/// horizontal pass then vertical pass.
+/// horizontal pass then vertical pass. Each output is `sum_k w_k v_k` accumulated in kernel
+/// order (`acc * 1 + v_k * w_k` from zero), the same operations for any thread count; the
+/// rows are read through an edge-padded copy and the columns a whole row at a time, so no
+/// tap clamps its index.
 pub fn separable_blur<T: Filterable + Default>(
     p: &Pipeline,
     s: &Surface<T>,
@@ -233,29 +236,34 @@ pub fn separable_blur<T: Filterable + Default>(
             weights.len()
         )));
     }
-    let r = (weights.len() / 2) as i64;
+    let r = weights.len() / 2;
     let (w, h) = (s.width() as usize, s.height() as usize);
+    let zero = T::mix(T::default(), 0.0, T::default(), 0.0);
     let mut tmp = vec![T::default(); w * h];
     let mut out = vec![T::default(); w * h];
     p.install(|| {
         tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            // The row with r copies of each edge texel on its side.
+            let src = s.row(y as u32);
+            let mut pad = Vec::with_capacity(w + 2 * r);
+            pad.extend(std::iter::repeat_n(src[0], r));
+            pad.extend_from_slice(src);
+            pad.extend(std::iter::repeat_n(src[w - 1], r));
             for (x, o) in row.iter_mut().enumerate() {
-                let mut acc = T::mix(T::default(), 0.0, T::default(), 0.0);
+                let mut acc = zero;
                 for (k, &wk) in weights.iter().enumerate() {
-                    let xx = (x as i64 + k as i64 - r).clamp(0, w as i64 - 1) as u32;
-                    acc = T::mix(acc, 1.0, s.at(xx, y as u32), wk);
+                    acc = T::mix(acc, 1.0, pad[x + k], wk);
                 }
                 *o = acc;
             }
         });
         out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, o) in row.iter_mut().enumerate() {
-                let mut acc = T::mix(T::default(), 0.0, T::default(), 0.0);
-                for (k, &wk) in weights.iter().enumerate() {
-                    let yy = (y as i64 + k as i64 - r).clamp(0, h as i64 - 1) as usize;
-                    acc = T::mix(acc, 1.0, tmp[yy * w + x], wk);
+            row.fill(zero);
+            for (k, &wk) in weights.iter().enumerate() {
+                let yy = (y as i64 + k as i64 - r as i64).clamp(0, h as i64 - 1) as usize;
+                for (o, &v) in row.iter_mut().zip(&tmp[yy * w..(yy + 1) * w]) {
+                    *o = T::mix(*o, 1.0, v, wk);
                 }
-                *o = acc;
             }
         });
     });

@@ -411,38 +411,52 @@ impl<M: Moments> FilteredPass<M> {
                     self.opts.map.size
                 ))
             })?;
-            let t: Vec<f32> = map.data().iter().map(|&z| lin.t(z)).collect();
-            let mut inter = vec![Vec4::ZERO; w * h * np];
             let m = &self.moments;
-            let rows: u64 = p.install(|| {
-                inter
-                    .par_chunks_mut(w * np)
-                    .enumerate()
-                    .map(|(y, row)| {
-                        let mut n = 0u64;
-                        for x in 0..w {
-                            let slope = slope_at(&t, w, h, x, y);
-                            let o = &mut row[x * np..(x + 1) * np];
-                            m.encode(t[y * w + x], slope, o);
-                            for v in o.iter_mut() {
-                                let s = Vec4::from_array(v.to_array().map(|c| storage.store(c)));
-                                let lim = storage.max();
-                                let c = s.clamp(Vec4::splat(-lim), Vec4::splat(lim));
-                                n += (c != s) as u64;
-                                *v = c;
-                            }
-                        }
-                        n
+            let data = map.data();
+            let tz = |x: usize, y: usize| lin.t(data[y * w + x]);
+            // One texel: encoded, rounded to the storage, an infinity clamped and counted.
+            let texel = |x: usize, y: usize, o: &mut [Vec4]| {
+                m.encode(tz(x, y), slope_at(&tz, w, h, x, y), o);
+                let mut n = 0u64;
+                for v in o.iter_mut() {
+                    let s = Vec4::from_array(v.to_array().map(|c| storage.store(c)));
+                    let lim = storage.max();
+                    let c = s.clamp(Vec4::splat(-lim), Vec4::splat(lim));
+                    n += (c != s) as u64;
+                    *v = c;
+                }
+                n
+            };
+            let (planes, n) = if np == 1 {
+                // One plane: written in place.
+                let mut plane = vec![Vec4::ZERO; w * h];
+                let n: u64 = p.install(|| {
+                    plane
+                        .par_chunks_mut(w)
+                        .enumerate()
+                        .map(|(y, row)| (0..w).map(|x| texel(x, y, &mut row[x..x + 1])).sum::<u64>())
+                        .sum()
+                });
+                (vec![Surface::from_vec(map.width(), map.height(), plane)?], n)
+            } else {
+                // Several planes: interleaved per texel, then one surface per plane.
+                let mut inter = vec![Vec4::ZERO; w * h * np];
+                let n: u64 = p.install(|| {
+                    inter
+                        .par_chunks_mut(w * np)
+                        .enumerate()
+                        .map(|(y, row)| (0..w).map(|x| texel(x, y, &mut row[x * np..(x + 1) * np])).sum::<u64>())
+                        .sum()
+                });
+                let planes = (0..np)
+                    .map(|k| {
+                        let data: Vec<Vec4> = inter.iter().skip(k).step_by(np).copied().collect();
+                        Surface::from_vec(map.width(), map.height(), data)
                     })
-                    .sum()
-            });
-            clamped += rows;
-            let planes = (0..np)
-                .map(|k| {
-                    let data: Vec<Vec4> = inter.iter().skip(k).step_by(np).copied().collect();
-                    Surface::from_vec(map.width(), map.height(), data)
-                })
-                .collect::<Result<Vec<_>, _>>()?;
+                    .collect::<Result<Vec<_>, _>>()?;
+                (planes, n)
+            };
+            clamped += n;
             out.push(planes);
         }
         self.clamped = clamped;
@@ -485,7 +499,12 @@ impl<M: Moments> FilteredPass<M> {
             tr.step(|| Step::new("outside", "the point is outside the light's map: lit"));
             return (1.0, 0);
         }
-        let foot = footprint(frame, x, y, at.view, maps, at.uv, size);
+        // A blurred map is read bilinearly whatever the footprint: only the mip chain and the
+        // summed-area table widen their filter to it.
+        let foot = match vm.filtered {
+            Prefiltered::Plain(_) => 1.0,
+            _ => footprint(frame, x, y, at.view, maps, at.uv, size),
+        };
         let kernel = (2 * self.opts.radius + 1) as f32;
         let np = self.moments.planes();
         let log = self.moments.log_space();
@@ -518,8 +537,8 @@ impl<M: Moments> FilteredPass<M> {
             }
         }
         let info = vm.filtered.sample(at.uv, width, log, &mut m[..np]);
-        let names = self.moments.channels();
         tr.step(|| {
+            let names = self.moments.channels();
             let mut st = Step::new("filtered lookup", info.what())
                 .num("pixel footprint (texels)", foot)
                 .num("filter width (texels)", width);
@@ -546,10 +565,11 @@ impl<M: Moments> FilteredPass<M> {
     }
 }
 
-/// The smaller one-sided difference of linear depth per texel, per axis (a silhouette's jump
-/// is not a slope).
-fn slope_at(t: &[f32], w: usize, h: usize, x: usize, y: usize) -> Vec2 {
-    let c = t[y * w + x];
+/// The smaller one-sided difference of linear depth `t(x, y)` per texel, per axis (a
+/// silhouette's jump is not a slope).
+#[inline(always)]
+fn slope_at(t: &impl Fn(usize, usize) -> f32, w: usize, h: usize, x: usize, y: usize) -> Vec2 {
+    let c = t(x, y);
     let d = |a: Option<f32>, b: Option<f32>| match (a, b) {
         (Some(a), Some(b)) => {
             let (da, db) = (c - a, b - c);
@@ -563,11 +583,8 @@ fn slope_at(t: &[f32], w: usize, h: usize, x: usize, y: usize) -> Vec2 {
         (None, Some(b)) => b - c,
         (None, None) => 0.0,
     };
-    let dx = d((x > 0).then(|| t[y * w + x - 1]), (x + 1 < w).then(|| t[y * w + x + 1]));
-    let dy = d(
-        (y > 0).then(|| t[(y - 1) * w + x]),
-        (y + 1 < h).then(|| t[(y + 1) * w + x]),
-    );
+    let dx = d((x > 0).then(|| t(x - 1, y)), (x + 1 < w).then(|| t(x + 1, y)));
+    let dy = d((y > 0).then(|| t(x, y - 1)), (y + 1 < h).then(|| t(x, y + 1)));
     Vec2::new(dx, dy)
 }
 

@@ -100,7 +100,11 @@ impl Prefiltered {
     ) -> Result<(Prefiltered, u64), Error> {
         let r = radius as usize;
         let texels: u64 = planes.iter().map(|s| s.data().len() as u64).sum();
-        let store = |s: Surface<Vec4>| s.map(|v| Vec4::from_array(v.to_array().map(|c| storage.store(c))));
+        let store = |s: Surface<Vec4>| match storage {
+            // Every f32 is stored as it is.
+            Storage::F32 => s,
+            _ => s.map(|v| Vec4::from_array(v.to_array().map(|c| storage.store(c)))),
+        };
         Ok(match kind {
             Prefilter::None => (Prefiltered::Plain(planes.to_vec()), 0),
             Prefilter::Box | Prefilter::Gaussian => {
