@@ -108,6 +108,8 @@ smoke hard 37ae6e36b4f14ca8
 smoke area64 37ae6e36b4f14ca8
 spheres hard 3d785b99090ae698
 spheres area64 3d785b99090ae698
+stack hard df21eb1c7844be75
+stack area64 47755835a8dfe045
 stained_glass hard d4a9a59bc1803348
 stained_glass area64 d4a9a59bc1803348
 subtexel_path hard 9ad33f8a97ef6835
