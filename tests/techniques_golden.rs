@@ -630,9 +630,6 @@ contact evsm [] 8cbcf10ceb32c9ab
 contact evsm [components=2] 1f2df41f01e589af
 contact evsm [storage=f16;positive=5.54] 1525548c5389f5fc
 contact evsm [positive=80] c08e6315be04c218
-contact msm [] 7edd118f7bcafcce
-contact msm [storage=u16;bias=0.00003] fa018a20f147d075
-contact msm [prefilter=sat] 57725f3bc57b21bf
 point_casters vsm [] 4d6e1c7ab2feff57
 point_casters vsm [bleeding=0.3] e736c6f611f79fe1
 point_casters vsm [prefilter=box;radius=2] 3185da0397b3054d
@@ -653,9 +650,6 @@ point_casters evsm [] a4d38cff43e13233
 point_casters evsm [components=2] 976400455a5b3d87
 point_casters evsm [storage=f16;positive=5.54] b531a8950cef396e
 point_casters evsm [positive=80] 1872bd09ebe0bbef
-point_casters msm [] ed71dada7e548484
-point_casters msm [storage=u16;bias=0.00003] 6e1d15fda8abb0dc
-point_casters msm [prefilter=sat] cf98285dcdf7f69b
 planar vsm [] b51ff45b66736c96
 planar vsm [bleeding=0.3] a090737585d2f01b
 planar vsm [prefilter=box;radius=2] c2828a6abd5266aa
@@ -676,9 +670,6 @@ planar evsm [] b1de94f53b705535
 planar evsm [components=2] 727b45504e9c2dff
 planar evsm [storage=f16;positive=5.54] c47b6511098ff711
 planar evsm [positive=80] 9228c13653204f00
-planar msm [] 76f8fd7783f0dd9b
-planar msm [storage=u16;bias=0.00003] 0f0f2b29f38b4f14
-planar msm [prefilter=sat] a0b973085be1af2d
 cookie vsm [] 280faf150fa6543d
 cookie vsm [bleeding=0.3] 233c4355cb988398
 cookie vsm [prefilter=box;radius=2] 3c9ecadadfa90a49
@@ -699,9 +690,6 @@ cookie evsm [] 1db62da446c4e3f8
 cookie evsm [components=2] 538d38b25812d8a8
 cookie evsm [storage=f16;positive=5.54] 75e08f29834deefd
 cookie evsm [positive=80] c93edd8df4f5ce8b
-cookie msm [] c189e25cdc36b834
-cookie msm [storage=u16;bias=0.00003] b2e558171d114f53
-cookie msm [prefilter=sat] 50f064fe1173e108
 long_view vsm [] 1a43894a47df4975
 long_view vsm [bleeding=0.3] 3ca9c0acb6a9e048
 long_view vsm [prefilter=box;radius=2] 1ee0561f9293c420
@@ -722,7 +710,19 @@ long_view evsm [] c3fc7c69558fb766
 long_view evsm [components=2] ba6b4a86699a4c41
 long_view evsm [storage=f16;positive=5.54] c2a70599da0b88f5
 long_view evsm [positive=80] c3fc7c69558fb766
-long_view msm [] d097f6caaacb1032
-long_view msm [storage=u16;bias=0.00003] 265b97368e0c4409
-long_view msm [prefilter=sat] e7247787b555661d
+contact msm [] fa83f8b310a6ac08
+contact msm [storage=u16;bias=0.00003] 0d5020486d06a75c
+contact msm [prefilter=sat] 752e7192dde15e6f
+point_casters msm [] fff33eb2f041d09c
+point_casters msm [storage=u16;bias=0.00003] eeb03ea8e3a2bc4c
+point_casters msm [prefilter=sat] a1c46ccae3db471d
+planar msm [] c9f648028f701344
+planar msm [storage=u16;bias=0.00003] f0cc23a942a3f9af
+planar msm [prefilter=sat] 0495621020fc0eef
+cookie msm [] d012aac96d91782b
+cookie msm [storage=u16;bias=0.00003] f48617e76ff59f77
+cookie msm [prefilter=sat] df99250d6ebdbe9e
+long_view msm [] ae2237bd1473d3cd
+long_view msm [storage=u16;bias=0.00003] 50da9f375c1add40
+long_view msm [prefilter=sat] 12a436c7200ea991
 ";

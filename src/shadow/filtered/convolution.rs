@@ -21,7 +21,7 @@
 //! (the Gibbs phenomenon), so receivers just behind an occluder get some light back, and the
 //! error falls slowly as `M` grows (on `overlap`).
 
-use super::{check, check_storage, FilteredPass, Filtering, Moments, Storage, MAX_PLANES};
+use super::{check, FilteredPass, Filtering, Moments, Storage, MAX_PLANES};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -193,8 +193,7 @@ impl Convolution {
     /// A convolution shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Convolution, Error> {
         let d = declaration();
-        check(&d, &opts, &opts.filtering)?;
-        check_storage(&d, opts.storage, &[Storage::F32, Storage::F16])?;
+        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
         let m = Fourier::new(opts.storage, opts.terms, opts.damping, opts.offset);
         Ok(PassTechnique::with(
             "convolution",

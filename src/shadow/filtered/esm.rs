@@ -18,7 +18,7 @@
 //! `e^(-c (t - z))`, close to 1: too much light near contact (the reason for CESM), on the
 //! `contact` fixture at the box's foot; a larger `c` narrows it.
 
-use super::{check, check_storage, FilteredPass, Filtering, Moments, Prefilter, Storage};
+use super::{check, FilteredPass, Filtering, Moments, Prefilter, Storage};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -153,8 +153,7 @@ impl Esm {
     /// An exponential shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Esm, Error> {
         let d = declaration();
-        check(&d, &opts, &opts.filtering)?;
-        check_storage(&d, opts.storage, &[Storage::F32, Storage::F16])?;
+        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
         if opts.log && opts.filtering.prefilter == Prefilter::Sat {
             return Err(d.error(
                 "log",

@@ -18,9 +18,7 @@
 //! Known failure: less bleeding than VSM, but not none: where occluders overlap at depths
 //! the warp does not separate, light still leaks (`overlap`).
 
-use super::{
-    bleeding_field, chebyshev, check, check_storage, reduce_bleeding, FilteredPass, Filtering, Moments, Storage,
-};
+use super::{bleeding_field, chebyshev, check, reduce_bleeding, FilteredPass, Filtering, Moments, Storage};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -205,8 +203,7 @@ impl Evsm {
     /// An exponential variance shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Evsm, Error> {
         let d = declaration();
-        check(&d, &opts, &opts.filtering)?;
-        check_storage(&d, opts.storage, &[Storage::F32, Storage::F16])?;
+        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
         if opts.components != 2 && opts.components != 4 {
             return Err(d.error("components", &opts.components.to_string(), "is neither 2 nor 4"));
         }

@@ -772,22 +772,19 @@ impl<M: Moments> Pass for FilteredPass<M> {
     }
 }
 
-/// A filtered technique's constructor check: the shared options' ranges beyond the fields'
-/// own, then the declaration's.
-pub fn check<O: Clone + Default + 'static>(d: &Declaration<O>, o: &O, filtering: &Filtering) -> Result<(), Error> {
+/// A filtered technique's constructor check: the declaration's ranges, the shared options'
+/// beyond them, and `storage` one of the storages the technique defines (`allowed`).
+pub fn check<O: Clone + Default + 'static>(
+    d: &Declaration<O>,
+    o: &O,
+    filtering: &Filtering,
+    storage: Storage,
+    allowed: &[Storage],
+) -> Result<(), Error> {
     d.check(o)?;
     if let Some((k, v, m)) = filtering.beyond_ranges() {
         return Err(d.error(k, &v, m));
     }
-    Ok(())
-}
-
-/// `storage` must be one of `allowed` for the technique of `d`.
-pub fn check_storage<O: Clone + Default + 'static>(
-    d: &Declaration<O>,
-    storage: Storage,
-    allowed: &[Storage],
-) -> Result<(), Error> {
     if allowed.contains(&storage) {
         return Ok(());
     }

@@ -20,10 +20,7 @@
 //! shadow (RTR fig. 7.28, the `overlap` fixture). Bleeding reduction darkens it at the price
 //! of sharper, narrower penumbrae.
 
-use super::{
-    bleeding_field, chebyshev, check, check_storage, reduce_bleeding, FilteredPass, Filtering, Moments, Storage,
-    Variable,
-};
+use super::{bleeding_field, chebyshev, check, reduce_bleeding, FilteredPass, Filtering, Moments, Storage, Variable};
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::options::within;
@@ -188,8 +185,13 @@ impl Vsm {
     /// A variance shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Vsm, Error> {
         let d = declaration();
-        check(&d, &opts, &opts.filtering)?;
-        check_storage(&d, opts.storage, &[Storage::F32, Storage::F16, Storage::U16])?;
+        check(
+            &d,
+            &opts,
+            &opts.filtering,
+            opts.storage,
+            &[Storage::F32, Storage::F16, Storage::U16],
+        )?;
         if opts.variable && opts.filtering.prefilter != super::Prefilter::Sat {
             return Err(d.error(
                 "variable",
