@@ -120,9 +120,9 @@ fn vsm_bleeds_where_occluders_overlap_and_evsm_and_msm_leak_less() {
         "overlap umbra under both boxes ({} pixels): leaked vsm {vsm:.5} (penumbra RMSE {vsm_pen:.4}), bleeding=0.3 {reduced:.5} (penumbra RMSE {reduced_pen:.4}), evsm {evsm:.5}, msm {msm:.5}",
         region.iter().filter(|&&b| b).count()
     );
-    // Measured: 156 pixels; VSM 0.00365, reduced 0 (penumbra RMSE 0.2016 -> 0.2283), EVSM
-    // 0.00163, MSM 0.00017.
-    assert!(vsm > 0.002, "vsm {vsm}");
+    // Measured: 156 pixels; VSM 0.0303, reduced 0 (penumbra RMSE 0.1545 -> 0.1974), EVSM
+    // 0.00465, MSM 0.00048.
+    assert!(vsm > 0.02, "vsm {vsm}");
     assert!(
         reduced < 0.2 * vsm && reduced_pen > vsm_pen,
         "reduced {reduced} ({reduced_pen}), vsm {vsm} ({vsm_pen})"
@@ -196,7 +196,7 @@ fn esm_lets_light_through_near_contact_and_a_larger_exponent_narrows_it() {
         "contact: umbra within 0.1 of the box ({} pixels): esm c=30 {esm30:.4}, c=80 {esm80:.4}, vsm {vsm:.4}",
         region.iter().filter(|&&b| b).count()
     );
-    // Measured: 350 pixels; c=30 0.1017, c=80 0.0165, VSM 0.0104.
+    // Measured: 350 pixels; c=30 0.1057, c=80 0.0228, VSM 0.0253.
     assert!(esm30 > 0.08, "esm c=30 {esm30}");
     assert!(esm80 < esm30, "c=80 {esm80}, c=30 {esm30}");
 }
@@ -252,10 +252,10 @@ fn moment_maps_leak_with_three_layers_in_a_kernel_and_more_in_16_bits() {
         stairs.iter().filter(|&&b| b).count(),
         flat.iter().filter(|&&b| b).count()
     );
-    // Measured: staircase 1252 pixels, f32 0.00006, u16 0.00040; one slab 5676 pixels, f32
-    // 0.00001, u16 0.00011: small, as Peters and Klein report, but where the layers are.
+    // Measured: staircase 1252 pixels, f32 0.00310, u16 0.00369; one slab 5676 pixels, f32
+    // 0.00001, u16 0.00011.
     assert!(
-        float > 0.0 && float > 2.0 * float_flat,
+        float > 0.002 && float > 10.0 * float_flat,
         "f32 {float} (one slab {float_flat})"
     );
     assert!(quantized > float, "u16 {quantized}, f32 {float}");
