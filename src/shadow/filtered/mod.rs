@@ -467,8 +467,8 @@ impl<M: Moments> FilteredPass<M> {
     /// here): the view that sees the pixel's point, its linear depth, the filtered planes at
     /// its map position (the filter at least the pixel's footprint wide; for the variable
     /// width, first a blocker estimate over the search region), and the representation's
-    /// visibility. Returns the value and the count (lookups; [`NONFINITE`] for a replaced
-    /// result).
+    /// visibility. Returns the value and the count (lookups in the low 32 bits; bit 32 set
+    /// for a non-finite result that was replaced).
     pub fn lookup(&self, frame: &Frame, x: usize, y: usize, tr: &mut impl Trace) -> (f32, u64) {
         let w = frame.width() as usize;
         let Some(s) = frame.points()[y * w + x] else {
