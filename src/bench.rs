@@ -3,13 +3,16 @@
 //! - the **spheres frame**: a shadow-mapped frame that other renderers (Mesa's llvmpipe) can
 //!   run identically: ground plane, 8 x 8 UV spheres, a directional light with a fitted
 //!   orthographic depth pass, then a 1920 x 1080 camera pass with 2x2 or 5x5 hardware PCF, or
-//!   the classic PCSS shader ([`pcss_shadow`]);
+//!   the classic PCSS shader ([`pcss_shadow`]), or a variance shadow map ([`FrameMode::Vsm`]:
+//!   moments, a 5-tap box blur, Chebyshev's bound);
 //! - **random triangles**: `T` triangles of about `A` pixels each at 1920 x 1080, depth-only
 //!   or colour + depth, for triangles/s and pixels/s.
 
 pub use crate::hash::SplitMix;
 use crate::hash::{hash_f32, hash_rgba8};
+use crate::pipeline::compute::{box_weights, separable_blur_rows};
 use crate::pipeline::sampler::CompareSampler;
+use crate::pipeline::sampler::{sample_bilinear, Address};
 use crate::pipeline::*;
 pub use crate::scene::spheres::{sphere_tessellation, spheres_as_scene, spheres_scene, BenchMesh, BenchVertex};
 use crate::Error;
@@ -28,6 +31,14 @@ pub enum FrameMode {
     /// The classic PCSS shader, fixed so that any renderer runs the same frame
     /// ([`pcss_shadow`]).
     Pcss,
+    /// A variance shadow map, fixed so that any renderer runs the same frame: the depth pass
+    /// of the same light with no polygon offset gives each texel's moments `(z, z²)` of its
+    /// light-space depth `z` in [0, 1] (a two-channel f32 target: [`FrameTargets::moments`]);
+    /// a separable 5-tap box blur of both moments (horizontal, then vertical; clamp to edge;
+    /// each tap weighted `0.2` and summed from left to right); the camera pass reads the
+    /// blurred moments bilinearly at the pixel's map position and shades with Chebyshev's
+    /// bound ([`vsm_shadow`]). No bleeding reduction.
+    Vsm,
 }
 
 impl std::str::FromStr for FrameMode {
@@ -38,6 +49,7 @@ impl std::str::FromStr for FrameMode {
             ("pcf2", FrameMode::Pcf2),
             ("pcf5", FrameMode::Pcf5),
             ("pcss", FrameMode::Pcss),
+            ("vsm", FrameMode::Vsm),
         ];
         crate::pipeline::state::parse_choice(s, "frame mode", &modes)
     }
@@ -184,8 +196,32 @@ pub fn pcss_shadow4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
     Vec4::select(any, lit / Vec4::splat(16.0), Vec4::ONE)
 }
 
+/// Smallest variance of the frame's VSM shader (in squared map depth units).
+pub const VSM_MIN_VARIANCE: f32 = 0.00002;
+
+/// Taps each side of the frame's VSM box blur (5 taps).
+pub const VSM_BLUR_RADIUS: usize = 2;
+
+/// The frame benchmark's VSM shader at map position `uv` and depth `z`: the blurred moments
+/// `(μ, m2)` read bilinearly (clamp to edge), then Chebyshev's bound (RTR eq. 7.8): 1 where
+/// `z <= μ`, else `σ² / (σ² + (z − μ)²)` with `σ² = max(m2 − μ², 0.00002)`.
+/// `tools/llvmpipe_bench.py` runs the same shader in GLSL.
+#[inline]
+pub fn vsm_shadow(moments: &Surface<Vec2>, uv: Vec2, z: f32) -> f32 {
+    let m = sample_bilinear(moments, uv, Address::Clamp);
+    let mean = m.x;
+    if z <= mean {
+        return 1.0;
+    }
+    let var = (m.y - mean * mean).max(VSM_MIN_VARIANCE);
+    let d = z - mean;
+    var / (var + d * d)
+}
+
 struct CameraFs<'a> {
     map: &'a Surface<f32>,
+    /// The blurred moments (VSM mode).
+    moments: Option<&'a Surface<Vec2>>,
     to_light: Vec3,
     mode: FrameMode,
     sampler: CompareSampler,
@@ -201,6 +237,7 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let shadow = match self.mode {
             FrameMode::Pcf5 => self.sampler.pcf_grid(self.map, uv, l.z, 5),
             FrameMode::Pcss => pcss_shadow(self.map, uv, l.z),
+            FrameMode::Vsm => vsm_shadow(self.moments.expect("VSM mode has moments"), uv, l.z),
             _ => self.sampler.pcf2x2(self.map, uv, l.z),
         };
         Some((albedo * (0.15 + 0.85 * ndl * shadow)).extend(1.0))
@@ -229,6 +266,10 @@ impl FragmentProgram<(Vec3, Vec3, Vec3)> for CameraFs<'_> {
         let shadow = match self.mode {
             FrameMode::Pcf5 => self.sampler.pcf_grid_4(self.map, u, v, z, 5),
             FrameMode::Pcss => pcss_shadow4(self.map, u, v, z),
+            FrameMode::Vsm => {
+                let m = self.moments.expect("VSM mode has moments");
+                Vec4::from_array(std::array::from_fn(|i| vsm_shadow(m, Vec2::new(u[i], v[i]), z[i])))
+            }
             _ => self.sampler.pcf2x2_4(self.map, u, v, z),
         };
         let k = Vec4::splat(0.15) + Vec4::splat(0.85) * ndl * shadow;
@@ -261,6 +302,8 @@ pub struct FrameTargets {
     pub color: Surface<Rgba8>,
     /// Camera depth.
     pub depth: Surface<f32>,
+    /// The blurred moments of the light's depth (VSM mode; made by its first frame).
+    pub moments: Option<Surface<Vec2>>,
 }
 
 impl FrameTargets {
@@ -270,6 +313,7 @@ impl FrameTargets {
             shadow: Surface::new(s, s, 1.0)?,
             color: Surface::new(w, h, [0; 4])?,
             depth: Surface::new(w, h, 1.0)?,
+            moments: None,
         })
     }
 }
@@ -281,6 +325,8 @@ pub struct FrameTimes {
     pub ms_depth: f64,
     /// Camera pass, milliseconds (0 in depth mode).
     pub ms_main: f64,
+    /// The moments and their blur, milliseconds (VSM mode; else 0).
+    pub ms_prefilter: f64,
     /// Depth-pass counters.
     pub depth_stats: DrawStats,
     /// Camera-pass counters.
@@ -296,6 +342,15 @@ pub const FRAME_POLYGON_OFFSET: PolygonOffset = PolygonOffset {
     factor: 1.1,
     units: 4.0,
 };
+
+/// The depth pass's polygon offset in `mode`: [`FRAME_POLYGON_OFFSET`], none for VSM (its
+/// moments need the surface's own depth; Chebyshev's bound is its bias).
+pub fn frame_polygon_offset(mode: FrameMode) -> PolygonOffset {
+    match mode {
+        FrameMode::Vsm => PolygonOffset::default(),
+        _ => FRAME_POLYGON_OFFSET,
+    }
+}
 
 /// Default face culling of the spheres frame's camera pass: back faces, which the closed
 /// spheres seen from outside always hide behind their front faces (the image is the same as
@@ -319,7 +374,7 @@ pub fn render_frame(
     // Pass 1: depth from the light, no culling, polygon offset (slope 1.1, constant 4).
     let t0 = Instant::now();
     let state = RenderState {
-        offset: FRAME_POLYGON_OFFSET,
+        offset: frame_polygon_offset(mode),
         ..Default::default()
     };
     // The clear rides along with the draw (tile by tile, in cache).
@@ -336,10 +391,28 @@ pub fn render_frame(
     if mode == FrameMode::Depth {
         return Ok(out);
     }
+    if mode == FrameMode::Vsm {
+        // The moments (z, z²) of each texel, blurred by 5 x 5 box taps, the source rows
+        // computed from the depth map as the blur reads them.
+        let t0 = Instant::now();
+        let s = t.shadow.width();
+        let moments = match &mut t.moments {
+            Some(m) if m.width() == s && m.height() == s => m,
+            slot => slot.insert(Surface::new(s, s, Vec2::ZERO)?),
+        };
+        let shadow = &t.shadow;
+        separable_blur_rows(p, moments, &box_weights(VSM_BLUR_RADIUS), |y, row| {
+            for (o, &z) in row.iter_mut().zip(shadow.row(y)) {
+                *o = Vec2::new(z, z * z);
+            }
+        })?;
+        out.ms_prefilter = t0.elapsed().as_secs_f64() * 1e3;
+    }
     // Pass 2: camera view, colour + depth, shadowed Lambert.
     let t1 = Instant::now();
     let fs = CameraFs {
         map: &t.shadow,
+        moments: t.moments.as_ref().filter(|_| mode == FrameMode::Vsm),
         to_light: setup.to_light,
         mode,
         sampler: CompareSampler::default(),
@@ -516,7 +589,8 @@ pub fn export_frame(
         "map": map,
         "width": width,
         "height": height,
-        "polygon_offset": [FRAME_POLYGON_OFFSET.factor, FRAME_POLYGON_OFFSET.units],
+        "polygon_offset": [frame_polygon_offset(mode).factor, frame_polygon_offset(mode).units],
+        "vsm": {"blur_taps": 2 * VSM_BLUR_RADIUS + 1, "min_variance": VSM_MIN_VARIANCE},
         "light_vp": setup.light_vp.to_cols_array(),
         "camera_vp": setup.camera_vp.to_cols_array(),
         "to_light": setup.to_light.to_array(),
@@ -583,6 +657,67 @@ mod tests {
             .map(|&d| s.pcf2x2(map, uv + d * (r / size), z))
             .fold(0.0, |a, b| a + b)
             / 16.0
+    }
+
+    /// The frame's VSM: the blurred moments are the 5 x 5 box of `(z, z²)` (clamped taps),
+    /// and the shader is Chebyshev's bound on the bilinear moments, both written plainly.
+    #[test]
+    fn the_frames_vsm_is_its_specification() {
+        let p = Pipeline::new(2).unwrap();
+        let mesh = spheres_scene(2_000);
+        let setup = frame_setup(&mesh, 96, 54);
+        let mut t = FrameTargets::new(64, 96, 54).unwrap();
+        render_frame(&p, &mesh, &setup, FrameMode::Vsm, &mut t).unwrap();
+        let (map, m) = (&t.shadow, t.moments.as_ref().unwrap());
+        let n = map.width() as i64;
+        let z = |x: i64, y: i64| map.at(x.clamp(0, n - 1) as u32, y.clamp(0, n - 1) as u32);
+        let mut worst = 0f32;
+        for y in 0..n {
+            for x in 0..n {
+                let (mut s1, mut s2) = (0f64, 0f64);
+                for j in -2..=2 {
+                    for i in -2..=2 {
+                        let d = z(x + i, y + j) as f64;
+                        s1 += d;
+                        s2 += d * d;
+                    }
+                }
+                let got = m.at(x as u32, y as u32);
+                worst = worst
+                    .max((got.x - (s1 / 25.0) as f32).abs())
+                    .max((got.y - (s2 / 25.0) as f32).abs());
+            }
+        }
+        assert!(worst < 1e-6, "moments off the 5x5 box by {worst}");
+        // The shader against the bound written out, on and between texel centres.
+        let mut rng = SplitMix(5);
+        let (mut lit, mut mixed) = (0, 0);
+        for _ in 0..2000 {
+            let uv = Vec2::new(rng.next_f32(), rng.next_f32());
+            let zr = rng.next_f32();
+            let f = uv * n as f32 - Vec2::splat(0.5);
+            let (x0, y0) = (f.x.floor() as i64, f.y.floor() as i64);
+            let (fx, fy) = (f.x - x0 as f32, f.y - y0 as f32);
+            let at = |x: i64, y: i64| m.at(x.clamp(0, n - 1) as u32, y.clamp(0, n - 1) as u32);
+            let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+            let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+            let mu = top * (1.0 - fy) + bottom * fy;
+            let var = (mu.y - mu.x * mu.x).max(0.00002);
+            let want = if zr <= mu.x {
+                1.0
+            } else {
+                var / (var + (zr - mu.x) * (zr - mu.x))
+            };
+            let got = vsm_shadow(m, uv, zr);
+            assert!((got - want).abs() < 1e-5, "{uv} {zr}: {got} against {want}");
+            if got == 1.0 {
+                lit += 1;
+            } else if got < 0.99 {
+                mixed += 1;
+            }
+        }
+        assert!(lit > 100 && mixed > 100, "lit {lit}, shadowed {mixed}");
+        assert!(t.color.data().iter().any(|c| c[0] > 40) && frame_hash(&t, FrameMode::Vsm) != 0);
     }
 
     #[test]

@@ -21,7 +21,7 @@ fn frame(threads: usize, mode: FrameMode) -> (u64, u64, DrawStats, DrawStats) {
 
 #[test]
 fn spheres_frame_is_identical_for_1_2_4_threads_and_reruns() {
-    for mode in [FrameMode::Pcf2, FrameMode::Pcf5, FrameMode::Pcss] {
+    for mode in [FrameMode::Pcf2, FrameMode::Pcf5, FrameMode::Pcss, FrameMode::Vsm] {
         let one = frame(1, mode);
         assert_eq!(one, frame(2, mode), "{mode:?}: 1 vs 2 threads");
         assert_eq!(one, frame(4, mode), "{mode:?}: 1 vs 4 threads");
@@ -39,6 +39,18 @@ fn spheres_frame_golden_hashes() {
         (shadow, color),
         GOLDEN,
         "shadow map / image hash changed: {shadow:#018x}, {color:#018x}"
+    );
+}
+
+/// The VSM frame (moments, box blur, Chebyshev's bound) pinned like the PCF frame: the blur
+/// and the bilinear moments are the same operations on every machine.
+#[test]
+fn spheres_vsm_frame_golden_hash() {
+    let (shadow, color, _, _) = frame(2, FrameMode::Vsm);
+    assert_eq!(
+        (shadow, color),
+        VSM_GOLDEN,
+        "VSM frame hash changed: {shadow:#018x}, {color:#018x}"
     );
 }
 
@@ -70,6 +82,8 @@ fn spheres_frame_back_face_culling_changes_no_pixel() {
 /// Update only for an intended change of output, and say why in the commit.
 // Last change: sphere seams and poles made bitwise exact (closed meshes for shadow volumes).
 const GOLDEN: (u64, u64) = (0x2eec35a4be1451ff, 0x8d70394d0a3f28c2);
+/// The same for the VSM frame (its depth pass has no polygon offset).
+const VSM_GOLDEN: (u64, u64) = (0xd9538b4f7f247120, 0x8cb44a8eb2d53bc4);
 
 /// Runs `run` with 1, 2 and 4 threads and checks the results are equal.
 fn same_for_1_2_4_threads<T: PartialEq + std::fmt::Debug>(run: impl Fn(usize) -> T) {

@@ -25,6 +25,7 @@ WORKLOADS = [
     ("frame pcf2 (T=100k)", ["bench", "frame", "--mode", "pcf2"], "ms_frame"),
     ("frame pcf5 (T=100k)", ["bench", "frame", "--mode", "pcf5"], "ms_frame"),
     ("frame pcss (T=100k)", ["bench", "frame", "--mode", "pcss"], "ms_frame"),
+    ("frame vsm (T=100k)", ["bench", "frame", "--mode", "vsm"], "ms_frame"),
     ("colour+depth, 50-px tris", ["bench", "raster", "--mode", "color", "--area", "50"], "ms"),
     ("depth only, 50-px tris", ["bench", "raster", "--mode", "depth", "--area", "50"], "ms"),
     ("fill, 20000-px tris", ["bench", "raster", "--mode", "color", "--area", "20000", "--triangles", "2000"], "ms"),

@@ -5,7 +5,10 @@ The workload comes from penumbra itself (`penumbra bench frame --export DIR` or
 `penumbra bench raster --export DIR`), so both renderers draw the same triangles with the same
 matrices, targets and state: the spheres frame (a 32-bit float depth pass from the light with
 polygon offset and no culling, then the camera pass with a hardware 2x2 comparison or 25 of
-them on a 5x5 grid, or the classic PCSS shader of `penumbra bench frame --mode pcss`), or random triangles (colour + depth, or depth only). Clip-space depth is
+them on a 5x5 grid, or the classic PCSS shader of `penumbra bench frame --mode pcss`, or the
+variance shadow map of `--mode vsm`: moments (z, z^2) into a two-channel f32 target, a 5-tap box
+blur each way, Chebyshev's bound on the bilinear moments), or random triangles (colour + depth,
+or depth only). Clip-space depth is
 [0, 1] and window y points down (glClipControl), as in penumbra.
 
 Not part of penumbra (which uses no system graphics library): a measuring tool. It needs
@@ -106,6 +109,15 @@ def main():
         depth_prog["light_vp"].write(struct.pack("16f", *w["light_vp"]))
         if w["mode"] == "pcf2":
             taps = "shadow = texture(map, vec3(uv, l.z));"
+        elif w["mode"] == "vsm":
+            # penumbra's `vsm_shadow`: the blurred moments read bilinearly, Chebyshev's bound.
+            min_var = float(w["vsm"]["min_variance"])
+            taps = (
+                "vec2 m = texture(moments, uv).rg; float mu = m.x;"
+                " if (l.z <= mu) { shadow = 1.0; } else {"
+                f" float var = max(m.y - mu * mu, {min_var!r}); float d = l.z - mu;"
+                " shadow = var / (var + d * d); }"
+            )
         elif w["mode"] == "pcss":
             # penumbra's `pcss_shadow`: 16 nearest raw-depth taps of the Poisson disk at 16
             # texels, blockers nearer than z - 0.0015, radius clamp((ref - mean) * 400, 1, 16)
@@ -143,7 +155,8 @@ def main():
                 n = normal; l = (light_vp * vec4(pos, 1.0)).xyz; alb = albedo;
             }""",
             fragment_shader="""#version 450
-            uniform sampler2DShadow map; uniform sampler2D raw; uniform vec3 to_light;
+            uniform sampler2DShadow map; uniform sampler2D raw; uniform sampler2D moments;
+            uniform vec3 to_light;
             in vec3 n; in vec3 l; in vec3 alb; out vec4 color;
             void main() {
                 float ndl = max(dot(normalize(n), to_light), 0.0);
@@ -173,6 +186,48 @@ def main():
             )
         color = ctx.texture((W, H), 4)
         color_fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth32f((W, H)))
+        moments = blurred = None
+        if w["mode"] == "vsm":
+            # The depth pass writes the moments of its fragments' depth; the depth test keeps
+            # the nearest, as penumbra's moments come from its depth map.
+            depth_prog = ctx.program(
+                vertex_shader="""#version 450
+                uniform mat4 light_vp;
+                in vec3 pos;
+                void main() { gl_Position = light_vp * vec4(pos, 1.0); }""",
+                fragment_shader="""#version 450
+                out vec2 m;
+                void main() { float z = gl_FragCoord.z; m = vec2(z, z * z); }""",
+            )
+            depth_prog["light_vp"].write(struct.pack("16f", *w["light_vp"]))
+            moments = ctx.texture((S, S), 2, dtype="f4")
+            shadow_fbo = ctx.framebuffer(color_attachments=[moments], depth_attachment=shadow)
+            # The separable 5-tap box blur: texel fetches clamped to the edge, each weighted
+            # 0.2, summed from left to right (top to bottom).
+            taps_each = int(w["vsm"]["blur_taps"])
+            r = taps_each // 2
+            blur_src = """#version 450
+            uniform sampler2D src; uniform ivec2 dir; out vec2 m;
+            void main() {
+                ivec2 p = ivec2(gl_FragCoord.xy); ivec2 last = textureSize(src, 0) - 1;
+                vec2 acc = vec2(0.0);
+                for (int k = -%d; k <= %d; k++) { acc += texelFetch(src, clamp(p + dir * k, ivec2(0), last), 0).rg * 0.2; }
+                m = acc;
+            }""" % (r, r)
+            blur_prog = ctx.program(
+                vertex_shader="""#version 450
+                void main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2); gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }""",
+                fragment_shader=blur_src,
+            )
+            tmp = ctx.texture((S, S), 2, dtype="f4")
+            blurred = ctx.texture((S, S), 2, dtype="f4")
+            for t in (moments, tmp, blurred):
+                t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                t.repeat_x = t.repeat_y = False
+            blurred.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tmp_fbo = ctx.framebuffer(color_attachments=[tmp])
+            blurred_fbo = ctx.framebuffer(color_attachments=[blurred])
+            blur_vao = ctx.vertex_array(blur_prog, [])
         depth_vao = ctx.vertex_array(depth_prog, [(vbo, "3f 6x4", "pos")], ibo, index_element_size=4)
         main_vao = ctx.vertex_array(
             main_prog, [(vbo, "3f 3f 3f", "pos", "normal", "albedo")], ibo, index_element_size=4
@@ -188,9 +243,21 @@ def main():
         def depth_pass():
             ctx.disable(moderngl.CULL_FACE)
             shadow_fbo.use()
-            shadow_fbo.clear(depth=1.0)
+            # Moments of the cleared depth 1 where nothing is drawn.
+            shadow_fbo.clear(1.0, 1.0, 0.0, 0.0, depth=1.0)
             ctx.polygon_offset = tuple(w["polygon_offset"])
             depth_vao.render(moderngl.TRIANGLES)
+
+        def blur_pass():
+            ctx.disable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.CULL_FACE)
+            for src, fbo, d in ((moments, tmp_fbo, (1, 0)), (tmp, blurred_fbo, (0, 1))):
+                fbo.use()
+                src.use(0)
+                blur_prog["src"].value = 0
+                blur_prog["dir"].value = d
+                blur_vao.render(moderngl.TRIANGLES, vertices=3)
+            ctx.enable(moderngl.DEPTH_TEST)
 
         def main_pass():
             if camera_cull == "none":
@@ -202,15 +269,23 @@ def main():
             color_fbo.use()
             color_fbo.clear(*cc, depth=1.0)
             ctx.polygon_offset = (0.0, 0.0)
-            shadow.use(0)
-            main_prog["map"].value = 0
+            if "map" in main_prog:  # not read by the VSM shader
+                shadow.use(0)
+                main_prog["map"].value = 0
             if raw is not None:
                 # The same depth texture, read without comparison (nearest, clamped).
                 raw.use(1)
                 main_prog["raw"].value = 1
+            if blurred is not None:
+                blurred.use(2)
+                main_prog["moments"].value = 2
             main_vao.render(moderngl.TRIANGLES)
 
-        passes = [("depth pass", depth_pass)] + ([] if w["mode"] == "depth" else [("main pass", main_pass)])
+        passes = [("depth pass", depth_pass)]
+        if w["mode"] == "vsm":
+            passes.append(("blur", blur_pass))
+        if w["mode"] != "depth":
+            passes.append(("main pass", main_pass))
     else:
         W, H = w["width"], w["height"]
         colored = w["mode"] == "color"
@@ -263,6 +338,8 @@ def main():
     out = {"renderer": renderer, "threads": a.threads, "triangles": tris, "kind": w["kind"], "mode": w["mode"]}
     if w["kind"] == "frame":
         out.update(ms_depth_pass=med["depth pass"], ms_main_pass=med.get("main pass", 0.0), ms_frame=mf)
+        if "blur" in med:
+            out.update(ms_prefilter=med["blur"])
     else:
         out.update(ms=mf, mtri_per_s=tris / mf / 1e3)
     print(json.dumps(out))

@@ -55,6 +55,7 @@ pub fn frame(a: FrameArgs) -> Result<(), CliError> {
     }
     let mut depth = Vec::new();
     let mut main = Vec::new();
+    let mut prefilter = Vec::new();
     let mut frame = Vec::new();
     let mut last = FrameTimes::default();
     let (mut depth_st, mut main_st) = (StageTimes::default(), StageTimes::default());
@@ -64,10 +65,12 @@ pub fn frame(a: FrameArgs) -> Result<(), CliError> {
         frame.push(t0.elapsed().as_secs_f64() * 1e3);
         depth.push(last.ms_depth);
         main.push(last.ms_main);
+        prefilter.push(last.ms_prefilter);
         depth_st += last.depth_stages;
         main_st += last.main_stages;
     }
     let (md, mm, mf) = (median(&mut depth), median(&mut main), median(&mut frame));
+    let mp = median(&mut prefilter);
     let hash = frame_hash(&t, a.mode);
     let tris = mesh.triangles() as f64;
     println!(
@@ -77,6 +80,15 @@ pub fn frame(a: FrameArgs) -> Result<(), CliError> {
         last.depth_stats.fragments_rasterized,
         last.depth_stats.bin_entries
     );
+    if a.mode == FrameMode::Vsm {
+        let texels = (a.map as f64) * (a.map as f64);
+        println!(
+            "prefilter:  {mp:8.2} ms  {:6.3} Gtexel/s  (moments and a 5x5 box blur of {}x{} texels)",
+            texels / mp / 1e6,
+            a.map,
+            a.map
+        );
+    }
     if a.mode != FrameMode::Depth {
         println!(
             "main pass:  {mm:8.2} ms  {:7.2} Mtri/s  {:6.3} Gpix/s  ({} fragments, {} early-z killed, {} hidden before shading, {} shaded)",
@@ -110,6 +122,7 @@ pub fn frame(a: FrameArgs) -> Result<(), CliError> {
             "mode": format!("{:?}", a.mode),
             "ms_depth_pass": md,
             "ms_main_pass": mm,
+            "ms_prefilter": mp,
             "ms_frame": mf,
             "mtri_per_s_depth": tris / md / 1e3,
             "hash": format!("{hash:016x}"),

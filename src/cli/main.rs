@@ -224,7 +224,8 @@ struct FrameArgs {
     /// Target triangle count of the scene.
     #[arg(long, default_value_t = 100_000)]
     triangles: usize,
-    /// depth | pcf2 | pcf5 | pcss (the classic PCSS shader: 16 blocker-search taps, 16 filter taps)
+    /// depth | pcf2 | pcf5 | pcss (the classic PCSS shader: 16 blocker-search taps, 16 filter
+    /// taps) | vsm (moments, a 5x5 box blur, Chebyshev's bound)
     #[arg(long, default_value = "pcf2")]
     mode: FrameMode,
     /// Shadow-map size S (S x S).
