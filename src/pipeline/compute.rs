@@ -158,7 +158,9 @@ pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) 
 }
 
 /// Summed-area table (Crow 1984; RTR 7.7 for VSM): `sat(x, y)` = sum of all texels with
-/// coordinates `<= (x, y)`, accumulated in `f64` so large maps keep their precision.
+/// coordinates `<= (x, y)`, accumulated in `f64` so large maps keep their precision. Each
+/// entry is its row's prefix sum (left to right) plus the entry above (top to bottom), for
+/// any thread count: rows in parallel, then strips of columns in parallel.
 pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
     let (w, h) = (s.width() as usize, s.height() as usize);
     let mut out = vec![DVec4::ZERO; w * h];
@@ -172,22 +174,38 @@ pub fn summed_area_table(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> {
             }
         });
     });
-    // Column prefix sums: row by row, each row parallel over its columns.
-    for y in 1..h {
-        let (prev, cur) = out.split_at_mut(y * w);
-        let prev = &prev[(y - 1) * w..];
-        p.install(|| {
-            cur[..w]
-                .par_chunks_mut(256)
-                .zip(prev.par_chunks(256))
-                .for_each(|(c, p)| {
-                    for (c, p) in c.iter_mut().zip(p) {
-                        *c += *p;
-                    }
-                })
-        });
-    }
+    column_prefix_sums(p, &mut out, w);
     Surface::from_vec_derived(s.width(), s.height(), out).expect("same size as input")
+}
+
+/// Columns of a strip of [`column_prefix_sums`].
+const PREFIX_STRIP: usize = 128;
+
+/// Adds to each entry of the row-major `data` (rows `w` long) the entry above it, top to
+/// bottom: the column pass of a summed-area table. Strips of columns run in parallel, each
+/// walking its rows in order, so every entry takes the same additions for any thread count.
+fn column_prefix_sums<T: Copy + Send + std::ops::AddAssign>(p: &Pipeline, data: &mut [T], w: usize) {
+    if w == 0 {
+        return;
+    }
+    // Per strip, its piece of every row.
+    let strips = w.div_ceil(PREFIX_STRIP);
+    let mut pieces: Vec<Vec<&mut [T]>> = (0..strips).map(|_| Vec::with_capacity(data.len() / w)).collect();
+    for row in data.chunks_mut(w) {
+        for (k, piece) in row.chunks_mut(PREFIX_STRIP).enumerate() {
+            pieces[k].push(piece);
+        }
+    }
+    p.install(|| {
+        pieces.par_iter_mut().for_each(|rows| {
+            for y in 1..rows.len() {
+                let (above, below) = rows.split_at_mut(y);
+                for (c, a) in below[0].iter_mut().zip(above[y - 1].iter()) {
+                    *c += *a;
+                }
+            }
+        })
+    });
 }
 
 /// Sum over the inclusive texel rectangle `[x0, x1] x [y0, y1]` (clamped to the surface) from a
@@ -326,13 +344,7 @@ pub fn summed_area_table_f32(p: &Pipeline, s: &Surface<Vec4>) -> Surface<DVec4> 
             }
         });
     });
-    for y in 1..h {
-        let (prev, cur) = out.split_at_mut(y * w);
-        let prev = &prev[(y - 1) * w..];
-        for (c, p) in cur[..w].iter_mut().zip(prev) {
-            *c += *p;
-        }
-    }
+    column_prefix_sums(p, &mut out, w);
     let wide = out.into_iter().map(|v| v.as_dvec4()).collect();
     Surface::from_vec_derived(s.width(), s.height(), wide).expect("same size as input")
 }
@@ -468,6 +480,40 @@ mod tests {
         let sat = summed_area_table(&p, &s);
         let direct: f32 = (1..=3).flat_map(|y| (2..=5).map(move |x| (y * 7 + x) as f32)).sum();
         assert_eq!(sat_box(&sat, 2, 1, 5, 3).x, direct as f64);
+    }
+
+    /// Both summed-area tables are the serial sums (each row left to right, then each
+    /// column top to bottom), bit for bit, for any thread count and widths that are not
+    /// multiples of the column strips.
+    #[test]
+    fn summed_area_tables_are_the_serial_sums_for_any_thread_count() {
+        let mut rng = crate::hash::SplitMix(41);
+        for (w, h) in [(1, 1), (300, 7), (129, 130), (7, 300)] {
+            let data: Vec<Vec4> = (0..w * h)
+                .map(|_| Vec4::new(rng.next_f32(), rng.next_f32(), 0.5, rng.next_f32() * 100.0))
+                .collect();
+            let s = Surface::from_vec(w, h, data.clone()).unwrap();
+            let (w, h) = (w as usize, h as usize);
+            let (mut wide, mut narrow) = (vec![DVec4::ZERO; w * h], vec![Vec4::ZERO; w * h]);
+            for y in 0..h {
+                let (mut a, mut b) = (DVec4::ZERO, Vec4::ZERO);
+                for x in 0..w {
+                    a += data[y * w + x].as_dvec4();
+                    b += data[y * w + x];
+                    wide[y * w + x] = a + if y > 0 { wide[(y - 1) * w + x] } else { DVec4::ZERO };
+                    narrow[y * w + x] = b + if y > 0 { narrow[(y - 1) * w + x] } else { Vec4::ZERO };
+                }
+            }
+            let narrow: Vec<DVec4> = narrow.iter().map(|v| v.as_dvec4()).collect();
+            for t in [1, 2, 4] {
+                let p = Pipeline::new(t).unwrap();
+                assert!(summed_area_table(&p, &s).data() == wide, "f64 {w}x{h}, {t} threads");
+                assert!(
+                    summed_area_table_f32(&p, &s).data() == narrow,
+                    "f32 {w}x{h}, {t} threads"
+                );
+            }
+        }
     }
 
     #[test]
