@@ -36,6 +36,12 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     libm::sincosf(x)
 }
 
+/// Sine and cosine (radians) in double precision, `(sin, cos)`.
+#[inline]
+pub fn sin_cos_f64(x: f64) -> (f64, f64) {
+    libm::sincos(x)
+}
+
 /// Tangent (radians).
 #[inline]
 pub fn tan(x: f32) -> f32 {

@@ -139,8 +139,13 @@ pub trait Moments: Send + Sync + 'static {
         false
     }
     /// The planes of a texel at linear depth `t` whose depth changes by `slope` per texel
-    /// (x and y): `out` has [`Moments::planes`] entries.
+    /// (x and y; zero unless [`Moments::uses_slope`]): `out` has [`Moments::planes`] entries.
     fn encode(&self, t: f32, slope: Vec2, out: &mut [Vec4]);
+    /// Whether [`Moments::encode`] reads the depth's slope (computed from four neighbours
+    /// only then). Default: no.
+    fn uses_slope(&self) -> bool {
+        false
+    }
     /// Visibility (1 = lit) of a receiver at linear depth `t` from the filtered planes `m`,
     /// every step reported to `tr`.
     fn visibility(&self, m: &[Vec4], t: f32, tr: &mut impl Trace) -> f32;
@@ -412,11 +417,17 @@ impl<M: Moments> FilteredPass<M> {
                 ))
             })?;
             let m = &self.moments;
+            let uses_slope = m.uses_slope();
             let data = map.data();
             let tz = |x: usize, y: usize| lin.t(data[y * w + x]);
             // One texel: encoded, rounded to the storage, an infinity clamped and counted.
             let texel = |x: usize, y: usize, o: &mut [Vec4]| {
-                m.encode(tz(x, y), slope_at(&tz, w, h, x, y), o);
+                let slope = if uses_slope {
+                    slope_at(&tz, w, h, x, y)
+                } else {
+                    Vec2::ZERO
+                };
+                m.encode(tz(x, y), slope, o);
                 let mut n = 0u64;
                 for v in o.iter_mut() {
                     let s = Vec4::from_array(v.to_array().map(|c| storage.store(c)));

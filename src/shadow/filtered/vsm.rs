@@ -142,6 +142,10 @@ impl Moments for Variance {
         self.storage
     }
 
+    fn uses_slope(&self) -> bool {
+        self.slope_bias
+    }
+
     fn encode(&self, t: f32, slope: Vec2, out: &mut [Vec4]) {
         // Donnelly and Lauritzen 2006, sec. 3.3: the texel's own depth variance.
         let bias = if self.slope_bias {
