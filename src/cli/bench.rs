@@ -446,8 +446,12 @@ pub fn technique(a: TechniqueArgs) -> Result<(), CliError> {
     json.insert("mtri_per_s".into(), json!(tris as f64 / ms / 1e3));
     // The light-space passes (all but the lookup), for the fragments' insertion rate.
     let mut light_ms = 0.0;
+    let mut prefilter_ms = None;
     for (name, list) in passes {
         let m = penumbra::metrics::median(list);
+        if name == "prefilter" {
+            prefilter_ms = Some(m);
+        }
         println!("  {name:<18} {m:.3} ms");
         json.insert(format!("ms_{}", name.replace(' ', "_")), json!(m));
         if !name.starts_with("lookup") {
@@ -464,6 +468,17 @@ pub fn technique(a: TechniqueArgs) -> Result<(), CliError> {
             let rate = frags / light_ms / 1e3;
             println!("fragments {rate:.2} M/s through the light pass");
             json.insert("mfragments_per_s".into(), json!(rate));
+        }
+    }
+    // The filtered family's prefilter: texels read per second.
+    if let (Some(m), Some((_, reads))) = (
+        prefilter_ms,
+        counters.iter().find(|(n, _)| *n == "prefilter texel reads"),
+    ) {
+        if m > 0.0 {
+            let rate = reads / m / 1e6;
+            println!("prefilter {rate:.3} Gtexel/s read");
+            json.insert("gtexel_per_s_prefilter".into(), json!(rate));
         }
     }
     println!("throughput {:.2} Mtri/s", tris as f64 / ms / 1e3);
