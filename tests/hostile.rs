@@ -160,3 +160,270 @@ fn large_frames_and_benchmarks_past_their_limits_are_refused_at_once() {
         assert!(!ok && text.contains(want), "{args:?}: {text}");
     }
 }
+
+/// The small glTF of `common::gltf_text` with `from` replaced by `to` (which must occur).
+fn gltf_with(from: &str, to: &str) -> String {
+    let t = common::gltf_text(&[0, 2, 1, 0, 3, 2], 4);
+    assert!(t.contains(from), "{from} is not in the glTF text");
+    t.replacen(from, to, 1)
+}
+
+/// Loads `body` as `name` in a fresh folder and returns the error text (a load that
+/// succeeds is a test failure).
+fn gltf_error(name: &str, body: &str) -> String {
+    let p = common::temp_file("hostile-gltf", name, body);
+    match penumbra::scene::file::load(std::path::Path::new(&p)) {
+        Ok(_) => panic!("{name} loaded"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Accessors are checked before the gltf crate's readers see them (a FLOAT index accessor
+/// reached an `unreachable!` inside the crate), and every silent fix-up is an error naming the
+/// node, accessor or field.
+#[test]
+fn gltf_accessors_and_silent_numbers_are_errors_naming_the_part() {
+    let positions = r#""componentType": 5126, "count": 4, "type": "VEC3", "min": [-2, 0, -2], "max": [2, 0, 2]"#;
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "float_indices.gltf",
+            gltf_with(r#""componentType": 5123"#, r#""componentType": 5126"#),
+            "accessor 1 (indices): is F32 Scalar",
+        ),
+        (
+            "vec2_positions.gltf",
+            gltf_with(
+                positions,
+                r#""componentType": 5126, "count": 4, "type": "VEC2", "min": [-2, 0], "max": [2, 0]"#,
+            ),
+            // The crate's validation refuses it (its min and max are not those of a VEC3).
+            r#"invalid glTF 2.0: meshes[0].primitives[0].attributes["POSITION"]"#,
+        ),
+        (
+            "overrun.gltf",
+            gltf_with(
+                positions,
+                r#""componentType": 5126, "count": 40, "type": "VEC3", "min": [-2, 0, -2], "max": [2, 0, 2]"#,
+            ),
+            "run past bufferView 0's 84 bytes",
+        ),
+        (
+            "view_past_buffer.gltf",
+            gltf_with(
+                r#""byteOffset": 0, "byteLength": 84"#,
+                r#""byteOffset": 0, "byteLength": 8400"#,
+            ),
+            "runs past buffer 0's",
+        ),
+        (
+            "zero_quaternion.gltf",
+            gltf_with(
+                r#""mesh": 1, "scale": [2, 1, 2]"#,
+                r#""mesh": 1, "rotation": [0, 0, 0, 0]"#,
+            ),
+            "node 1 'leaf': rotation [0.0, 0.0, 0.0, 0.0] is not a unit quaternion",
+        ),
+        (
+            "version.gltf",
+            gltf_with(r#""version": "2.0""#, r#""version": "3.0""#),
+            "only glTF 2.x",
+        ),
+        (
+            "colour.gltf",
+            gltf_with("[0.5, 0.6, 0.7, 1]", "[2, 0.6, 0.7, 1]"),
+            "material 0 'floor': baseColorFactor [2.0, 0.6, 0.7, 1.0] has 2, outside [0, 1]",
+        ),
+        (
+            "aspect.gltf",
+            gltf_with(r#""aspectRatio": 1.3333334"#, r#""aspectRatio": -1"#),
+            "aspectRatio -1 is not positive",
+        ),
+        (
+            "far.gltf",
+            gltf_with(r#""zfar": 50"#, r#""zfar": 0.01"#),
+            "zfar 0.01 is not beyond znear 0.1",
+        ),
+        (
+            "spot.gltf",
+            gltf_with(
+                r#"{"type": "directional"}"#,
+                r#"{"type": "spot", "spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}"#,
+            ),
+            "innerConeAngle 0.6 is not in [0, outerConeAngle = 0.5)",
+        ),
+        (
+            "intensity.gltf",
+            gltf_with(
+                r#"{"type": "directional"}"#,
+                r#"{"type": "directional", "intensity": -1}"#,
+            ),
+            "intensity -1 is not a finite number >= 0",
+        ),
+        (
+            "colour_light.gltf",
+            gltf_with(
+                r#"{"type": "directional"}"#,
+                r#"{"type": "directional", "color": [1, -1, 1]}"#,
+            ),
+            "has a negative or non-finite component",
+        ),
+        (
+            "junk.glb",
+            "glTF\u{2}\0\0\0junk".into(),
+            "not a valid binary glTF (GLB) container",
+        ),
+    ];
+    for (name, body, want) in cases {
+        let e = gltf_error(name, &body);
+        assert!(e.contains(name) && e.contains(want), "{name}: {e}");
+        // The CLI says the same and does not panic.
+        let p = common::temp_file("hostile-gltf", name, &body);
+        let (ok, text) = cli(&["render", &p, "--technique", "shadow-map"]);
+        assert!(!ok && text.contains(want), "{name}: {text}");
+    }
+}
+
+/// Buffer URIs are files too: only relative paths to regular files inside the glTF file's
+/// folder (and bounded base64 `data:` URIs) are read. Devices, FIFOs, absolute paths, `..`,
+/// `file://`, percent-encoded `..` and links out of the folder are refused by name, before
+/// anything is read (a FIFO or `/dev/zero` would hang or fill the memory).
+#[test]
+fn gltf_buffer_uris_stay_inside_the_scene_folder() {
+    let uri = |u: &str| {
+        let t = common::gltf_text(&[0, 2, 1, 0, 3, 2], 4);
+        let start = t.find("data:application").unwrap();
+        let end = start + t[start..].find('"').unwrap();
+        format!("{}{u}{}", &t[..start], &t[end..])
+    };
+    let dir = std::env::temp_dir().join(format!("penumbra-hostile-uri-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    let outside = std::env::temp_dir().join(format!("penumbra-hostile-outside-{}.bin", std::process::id()));
+    std::fs::write(&outside, vec![0u8; 256]).unwrap();
+    let link = dir.join("link.bin");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&outside, &link).unwrap();
+    let fifo = dir.join("fifo.bin");
+    if !fifo.exists() {
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+    }
+    let cases = [
+        ("/dev/zero", "an absolute path"),
+        ("/etc/passwd", "an absolute path"),
+        ("../outside.bin", "'..' climbs out"),
+        ("sub/../../outside.bin", "'..' climbs out"),
+        ("%2e%2e/outside.bin", "'..' climbs out"),
+        ("%2Fetc%2Fpasswd", "an absolute path"),
+        ("file:///etc/passwd", "the scheme 'file:' is not read"),
+        ("http://example.com/x.bin", "the scheme 'http:' is not read"),
+        ("link.bin", "leads out of the glTF file's folder"),
+        ("fifo.bin", "not a regular file"),
+        ("sub", "it is a folder"),
+        ("nothere.bin", "nothere.bin"),
+        (
+            "data:application/octet-stream;base64,@@@@",
+            "base64 has the character '@' at 0",
+        ),
+        ("data:application/octet-stream,plain", "only base64 data URIs"),
+        ("%zz.bin", "a bad percent escape at byte 0"),
+    ];
+    for (u, want) in cases {
+        let p = dir.join("scene.gltf");
+        std::fs::write(&p, uri(u)).unwrap();
+        let e = match penumbra::scene::file::load(&p) {
+            Ok(_) => panic!("uri {u} loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains("buffer 0: uri") && e.contains(want), "uri {u}: {e}");
+    }
+    // A buffer file inside the folder (and a subfolder, percent-encoded) is read.
+    let t = common::gltf_text(&[0, 2, 1, 0, 3, 2], 4);
+    let start = t.find("base64,").unwrap() + 7;
+    let b64 = &t[start..start + t[start..].find('"').unwrap()];
+    std::fs::write(dir.join("sub").join("my data.bin"), decode64(b64)).unwrap();
+    let p = dir.join("scene.gltf");
+    std::fs::write(&p, uri("sub/my%20data.bin")).unwrap();
+    let s = penumbra::scene::file::load(&p).unwrap();
+    assert_eq!(s.triangles(), 3);
+    std::fs::remove_file(&outside).unwrap();
+}
+
+/// The plain decoder of the test's own base64.
+fn decode64(s: &str) -> Vec<u8> {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let v: Vec<u32> = s
+        .bytes()
+        .filter(|&c| c != b'=')
+        .map(|c| A.iter().position(|&a| a == c).unwrap() as u32)
+        .collect();
+    let mut out = Vec::new();
+    for c in v.chunks(4) {
+        let n = c.iter().enumerate().fold(0u32, |a, (i, &x)| a | x << (18 - 6 * i));
+        out.extend_from_slice(&n.to_be_bytes()[1..c.len()]);
+    }
+    out
+}
+
+/// Budgets before expansion: a node graph that instances a mesh through a DAG (a few KB
+/// making millions of instances), a cycle and an absurd depth are refused by counting the
+/// graph before any mesh is built.
+#[test]
+fn gltf_node_graphs_are_counted_before_they_are_built() {
+    let t = common::gltf_text(&[0, 2, 1, 0, 3, 2], 4);
+    let nodes_at = t.find("\"nodes\": [\n").unwrap();
+    let nodes_end = nodes_at + t[nodes_at..].find("\n  ],").unwrap() + 4;
+    let with_nodes = |scene_nodes: &str, nodes: &[String]| {
+        let s = t.replacen(
+            r#""scenes": [{"nodes": [0, 2, 3]}]"#,
+            &format!(r#""scenes": [{{"nodes": [{scene_nodes}]}}]"#),
+            1,
+        );
+        let (a, b) = s.split_at(s.find("\"nodes\": [\n").unwrap());
+        let rest = &b[nodes_end - nodes_at..];
+        format!("{a}\"nodes\": [\n    {}\n  ]{rest}", nodes.join(",\n    "))
+    };
+    // 40 nodes, each with the next two as children: about 1.6e8 instances of the last.
+    let mut dag: Vec<String> = (0..38)
+        .map(|i| format!(r#"{{"children": [{}, {}]}}"#, i + 1, i + 2))
+        .collect();
+    dag.push(r#"{"mesh": 0}"#.into());
+    dag.push(r#"{"mesh": 0}"#.into());
+    let e = gltf_error("dag.gltf", &with_nodes("0", &dag));
+    assert!(
+        e.contains("dag.gltf") && e.contains("node instances, more than 1000000"),
+        "{e}"
+    );
+    // Few instances but too many triangles for the budget: counted, not built.
+    let mut wide: Vec<String> = vec![format!(
+        r#"{{"children": [{}]}}"#,
+        (1..=8).map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
+    )];
+    wide.extend((1..=8).map(|_| r#"{"mesh": 0}"#.to_string()));
+    let p = common::temp_file("hostile-gltf", "wide.gltf", &with_nodes("0", &wide));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(["render", &p, "--technique", "shadow-map"])
+        .env("PENUMBRA_MAX_TRIANGLES", "10")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && text.contains("the node graph makes 16 triangles (instances included), beyond the budget of 10"),
+        "{text}"
+    );
+    // A cycle names its node.
+    let cycle = vec![
+        r#"{"children": [1]}"#.to_string(),
+        r#"{"children": [0], "mesh": 0}"#.to_string(),
+    ];
+    let e = gltf_error("cycle.gltf", &with_nodes("0", &cycle));
+    assert!(e.contains("cycle.gltf") && e.contains("node"), "{e}");
+    // A chain 300 deep.
+    let mut chain: Vec<String> = (0..299).map(|i| format!(r#"{{"children": [{}]}}"#, i + 1)).collect();
+    chain.push(r#"{"mesh": 0}"#.into());
+    let e = gltf_error("deep.gltf", &with_nodes("0", &chain));
+    assert!(e.contains("deep.gltf") && e.contains("levels deep"), "{e}");
+}

@@ -204,87 +204,11 @@ fn sharded_and_merged_sweep_equals_one_run() {
     assert!(merged.join("chart_hard.svg").exists() && merged.join("charts").join("second.svg").exists());
 }
 
-/// A small glTF 2.0 file: a ground quad under a floating, half-transparent triangle (placed
-/// by a parent node's translation and a child's scale), a camera and a sun.
-fn gltf_text(indices: &[u16], mode: u32) -> String {
-    let positions: [[f32; 3]; 7] = [
-        [-2.0, 0.0, -2.0],
-        [2.0, 0.0, -2.0],
-        [2.0, 0.0, 2.0],
-        [-2.0, 0.0, 2.0],
-        [-0.5, 0.0, -0.5],
-        [0.5, 0.0, -0.5],
-        [0.0, 0.0, 0.5],
-    ];
-    let mut bytes: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-    let index_offset = bytes.len();
-    bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
-    while !bytes.len().is_multiple_of(4) {
-        bytes.push(0);
-    }
-    let b64 = base64(&bytes);
-    let n = indices.len();
-    format!(
-        r#"{{
-  "asset": {{"version": "2.0"}},
-  "extensionsUsed": ["KHR_lights_punctual"],
-  "extensions": {{"KHR_lights_punctual": {{"lights": [{{"type": "directional"}}]}}}},
-  "scene": 0,
-  "scenes": [{{"nodes": [0, 2, 3]}}],
-  "nodes": [
-    {{"name": "lift", "translation": [0, 1, 0], "children": [1]}},
-    {{"name": "leaf", "mesh": 1, "scale": [2, 1, 2]}},
-    {{"name": "ground", "mesh": 0}},
-    {{"name": "rig", "children": [4, 5]}},
-    {{"name": "cam", "camera": 0, "translation": [0, 3, 6], "rotation": [-0.2297529, 0, 0, 0.9732489]}},
-    {{"name": "sun", "rotation": [-0.7071068, 0, 0, 0.7071068], "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}}
-  ],
-  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.8, "znear": 0.1, "zfar": 50, "aspectRatio": 1.3333334}}}}],
-  "materials": [
-    {{"name": "floor", "pbrMetallicRoughness": {{"baseColorFactor": [0.5, 0.6, 0.7, 1]}}}},
-    {{"name": "veil", "alphaMode": "BLEND", "doubleSided": true, "pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 0.25]}}}}
-  ],
-  "meshes": [
-    {{"name": "quad", "primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0, "mode": {mode}}}]}},
-    {{"name": "tri", "primitives": [{{"attributes": {{"POSITION": 2}}, "material": 1}}]}}
-  ],
-  "buffers": [{{"byteLength": {len}, "uri": "data:application/octet-stream;base64,{b64}"}}],
-  "bufferViews": [
-    {{"buffer": 0, "byteOffset": 0, "byteLength": 84}},
-    {{"buffer": 0, "byteOffset": {index_offset}, "byteLength": {ilen}}}
-  ],
-  "accessors": [
-    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-2, 0, -2], "max": [2, 0, 2]}},
-    {{"bufferView": 1, "componentType": 5123, "count": {n}, "type": "SCALAR"}},
-    {{"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 3, "type": "VEC3", "min": [-0.5, 0, -0.5], "max": [0.5, 0, 0.5]}}
-  ]
-}}"#,
-        len = bytes.len(),
-        ilen = n * 2,
-    )
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let v = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(v >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 #[test]
 fn gltf_scenes_load_with_transforms_materials_camera_and_lights() {
     let dir = temp_dir("gltf");
     let path = dir.join("leaf.gltf");
-    std::fs::write(&path, gltf_text(&[0, 2, 1, 0, 3, 2], 4)).unwrap();
+    std::fs::write(&path, common::gltf_text(&[0, 2, 1, 0, 3, 2], 4)).unwrap();
     let s = penumbra::scene::file::load(&path).unwrap();
     assert_eq!(s.objects.len(), 2);
     assert_eq!(s.triangles(), 3);
@@ -353,10 +277,18 @@ fn gltf_scenes_load_with_transforms_materials_camera_and_lights() {
 fn bad_gltf_files_name_the_file_and_what_is_wrong() {
     let dir = temp_dir("gltf-bad");
     let cases: [(&str, String, &str); 4] = [
-        ("index.gltf", gltf_text(&[0, 2, 9], 4), "index 9 beyond the 4 positions"),
-        ("lines.gltf", gltf_text(&[0, 1], 1), "only TRIANGLES"),
-        ("junk.gltf", "{ not json".into(), "cannot load glTF"),
-        ("partial.gltf", gltf_text(&[0, 2, 1, 0], 4), "not whole triangles"),
+        (
+            "index.gltf",
+            common::gltf_text(&[0, 2, 9], 4),
+            "index 9 beyond the 4 positions",
+        ),
+        ("lines.gltf", common::gltf_text(&[0, 1], 1), "only TRIANGLES"),
+        ("junk.gltf", "{ not json".into(), "not valid glTF JSON"),
+        (
+            "partial.gltf",
+            common::gltf_text(&[0, 2, 1, 0], 4),
+            "not whole triangles",
+        ),
     ];
     for (name, body, want) in cases {
         let p = dir.join(name);

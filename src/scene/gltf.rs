@@ -93,44 +93,74 @@ impl GltfScene {
 }
 
 /// Loads a `.gltf` (with its buffers) or `.glb` file.
+///
+/// Everything the file refers to is checked before it is read or expanded: buffer URIs must
+/// be relative paths inside the file's folder naming regular files (or bounded `data:`
+/// URIs); images are never opened (textures are not taken); every accessor a primitive uses
+/// is checked against its type, its buffer view and its buffer; the node graph is counted,
+/// instances included, against the triangle budget before any mesh is built.
 pub fn load(path: &Path) -> Result<GltfScene, Error> {
-    super::file::check_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
-    let (doc, buffers, _) = gltf::import(path).map_err(|e| Error::scene(path, format!("cannot load glTF: {e}")))?;
-    let mut materials: Vec<Material> = doc
-        .materials()
-        .enumerate()
-        .map(|(i, m)| {
-            let [r, g, b, a] = m.pbr_metallic_roughness().base_color_factor();
-            let name = m.name().map_or_else(|| format!("gltf_material{i}"), str::to_string);
-            Material {
-                name,
-                albedo: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
-                opacity: match m.alpha_mode() {
-                    gltf::material::AlphaMode::Blend => a.clamp(0.0, 1.0),
-                    _ => 1.0,
-                },
-                transmittance: None,
-                two_sided: m.double_sided(),
-            }
-        })
-        .collect();
-    for m in &materials {
-        if !m.albedo.is_finite() || !m.opacity.is_finite() {
+    let bytes = super::file::read_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| {
+        Error::scene(
+            path,
+            match e {
+                gltf::Error::Binary(e) => format!("not a valid binary glTF (GLB) container: {e}"),
+                gltf::Error::Deserialize(e) => format!("not valid glTF JSON: {e}"),
+                gltf::Error::Validation(v) => {
+                    let (p, e) = &v[0];
+                    format!(
+                        "invalid glTF 2.0: {p}: {e}{}",
+                        if v.len() > 1 {
+                            format!(" (and {} more)", v.len() - 1)
+                        } else {
+                            String::new()
+                        }
+                    )
+                }
+                e => format!("cannot read glTF: {e}"),
+            },
+        )
+    })?;
+    let version = &doc.as_json().asset.version;
+    if !version.starts_with("2.") {
+        return Err(Error::scene(
+            path,
+            format!("asset.version is '{version}': only glTF 2.x is read"),
+        ));
+    }
+    let buffers = load_buffers(path, &doc, blob)?;
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| Error::scene(path, "the file has no scene"))?;
+    check_graph(path, &scene, &buffers)?;
+    let mut materials = Vec::new();
+    for (i, m) in doc.materials().enumerate() {
+        let c = m.pbr_metallic_roughness().base_color_factor();
+        let name = m.name().map_or_else(|| format!("gltf_material{i}"), str::to_string);
+        if let Some(v) = c.iter().find(|v| !(**v >= 0.0 && **v <= 1.0)) {
             return Err(Error::scene(
                 path,
-                format!("material '{}': base colour is not finite", m.name),
+                format!("material {i} '{name}': baseColorFactor {c:?} has {v}, outside [0, 1]"),
             ));
         }
+        materials.push(Material {
+            name,
+            albedo: Vec3::new(c[0], c[1], c[2]),
+            opacity: match m.alpha_mode() {
+                gltf::material::AlphaMode::Blend => c[3],
+                _ => 1.0,
+            },
+            transmittance: None,
+            two_sided: m.double_sided(),
+        });
     }
     let default_material = materials.len();
     materials.push(Material {
         name: "gltf_default".into(),
         ..Material::default()
     });
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| Error::scene(path, "the file has no scene"))?;
     let mut out = GltfScene {
         materials,
         objects: Vec::new(),
@@ -144,6 +174,19 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         visited += 1;
         if visited > 1_000_000 {
             return Err(Error::scene(path, "more than a million nodes (a cycle?)"));
+        }
+        if let gltf::scene::Transform::Decomposed { rotation, .. } = node.transform() {
+            let n = rotation.iter().map(|v| v * v).sum::<f32>().sqrt();
+            if !(n > 0.99 && n < 1.01) {
+                return Err(Error::scene(
+                    path,
+                    format!(
+                        "node {} '{}': rotation {rotation:?} is not a unit quaternion (length {n})",
+                        node.index(),
+                        node.name().unwrap_or("")
+                    ),
+                ));
+            }
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
@@ -168,7 +211,7 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                         format!("{what}: mode {:?} is not supported (only TRIANGLES)", prim.mode()),
                     ));
                 }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
                 let positions: Vec<Vec3> = reader
                     .read_positions()
                     .ok_or_else(|| Error::scene(path, format!("{what}: no POSITION accessor")))?
@@ -260,6 +303,22 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                         ),
                     ));
                 }
+                if let Some(a) = p.aspect_ratio().filter(|a| !(a.is_finite() && *a > 0.0)) {
+                    return Err(Error::scene(
+                        path,
+                        format!("{node_name}: camera {}: aspectRatio {a} is not positive", cam.index()),
+                    ));
+                }
+                if let Some(f) = p.zfar().filter(|f| !(f.is_finite() && *f > p.znear())) {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "{node_name}: camera {}: zfar {f} is not beyond znear {}",
+                            cam.index(),
+                            p.znear()
+                        ),
+                    ));
+                }
                 out.camera = Some(GltfCamera {
                     position: origin,
                     target: origin + forward,
@@ -273,6 +332,38 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         }
         if let Some(l) = node.light() {
             use gltf::khr_lights_punctual::Kind;
+            let bad = |field: &str, v: String, want: &str| {
+                Err(Error::scene(
+                    path,
+                    format!("{node_name}: light {}: {field} {v} {want}", l.index()),
+                ))
+            };
+            if !(l.intensity() >= 0.0 && l.intensity().is_finite()) {
+                return bad("intensity", l.intensity().to_string(), "is not a finite number >= 0");
+            }
+            if let Some(r) = l.range().filter(|r| !(r.is_finite() && *r > 0.0)) {
+                return bad("range", r.to_string(), "is not a finite number > 0");
+            }
+            if l.color().iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+                return bad(
+                    "color",
+                    format!("{:?}", l.color()),
+                    "has a negative or non-finite component",
+                );
+            }
+            if let Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } = l.kind()
+            {
+                if !(inner_cone_angle >= 0.0 && inner_cone_angle < outer_cone_angle) {
+                    return bad(
+                        "innerConeAngle",
+                        inner_cone_angle.to_string(),
+                        &format!("is not in [0, outerConeAngle = {outer_cone_angle})"),
+                    );
+                }
+            }
             let kind = match l.kind() {
                 Kind::Directional => LightKind::Directional,
                 Kind::Point => LightKind::Point,
@@ -311,4 +402,315 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         return Err(Error::scene(path, "no triangles in the scene"));
     }
     Ok(out)
+}
+
+/// Most bytes of a buffer, whether a file or a `data:` URI (the scene files' limit).
+const MAX_BUFFER_BYTES: u64 = super::mesh::MAX_OBJ_BYTES;
+
+/// Deepest node graph taken (a cycle is refused by name before this).
+const MAX_NODE_DEPTH: usize = 256;
+
+/// Most node visits, instances included.
+const MAX_NODE_VISITS: u64 = 1_000_000;
+
+/// Every buffer's bytes: the GLB's binary chunk, a `data:` URI or a file inside the glTF
+/// file's folder, at least its `byteLength` long.
+fn load_buffers(path: &Path, doc: &gltf::Document, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, Error> {
+    let mut out = Vec::new();
+    for b in doc.buffers() {
+        let (data, source) = match b.source() {
+            gltf::buffer::Source::Bin => (
+                blob.take().ok_or_else(|| {
+                    Error::scene(
+                        path,
+                        format!("buffer {}: has no uri, and the file has no binary chunk", b.index()),
+                    )
+                })?,
+                "the binary chunk".to_string(),
+            ),
+            gltf::buffer::Source::Uri(uri) => (
+                read_uri(path, uri)
+                    .map_err(|why| Error::scene(path, format!("buffer {}: uri '{uri}': {why}", b.index())))?,
+                format!("uri '{uri}'"),
+            ),
+        };
+        if data.len() < b.length() {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "buffer {} ({source}) has {} bytes, fewer than its byteLength {}",
+                    b.index(),
+                    data.len(),
+                    b.length()
+                ),
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// The bytes a buffer URI names, or why it is refused: `data:` URIs in base64 (bounded), or
+/// a relative path (percent-decoded) to a regular file inside the glTF file's folder or its
+/// subfolders. Other schemes, absolute paths, `..` and links out of the folder are refused.
+fn read_uri(gltf_path: &Path, uri: &str) -> Result<Vec<u8>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (meta, payload) = rest.split_once(',').ok_or("a data URI without a ','")?;
+        if !meta.ends_with(";base64") {
+            return Err("only base64 data URIs are read".into());
+        }
+        if payload.len() as u64 / 4 * 3 > MAX_BUFFER_BYTES {
+            return Err(format!("decodes to more than {MAX_BUFFER_BYTES} bytes"));
+        }
+        return base64_decode(payload);
+    }
+    if let Some(i) = uri.find(':') {
+        if !uri[..i].contains('/') {
+            return Err(format!(
+                "the scheme '{}:' is not read (only relative paths inside the glTF file's folder, and data: URIs)",
+                &uri[..i]
+            ));
+        }
+    }
+    let decoded = percent_decode(uri)?;
+    let rel = Path::new(&decoded);
+    for c in rel.components() {
+        match c {
+            std::path::Component::Normal(_) | std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => return Err("'..' climbs out of the glTF file's folder".into()),
+            _ => return Err("an absolute path (only paths inside the glTF file's folder are read)".into()),
+        }
+    }
+    let base = gltf_path.parent().unwrap_or(Path::new("."));
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    let full = base.join(rel);
+    // A link inside the folder may point out of it: compare the resolved paths.
+    let (real_base, real) = (
+        base.canonicalize().map_err(|e| format!("{}: {e}", base.display()))?,
+        full.canonicalize().map_err(|e| format!("{}: {e}", full.display()))?,
+    );
+    if !real.starts_with(&real_base) {
+        return Err(format!("{} leads out of the glTF file's folder", full.display()));
+    }
+    super::file::read_regular(&full, "glTF buffer", MAX_BUFFER_BYTES).map_err(|e| e.to_string())
+}
+
+/// `%XX` escapes of a URI decoded (the result must be UTF-8).
+fn percent_decode(s: &str) -> Result<String, String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = b
+                .get(i + 1..i + 3)
+                .and_then(|h| std::str::from_utf8(h).ok())
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+                .ok_or_else(|| format!("a bad percent escape at byte {i}"))?;
+            out.push(hex);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    let s = String::from_utf8(out).map_err(|_| "its percent escapes do not decode to UTF-8".to_string())?;
+    if s.contains('\0') {
+        return Err("it holds a NUL character".into());
+    }
+    Ok(s)
+}
+
+/// Standard base64 (RFC 4648, `=` padding optional), or which character is wrong.
+fn base64_decode(s: &str) -> Result<Vec<u8>, String> {
+    let value = |c: u8| -> Option<u32> {
+        Some(match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            _ => return None,
+        } as u32)
+    };
+    let data = s.trim_end_matches('=').as_bytes();
+    if s.len() - data.len() > 2 || data.len() % 4 == 1 {
+        return Err("base64 of a length no data has".into());
+    }
+    let mut out = Vec::with_capacity(data.len() / 4 * 3 + 2);
+    for (k, chunk) in data.chunks(4).enumerate() {
+        let mut acc = 0u32;
+        for (j, &c) in chunk.iter().enumerate() {
+            let v = value(c).ok_or_else(|| format!("base64 has the character {:?} at {}", c as char, k * 4 + j))?;
+            acc |= v << (18 - 6 * j);
+        }
+        let bytes = acc.to_be_bytes();
+        out.extend_from_slice(&bytes[1..chunk.len()]);
+    }
+    Ok(out)
+}
+
+/// Checks the scene's node graph before anything is built: no cycle, at most
+/// [`MAX_NODE_DEPTH`] deep, at most [`MAX_NODE_VISITS`] node instances, every accessor a
+/// primitive reads valid ([`check_accessor`]), and the triangles of every instance within
+/// the scene's budget.
+fn check_graph(path: &Path, scene: &gltf::Scene, buffers: &[Vec<u8>]) -> Result<(), Error> {
+    // Per node: (visits, triangles) of its subtree; None while it is being counted.
+    let mut memo: std::collections::HashMap<usize, Option<(u64, u64)>> = std::collections::HashMap::new();
+    fn count(
+        path: &Path,
+        node: gltf::Node,
+        depth: usize,
+        memo: &mut std::collections::HashMap<usize, Option<(u64, u64)>>,
+        buffers: &[Vec<u8>],
+    ) -> Result<(u64, u64), Error> {
+        let name = format!("node {} '{}'", node.index(), node.name().unwrap_or(""));
+        match memo.get(&node.index()) {
+            Some(Some(c)) => return Ok(*c),
+            Some(None) => return Err(Error::scene(path, format!("{name} is its own descendant (a cycle)"))),
+            None => {}
+        }
+        if depth > MAX_NODE_DEPTH {
+            return Err(Error::scene(
+                path,
+                format!("{name} is more than {MAX_NODE_DEPTH} levels deep in the node graph"),
+            ));
+        }
+        memo.insert(node.index(), None);
+        let mut tris = 0u64;
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let what = format!("{name}, mesh {}, primitive {}", mesh.index(), prim.index());
+                let pos = prim
+                    .get(&gltf::Semantic::Positions)
+                    .ok_or_else(|| Error::scene(path, format!("{what}: no POSITION attribute")))?;
+                check_accessor(
+                    path,
+                    &what,
+                    "POSITION",
+                    &pos,
+                    buffers,
+                    &[(DataType::F32, Dimensions::Vec3)],
+                )?;
+                if let Some(n) = prim.get(&gltf::Semantic::Normals) {
+                    check_accessor(path, &what, "NORMAL", &n, buffers, &[(DataType::F32, Dimensions::Vec3)])?;
+                }
+                let corners = match prim.indices() {
+                    Some(ix) => {
+                        let ok = [DataType::U8, DataType::U16, DataType::U32].map(|t| (t, Dimensions::Scalar));
+                        check_accessor(path, &what, "indices", &ix, buffers, &ok)?;
+                        ix.count()
+                    }
+                    None => pos.count(),
+                };
+                tris += corners as u64 / 3;
+            }
+        }
+        let mut visits = 1u64;
+        for child in node.children() {
+            let (v, t) = count(path, child, depth + 1, memo, buffers)?;
+            visits = visits.saturating_add(v);
+            tris = tris.saturating_add(t);
+        }
+        memo.insert(node.index(), Some((visits, tris)));
+        Ok((visits, tris))
+    }
+    let (mut visits, mut tris) = (0u64, 0u64);
+    for node in scene.nodes() {
+        let (v, t) = count(path, node, 0, &mut memo, buffers)?;
+        visits = visits.saturating_add(v);
+        tris = tris.saturating_add(t);
+    }
+    if visits > MAX_NODE_VISITS {
+        return Err(Error::scene(
+            path,
+            format!("the node graph makes {visits} node instances, more than {MAX_NODE_VISITS}"),
+        ));
+    }
+    let budget = super::file::triangle_budget();
+    if tris > budget {
+        return Err(Error::scene(
+            path,
+            format!("the node graph makes {tris} triangles (instances included), beyond the budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)"),
+        ));
+    }
+    Ok(())
+}
+
+use gltf::accessor::{DataType, Dimensions};
+
+/// Checks accessor `acc`, read as `role` of `what`, before any reader sees it: one of the
+/// component types and shapes `want`, not sparse, with a buffer view whose elements (offset,
+/// stride, count) lie inside the view, and a view inside its buffer.
+fn check_accessor(
+    path: &Path,
+    what: &str,
+    role: &str,
+    acc: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+    want: &[(DataType, Dimensions)],
+) -> Result<(), Error> {
+    let err = |why: String| {
+        Err(Error::scene(
+            path,
+            format!("{what}: accessor {} ({role}): {why}", acc.index()),
+        ))
+    };
+    if !want.contains(&(acc.data_type(), acc.dimensions())) {
+        let names: Vec<String> = want.iter().map(|(t, d)| format!("{t:?} {d:?}")).collect();
+        return err(format!(
+            "is {:?} {:?}, not {}",
+            acc.data_type(),
+            acc.dimensions(),
+            names.join(" or ")
+        ));
+    }
+    if acc.sparse().is_some() {
+        return err("sparse accessors are not read".into());
+    }
+    let Some(view) = acc.view() else {
+        return err("has no bufferView".into());
+    };
+    let elem = acc.size();
+    let stride = view.stride().unwrap_or(elem);
+    if stride < elem {
+        return err(format!(
+            "bufferView {} has byteStride {stride}, less than its {elem}-byte elements",
+            view.index()
+        ));
+    }
+    let count = acc.count();
+    let need = match count {
+        0 => Some(0),
+        n => (n - 1)
+            .checked_mul(stride)
+            .and_then(|v| v.checked_add(acc.offset() + elem)),
+    };
+    match need {
+        Some(need) if need <= view.length() => {}
+        _ => {
+            return err(format!(
+            "{count} elements of {elem} bytes (stride {stride}) from byteOffset {} run past bufferView {}'s {} bytes",
+            acc.offset(),
+            view.index(),
+            view.length()
+        ))
+        }
+    }
+    let buffer = view.buffer();
+    let have = buffers.get(buffer.index()).map_or(0, |b| b.len());
+    if view.offset().checked_add(view.length()).is_none_or(|end| end > have) {
+        return err(format!(
+            "bufferView {} (byteOffset {}, byteLength {}) runs past buffer {}'s {have} bytes",
+            view.index(),
+            view.offset(),
+            view.length(),
+            buffer.index()
+        ));
+    }
+    Ok(())
 }
