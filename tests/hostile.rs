@@ -427,3 +427,13 @@ fn gltf_node_graphs_are_counted_before_they_are_built() {
     let e = gltf_error("deep.gltf", &with_nodes("0", &chain));
     assert!(e.contains("deep.gltf") && e.contains("levels deep"), "{e}");
 }
+
+/// A glTF file whose name holds a newline loads like any other (the one-line scene that
+/// stands for it shows the newline as '?').
+#[test]
+fn a_gltf_file_name_with_a_newline_loads() {
+    let p = common::temp_file("hostile-gltf", "two\nlines.gltf", &common::gltf_text(&[0, 2, 1, 0, 3, 2], 4));
+    let (s, text) = penumbra::scene::file::load_with_text(std::path::Path::new(&p)).unwrap();
+    assert_eq!(s.triangles(), 3);
+    assert!(text.starts_with("# two?lines.gltf (glTF)\n"), "{text}");
+}

@@ -864,7 +864,9 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
         let file = path
             .file_name()
             .map_or(String::new(), |f| f.to_string_lossy().into_owned());
-        let text = format!("# {file} (glTF)\ngltf = {}\n", toml::Value::String(file.clone()));
+        // The comment names the file with its control characters (a newline) shown as '?'.
+        let shown: String = file.chars().map(|c| if c.is_control() { '?' } else { c }).collect();
+        let text = format!("# {shown} (glTF)\ngltf = {}\n", toml::Value::String(file.clone()));
         return parse(&text, path).map(|s| (s, text));
     }
     let bytes = read_regular(path, "scene file", MAX_SCENE_BYTES)?;
