@@ -432,8 +432,33 @@ fn gltf_node_graphs_are_counted_before_they_are_built() {
 /// stands for it shows the newline as '?').
 #[test]
 fn a_gltf_file_name_with_a_newline_loads() {
-    let p = common::temp_file("hostile-gltf", "two\nlines.gltf", &common::gltf_text(&[0, 2, 1, 0, 3, 2], 4));
+    let p = common::temp_file(
+        "hostile-gltf",
+        "two\nlines.gltf",
+        &common::gltf_text(&[0, 2, 1, 0, 3, 2], 4),
+    );
     let (s, text) = penumbra::scene::file::load_with_text(std::path::Path::new(&p)).unwrap();
     assert_eq!(s.triangles(), 3);
     assert!(text.starts_with("# two?lines.gltf (glTF)\n"), "{text}");
+}
+
+/// Material names that sanitize to the same OBJ name ("a b" and "a_b") stay distinct in the
+/// export: the second gets a suffix, and the objects and the JSON use the names the MTL has.
+#[test]
+fn exported_material_names_stay_unique_after_sanitizing() {
+    let body = "# two materials, one OBJ name\n[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\nresolution = [48, 32]\n[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\n[[material]]\nname = \"a b\"\nalbedo = [1, 0, 0]\n[[material]]\nname = \"a_b\"\nalbedo = [0, 1, 0]\n[[object]]\nmesh = \"plane\"\nsize = 4\nmaterial = \"a b\"\n[[object]]\nmesh = \"box\"\ntranslate = [0, 0.5, 0]\nmaterial = \"a_b\"\n";
+    let s = scene("names.toml", body);
+    let out = std::env::temp_dir().join(format!("penumbra-hostile-export-{}", std::process::id()));
+    let (ok, text) = cli(&["export", &s, "--out", out.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let mtl = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mtl"))
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .unwrap();
+    let names: Vec<&str> = mtl.lines().filter_map(|l| l.strip_prefix("newmtl ")).collect();
+    assert!(names.contains(&"a_b") && names.contains(&"a_b_2"), "{names:?}");
+    let unique: std::collections::HashSet<&&str> = names.iter().collect();
+    assert_eq!(unique.len(), names.len(), "{names:?}");
 }

@@ -85,20 +85,14 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
         n => n,
     };
     let mut mtl = format!("# {} materials, exported by penumbra\n", obj_name(&s.name));
-    for m in &s.materials {
+    let names = unique_names(s.materials.iter().map(|m| obj_name(&m.name)));
+    let material_name = |i: usize| names.get(i).cloned().unwrap_or_else(|| "default".into());
+    for (m, name) in s.materials.iter().zip(&names) {
         let tf = m.transmittance_rgb();
         let _ = writeln!(
             mtl,
             "\nnewmtl {}\nKd {} {} {}\nd {}\nTf {} {} {}\n# two_sided {}",
-            obj_name(&m.name),
-            m.albedo.x,
-            m.albedo.y,
-            m.albedo.z,
-            m.opacity,
-            tf.x,
-            tf.y,
-            tf.z,
-            m.two_sided
+            name, m.albedo.x, m.albedo.y, m.albedo.z, m.opacity, tf.x, tf.y, tf.z, m.two_sided
         );
     }
     let mut obj = format!(
@@ -107,10 +101,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
     );
     let mut base = 1;
     for o in &s.objects {
-        let mat = s
-            .materials
-            .get(o.material)
-            .map_or("default".into(), |m| obj_name(&m.name));
+        let mat = material_name(o.material);
         let _ = writeln!(obj, "o {}\nusemtl {mat}", obj_name(&o.name));
         for p in &o.mesh.positions {
             let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
@@ -136,13 +127,13 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
         },
         "camera_path": s.camera_path.iter().map(|k| json!({"position": v3(k.position), "target": v3(k.target)})).collect::<Vec<_>>(),
         "lights": s.lights.iter().map(light_json).collect::<Vec<_>>(),
-        "materials": s.materials.iter().map(|m| json!({
-            "name": obj_name(&m.name), "albedo": v3(m.albedo), "opacity": f(m.opacity),
+        "materials": s.materials.iter().zip(&names).map(|(m, name)| json!({
+            "name": name, "albedo": v3(m.albedo), "opacity": f(m.opacity),
             "transmittance": v3(m.transmittance_rgb()), "two_sided": m.two_sided,
         })).collect::<Vec<_>>(),
         "objects": s.objects.iter().map(|o| json!({
             "name": obj_name(&o.name),
-            "material": s.materials.get(o.material).map_or("default".into(), |m| obj_name(&m.name)),
+            "material": material_name(o.material),
             "triangles": o.mesh.triangles(),
         })).collect::<Vec<_>>(),
         "reference_sampling": SAMPLING,
@@ -185,4 +176,21 @@ pub fn list() -> Result<(), CliError> {
         }
     }
     Ok(())
+}
+
+/// `names` made unique in order: a name met before gets `_2`, `_3`, ... (materials "a b" and
+/// "a_b" sanitize to the same OBJ name).
+fn unique_names(names: impl Iterator<Item = String>) -> Vec<String> {
+    let mut seen = std::collections::HashSet::new();
+    names
+        .map(|n| {
+            let mut name = n.clone();
+            let mut k = 2;
+            while !seen.insert(name.clone()) {
+                name = format!("{n}_{k}");
+                k += 1;
+            }
+            name
+        })
+        .collect()
 }
