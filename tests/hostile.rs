@@ -155,6 +155,9 @@ fn large_frames_and_benchmarks_past_their_limits_are_refused_at_once() {
         ),
         (&["bench", "frame", "--reps", "1000"][..], "from 0 to 100"),
         (&["render", "x.toml", "--reps", "101"][..], "from 0 to 100"),
+        // A thousand workers on a small frame ran for minutes: refused, with the limit.
+        (&["render", "x.toml", "--threads", "1000"][..], "1000 is more than"),
+        (&["bench", "frame", "--threads", "1024"][..], "(4x this machine's"),
     ] {
         let (ok, text) = cli(args);
         assert!(!ok && text.contains(want), "{args:?}: {text}");

@@ -86,7 +86,7 @@ enum Cmd {
 struct SceneArgs {
     /// Scene file (TOML).
     scene: PathBuf,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Output folder.
@@ -104,7 +104,7 @@ struct RenderArgs {
     /// Technique option, key=value (repeatable).
     #[arg(long = "set")]
     sets: Vec<String>,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
@@ -128,7 +128,7 @@ struct InspectArgs {
     /// The pixel, X,Y (column, row from the top-left).
     #[arg(long)]
     pixel: String,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Print the steps as JSON.
@@ -143,7 +143,7 @@ struct SweepArgs {
     /// all, or a comma-separated list of technique names.
     #[arg(long, default_value = "all")]
     techniques: String,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
@@ -208,7 +208,7 @@ struct TechniqueArgs {
 
 #[derive(Args)]
 struct Common {
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after the warm-up (the median is reported).
@@ -371,13 +371,23 @@ fn main() -> ExitCode {
 }
 
 /// `--threads`: a whole number of threads, 0 for all cores. Negative and fractional values get
-/// a message that says so (clap alone would call `-1` an unknown argument); the upper limit is
-/// the pipeline's, checked where the pool is made.
+/// a message that says so (clap alone would call `-1` an unknown argument); at most 4x the
+/// cores (at least 4).
 fn parse_threads(s: &str) -> Result<usize, String> {
-    s.trim().parse::<usize>().map_err(|_| match s.trim().parse::<f64>() {
+    let n = s.trim().parse::<usize>().map_err(|_| match s.trim().parse::<f64>() {
         Ok(v) if v < 0.0 => format!("{s} is negative: 0 (all cores) or a number of threads"),
         Ok(v) if v.is_finite() && v.fract() == 0.0 => format!("{s}: write the number of threads in digits"),
         Ok(_) => format!("{s} is not a whole number of threads"),
         Err(_) => format!("{s} is not a number: 0 (all cores) or a number of threads"),
-    })
+    })?;
+    // Many more workers than cores only add scheduling (1000 workers on a small frame ran for
+    // minutes); the output is the same for any count.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let most = (4 * cores).max(4);
+    if n > most {
+        return Err(format!(
+            "{n} is more than {most} threads (4x this machine's {cores} cores): the output is the same for any count, so use 0 (all cores) or fewer"
+        ));
+    }
+    Ok(n)
 }
