@@ -98,12 +98,18 @@ def main():
 
     if w["kind"] == "frame":
         S, W, H = w["map"], w["width"], w["height"]
+        # The depth pass; for VSM it also writes the moments of its fragments' depth (the
+        # depth test keeps the nearest, as penumbra's moments come from its depth map).
         depth_prog = ctx.program(
             vertex_shader="""#version 450
             uniform mat4 light_vp;
             in vec3 pos;
             void main() { gl_Position = light_vp * vec4(pos, 1.0); }""",
             fragment_shader="""#version 450
+            out vec2 m;
+            void main() { float z = gl_FragCoord.z; m = vec2(z, z * z); }"""
+            if w["mode"] == "vsm"
+            else """#version 450
             void main() {}""",
         )
         depth_prog["light_vp"].write(struct.pack("16f", *w["light_vp"]))
@@ -188,18 +194,6 @@ def main():
         color_fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth32f((W, H)))
         moments = blurred = None
         if w["mode"] == "vsm":
-            # The depth pass writes the moments of its fragments' depth; the depth test keeps
-            # the nearest, as penumbra's moments come from its depth map.
-            depth_prog = ctx.program(
-                vertex_shader="""#version 450
-                uniform mat4 light_vp;
-                in vec3 pos;
-                void main() { gl_Position = light_vp * vec4(pos, 1.0); }""",
-                fragment_shader="""#version 450
-                out vec2 m;
-                void main() { float z = gl_FragCoord.z; m = vec2(z, z * z); }""",
-            )
-            depth_prog["light_vp"].write(struct.pack("16f", *w["light_vp"]))
             moments = ctx.texture((S, S), 2, dtype="f4")
             shadow_fbo = ctx.framebuffer(color_attachments=[moments], depth_attachment=shadow)
             # The separable 5-tap box blur: texel fetches clamped to the edge, each weighted
