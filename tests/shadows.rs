@@ -2023,7 +2023,7 @@ fn bad_penumbra_volume_options_are_errors() {
         ("pvm", "light", "-1", "outside"),
         ("pvmf", "light", "NaN", "not finite"),
         ("pvmf", "spread", "0", "outside (0, 1]"),
-        ("pvmf", "spread", "1.5", "outside [0, 1]"),
+        ("pvmf", "spread", "1.5", "outside (0, 1]"),
         ("pvmf", "pcf", "0", "outside [1, 32]"),
         ("pvmf", "blur", "1000", "outside [0, 64]"),
         ("pvmf", "layer", "id", "stores no depth"),
@@ -2031,5 +2031,8 @@ fn bad_penumbra_volume_options_are_errors() {
     ] {
         let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap().to_string();
         assert!(e.contains(says) && e.contains(t), "{t} {k}={v}: {e}");
-    }
+    } // `penumbra list` prints the interval that is checked (it printed [0, 1] for spread).
+    let info = shadow::registry().into_iter().find(|t| t.name == "pvmf").unwrap();
+    let spread = info.options.iter().find(|o| o.key == "spread").unwrap();
+    assert!(spread.ty.ends_with("in (0, 1]"), "{}", spread.ty);
 }

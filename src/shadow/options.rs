@@ -197,17 +197,41 @@ impl<O: Clone + Default + 'static> Field<O> {
         hi: T,
         access: fn(&mut O) -> &mut T,
     ) -> Self {
+        Self::bounded(key, doc, (lo, true), hi, access)
+    }
+
+    /// A numeric field that must lie in `(lo, hi]`: above `lo`, at most `hi` (NaN never does).
+    pub fn above<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
+        key: &'static str,
+        doc: &'static str,
+        lo: T,
+        hi: T,
+        access: fn(&mut O) -> &mut T,
+    ) -> Self {
+        Self::bounded(key, doc, (lo, false), hi, access)
+    }
+
+    /// A numeric field in `[lo, hi]` (`lo` included) or `(lo, hi]`; `penumbra list` and the
+    /// error print the interval that is checked.
+    fn bounded<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
+        key: &'static str,
+        doc: &'static str,
+        (lo, closed): (T, bool),
+        hi: T,
+        access: fn(&mut O) -> &mut T,
+    ) -> Self {
+        let open = if closed { '[' } else { '(' };
         let inside = move |v: T| -> Result<(), String> {
-            if v >= lo && v <= hi {
+            if (v > lo || (closed && v >= lo)) && v <= hi {
                 Ok(())
             } else {
-                Err(format!("is outside [{lo}, {hi}]"))
+                Err(format!("is outside {open}{lo}, {hi}]"))
             }
         };
         Field {
             key,
             doc,
-            ty: format!("{} in [{lo}, {hi}]", T::type_name()),
+            ty: format!("{} in {open}{lo}, {hi}]", T::type_name()),
             default: access(&mut O::default()).show(),
             set: Box::new(move |o, s| {
                 let v = T::parse(s)?;

@@ -158,7 +158,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.layer,
         ),
         light_field(|o: &mut Options| &mut o.light),
-        Field::range(
+        Field::above(
             "spread",
             "s_e in (0, 1]: edge points moved toward the light (the mask's overestimation)",
             0.0,
@@ -348,9 +348,6 @@ impl Pvmf {
     /// Penumbra volume mask filtering with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Pvmf, Error> {
         declaration().check(&opts)?;
-        if opts.spread.is_nan() || opts.spread <= 0.0 {
-            return Err(declaration().error("spread", &opts.spread.to_string(), "is outside (0, 1]"));
-        }
         if opts.layer == Layer::Id {
             return Err(declaration().error("layer", "id", "stores no depth to filter (first, second or midpoint)"));
         }
