@@ -59,6 +59,25 @@ fn parse_pairs(s: &str, what: &str) -> Result<Vec<(String, f64)>, String> {
         .collect()
 }
 
+/// A text cell as written to the CSV: one that a spreadsheet would take for a formula
+/// (starting with `=`, `+`, `-`, `@`, a tab or a carriage return, OWASP's list) gets a
+/// leading `'`, and so does one that already starts with `'`, so that [`uncell`] gives back
+/// exactly the text.
+fn cell(text: &str) -> String {
+    match text.chars().next() {
+        Some('=' | '+' | '-' | '@' | '\t' | '\r' | '\'') => format!("'{text}"),
+        _ => text.to_string(),
+    }
+}
+
+/// The text of a cell [`cell`] wrote.
+fn uncell(text: String) -> String {
+    match text.strip_prefix('\'') {
+        Some(rest) => rest.to_string(),
+        None => text,
+    }
+}
+
 /// The sweep's CSV (one row per technique setting and scene, in run order).
 pub fn csv(results: &[RunResult]) -> String {
     let mut w = ::csv::Writer::from_writer(Vec::new());
@@ -66,11 +85,11 @@ pub fn csv(results: &[RunResult]) -> String {
         let (e, t) = (&r.errors, &r.transparent);
         w.serialize(Row {
             run: r.index,
-            scene: r.scene.clone(),
+            scene: cell(&r.scene),
             class: r.class.key().into(),
-            technique: r.technique.clone(),
+            technique: cell(&r.technique),
             family: r.family.key().into(),
-            settings: r.settings.clone(),
+            settings: cell(&r.settings),
             ms: r.ms,
             threads: r.threads,
             rmse: e.rmse,
@@ -130,9 +149,9 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
             },
             passes: parse_pairs(&row.passes_ms, "passes_ms").map_err(at)?,
             counters: parse_pairs(&row.counters, "counters").map_err(at)?,
-            scene: row.scene,
-            technique: row.technique,
-            settings: row.settings,
+            scene: uncell(row.scene),
+            technique: uncell(row.technique),
+            settings: uncell(row.settings),
             ms: row.ms,
             threads: row.threads,
             flicker: row.flicker,
@@ -210,6 +229,38 @@ mod tests {
         let mut r = ::csv::Reader::from_reader(text.as_bytes());
         let n = r.headers().unwrap().len();
         assert!(r.records().all(|x| x.unwrap().len() == n));
+    }
+
+    /// Names a spreadsheet would run as formulas are written with a leading `'` (OWASP's
+    /// CSV injection advice) and read back exactly, and so is a name that starts with `'`.
+    #[test]
+    fn formula_names_are_quoted_in_cells_and_read_back_exactly() {
+        let names = [
+            "=HYPERLINK(\"http://x\")",
+            "+1",
+            "-2",
+            "@SUM(A1)",
+            "\tx",
+            "'=quoted",
+            "plain",
+        ];
+        let rs: Vec<RunResult> = names.iter().map(|n| result(n, n)).collect();
+        let text = csv(&rs);
+        let mut r = ::csv::Reader::from_reader(text.as_bytes());
+        for (rec, n) in r.records().zip(names) {
+            let rec = rec.unwrap();
+            for field in [1, 5] {
+                let f = &rec[field];
+                assert!(
+                    !f.starts_with(['=', '+', '-', '@', '\t', '\r']),
+                    "{n}: cell {f:?} would be a formula"
+                );
+            }
+        }
+        let back = read_csv(&text, "t.csv").unwrap();
+        for (b, n) in back.iter().zip(names) {
+            assert_eq!((b.scene.as_str(), b.settings.as_str()), (n, n));
+        }
     }
 
     #[test]

@@ -25,6 +25,25 @@ pub fn md(text: &str) -> String {
     out
 }
 
+/// A name (a scene's, a technique label) in a Markdown table cell: the characters that make
+/// HTML, links, images, code or new cells (`\ | < > & [ ] ( ) ! \``) escaped and line breaks
+/// made spaces, the rest left as it is so that `eye_in_volume` stays readable as text.
+pub fn md_cell(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '\\' | '|' | '<' | '>' | '&' | '[' | ']' | '(' | ')' | '!' | '`' => {
+                out.push('\\');
+                out.push(c);
+            }
+            '\n' | '\r' => out.push(' '),
+            c if c.is_control() => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
 /// Which rows a summary table has.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Rows {
@@ -122,7 +141,7 @@ pub fn summary_markdown(results: &[RunResult], rows: Rows) -> String {
             class_mean(SceneClass::Area, 3),
             class_mean(SceneClass::Transparent, 3),
             worst.errors.wrong_pct,
-            worst.scene,
+            md_cell(&worst.scene),
         );
     }
     s
@@ -150,7 +169,7 @@ pub fn report_markdown(
             let _ = writeln!(
                 s,
                 "| {} | {:.2} | {:.4} | {:.4} | {:.3} | {:.4} | {} | {:.4} | {img} |",
-                r.label(),
+                md_cell(&r.label()),
                 r.ms,
                 e.rmse,
                 e.mae,
@@ -180,8 +199,9 @@ pub fn report_markdown(
             for (label, p) in charts {
                 let _ = writeln!(
                     s,
-                    "![{label}]({p})
-"
+                    "![{}]({p})
+",
+                    md_cell(&label)
                 );
             }
         }
@@ -207,5 +227,18 @@ mod tests {
             &|_| None,
         );
         assert!(!page.contains("![x]"), "{page}");
+    }
+
+    /// Scene names and labels in table cells: no HTML, link, image, code or extra cell from a
+    /// hostile name, and a plain name stays as it is.
+    #[test]
+    fn names_in_table_cells_show_literally() {
+        assert_eq!(md_cell("eye_in_volume"), "eye_in_volume");
+        let m = md_cell("<img src=x onerror=alert(1)>|[click](javascript:alert(1))`x`\nnext");
+        assert_eq!(
+            m,
+            "\\<img src=x onerror=alert\\(1\\)\\>\\|\\[click\\]\\(javascript:alert\\(1\\)\\)\\`x\\` next"
+        );
+        assert!(!m.contains('\n') && m.matches('|').count() == m.matches("\\|").count());
     }
 }
