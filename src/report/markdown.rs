@@ -9,16 +9,21 @@ use std::fmt::Write as _;
 /// HTML would act on is escaped (no images, links, raw HTML or table cells from a scene's
 /// comment), and line breaks become spaces.
 pub fn md(text: &str) -> String {
+    escape(text, "\\`*_{}[]()#+-.!|<>&~")
+}
+
+/// `text` with every character of `special` escaped by a backslash, line breaks made spaces
+/// and other control characters dropped.
+fn escape(text: &str, special: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {
-            '\\' | '`' | '*' | '_' | '{' | '}' | '[' | ']' | '(' | ')' | '#' | '+' | '-' | '.' | '!' | '|' | '<'
-            | '>' | '&' | '~' => {
+            '\n' | '\r' => out.push(' '),
+            c if c.is_control() => {}
+            c if special.contains(c) => {
                 out.push('\\');
                 out.push(c);
             }
-            '\n' | '\r' => out.push(' '),
-            c if c.is_control() => {}
             c => out.push(c),
         }
     }
@@ -29,19 +34,7 @@ pub fn md(text: &str) -> String {
 /// HTML, links, images, code or new cells (`\ | < > & [ ] ( ) ! \``) escaped and line breaks
 /// made spaces, the rest left as it is so that `eye_in_volume` stays readable as text.
 pub fn md_cell(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '\\' | '|' | '<' | '>' | '&' | '[' | ']' | '(' | ')' | '!' | '`' => {
-                out.push('\\');
-                out.push(c);
-            }
-            '\n' | '\r' => out.push(' '),
-            c if c.is_control() => {}
-            c => out.push(c),
-        }
-    }
-    out
+    escape(text, "\\|<>&[]()!`")
 }
 
 /// Which rows a summary table has.
