@@ -209,13 +209,7 @@ pub const VSM_BLUR_RADIUS: usize = 2;
 #[inline]
 pub fn vsm_shadow(moments: &Surface<Vec2>, uv: Vec2, z: f32) -> f32 {
     let m = sample_bilinear(moments, uv, Address::Clamp);
-    let mean = m.x;
-    if z <= mean {
-        return 1.0;
-    }
-    let var = (m.y - mean * mean).max(VSM_MIN_VARIANCE);
-    let d = z - mean;
-    var / (var + d * d)
+    crate::shadow::filtered::chebyshev(m.x, m.y, z, VSM_MIN_VARIANCE).0
 }
 
 struct CameraFs<'a> {
