@@ -40,8 +40,9 @@ pub fn reference_key(scene_text: &str, frame: &Frame, light: usize, opts: &Refer
             .zip(frame.gbuffer.normal.data())
             .flat_map(|(p, n)| [p.to_array(), n.to_array()].concat().into_iter().map(f32::to_bits)),
     );
-    // Materials (a glTF scene's come from the glTF file, not the scene text).
+    // Materials and lights (a glTF scene's come from the glTF file, not the scene text).
     h = fnv1a(h, format!("{:?}", frame.scene.materials).as_bytes());
+    h = fnv1a(h, format!("{:?}", frame.scene.lights).as_bytes());
     h = fnv1a(
         h,
         format!(

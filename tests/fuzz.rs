@@ -3,7 +3,11 @@
 //! case must end in a value that is sound or in an error that names the file or the field;
 //! never a panic. Case counts are bounded so that `cargo test --release` stays quick; the
 //! `--ignored` tests run many more (`cargo test --release --test fuzz -- --ignored`).
-//! Failures proptest finds are kept as literal cases below.
+//! Failures proptest finds are kept as literal cases below. The glTF target runs on a fixed
+//! corpus (the small scene as `.gltf` text and as `.glb`) with fixed seeds, so CI replays the
+//! same cases every run; `--ignored` runs many more from fresh seeds.
+
+mod common;
 
 use penumbra::pipeline::Pipeline;
 use penumbra::report;
@@ -251,6 +255,198 @@ proptest! {
     }
 }
 
+/// Values a hostile glTF writes where the corpus has a number or a string: indices past the
+/// end, component types and accessor types of the wrong kind, huge and non-finite numbers,
+/// URIs that leave the folder.
+const GLTF_VALUES: &[&str] = &[
+    "-1",
+    "0",
+    "1",
+    "2",
+    "3",
+    "4",
+    "7",
+    "65535",
+    "4294967295",
+    "4294967296",
+    "18446744073709551615",
+    "1e308",
+    "-1e308",
+    "1e-45",
+    "0.5",
+    "null",
+    "\"x\"",
+    "[]",
+    "{}",
+    "[0, 0, 0, 0]",
+    "5120",
+    "5121",
+    "5122",
+    "5125",
+    "5126",
+    "\"VEC2\"",
+    "\"MAT4\"",
+    "\"SCALAR\"",
+    "\"../x.bin\"",
+    "\"/dev/zero\"",
+    "\"data:,\"",
+    "\"data:application/octet-stream;base64,AAAA\"",
+];
+
+/// The glTF corpus: the small scene as `.gltf` text (its buffer a `data:` URI) and as `.glb`
+/// (its buffer the BIN chunk).
+fn gltf_corpus(glb: bool) -> (Vec<u8>, Vec<u8>) {
+    let (json, bin) = common::gltf_parts(&[0, 2, 1, 0, 3, 2], 4);
+    if glb {
+        let json = json.replacen(r#""byteLength": BUFFER"#, &format!(r#""byteLength": {}"#, bin.len()), 1);
+        (json.into_bytes(), bin)
+    } else {
+        (common::gltf_text(&[0, 2, 1, 0, 3, 2], 4).into_bytes(), Vec::new())
+    }
+}
+
+/// The spans of the JSON's number and string tokens.
+fn json_tokens(b: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'"' {
+            let start = i;
+            i += 1;
+            while i < b.len() && b[i] != b'"' {
+                i += 1;
+            }
+            i += 1;
+            out.push((start, i.min(b.len())));
+        } else if b[i].is_ascii_digit() || b[i] == b'-' {
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || matches!(b[i], b'.' | b'-' | b'+')) {
+                i += 1;
+            }
+            out.push((start, i));
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+/// One mutation of a glTF file: a token of the JSON replaced by a hostile value, bytes of the
+/// JSON or of the binary chunk replaced, removed or repeated, or (GLB) a header or chunk
+/// length rewritten.
+type GltfEdit = (u8, u16, u16);
+
+fn mutate_gltf(glb: bool, edits: &[GltfEdit]) -> Vec<u8> {
+    let (mut json, mut bin) = gltf_corpus(glb);
+    let mut lengths: Vec<(usize, u32)> = Vec::new();
+    for &(op, at, v) in edits {
+        let (at, v) = (at as usize, v as usize);
+        match op % 6 {
+            0 | 1 => {
+                let tokens = json_tokens(&json);
+                if tokens.is_empty() {
+                    continue;
+                }
+                let (a, b) = tokens[at % tokens.len()];
+                let value = GLTF_VALUES[v % GLTF_VALUES.len()].as_bytes();
+                json.splice(a..b, value.iter().copied());
+            }
+            2 if !json.is_empty() => {
+                let i = at % json.len();
+                json[i] = v as u8;
+            }
+            3 if !json.is_empty() => {
+                let i = at % json.len();
+                let end = (i + v % 24).min(json.len());
+                if op & 8 == 0 {
+                    json.drain(i..end);
+                } else {
+                    let copy: Vec<u8> = json[i..end].to_vec();
+                    json.splice(i..i, copy);
+                }
+            }
+            4 if !bin.is_empty() => {
+                let i = at % bin.len();
+                if op & 8 == 0 {
+                    bin[i] = v as u8;
+                } else {
+                    bin.truncate(i);
+                }
+            }
+            5 if glb => lengths.push((at as usize % 3, [0, 1, 12, 84, v as u32, u32::MAX][v % 6])),
+            _ => {}
+        }
+    }
+    if !glb {
+        return json;
+    }
+    let mut file = common::glb(&json, &bin);
+    let json_len = u32::from_le_bytes(file[12..16].try_into().unwrap()) as usize;
+    for (field, value) in lengths {
+        // The file's total length, the JSON chunk's length, the BIN chunk's length.
+        let at = [8, 12, 20 + json_len][field];
+        file[at..at + 4].copy_from_slice(&value.to_le_bytes());
+    }
+    file
+}
+
+/// Loads a mutated glTF: a sound scene, or an error that names the file; never a panic.
+fn gltf_case(glb: bool, edits: &[GltfEdit]) {
+    let bytes = mutate_gltf(glb, edits);
+    let dir = std::env::temp_dir().join(format!("penumbra-fuzz-gltf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let name = format!(
+        "g{:016x}.{}",
+        penumbra::hash::fnv1a(penumbra::hash::FNV_OFFSET, &bytes),
+        if glb { "glb" } else { "gltf" }
+    );
+    let p = dir.join(&name);
+    std::fs::write(&p, &bytes).unwrap();
+    match penumbra::scene::file::load(&p) {
+        Ok(s) => assert_sound(&s),
+        Err(e) => assert!(e.to_string().contains(&name), "{e}"),
+    }
+    let _ = std::fs::remove_file(&p);
+}
+
+fn gltf_edits(n: std::ops::Range<usize>) -> impl Strategy<Value = Vec<GltfEdit>> {
+    prop::collection::vec((any::<u8>(), any::<u16>(), any::<u16>()), n)
+}
+
+proptest! {
+    // Fixed seeds: CI replays the same cases every run.
+    #![proptest_config(ProptestConfig {
+        cases: 400,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x9e37_79b9),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn mutated_gltf_text_is_sound_or_an_error_naming_the_file(edits in gltf_edits(1..5)) {
+        gltf_case(false, &edits);
+    }
+
+    #[test]
+    fn mutated_glb_files_are_sound_or_an_error_naming_the_file(edits in gltf_edits(1..5)) {
+        gltf_case(true, &edits);
+    }
+}
+
+/// The corpus itself loads, and each hostile value in each token of it is sound or an error
+/// naming the file.
+#[test]
+fn every_hostile_value_in_every_gltf_token() {
+    for glb in [false, true] {
+        gltf_case(glb, &[]);
+        let tokens = json_tokens(&gltf_corpus(glb).0).len();
+        for t in 0..tokens {
+            for v in 0..GLTF_VALUES.len() {
+                gltf_case(glb, &[(0, t as u16, v as u16)]);
+            }
+        }
+    }
+}
+
 /// Whether the report page for `r` with the scene (and its description) called `name` has
 /// exactly the markup characters of the page for a plain name: names add only escaped text.
 fn html_markup_is_the_plain_pages(r: &penumbra::run::RunResult, name: &str) -> bool {
@@ -318,6 +514,12 @@ fn long_fuzz_run() {
     runner
         .run(&obj_text(), |b| {
             obj_case(&b);
+            Ok(())
+        })
+        .unwrap();
+    runner
+        .run(&(any::<bool>(), gltf_edits(1..10)), |(glb, e)| {
+            gltf_case(glb, &e);
             Ok(())
         })
         .unwrap();

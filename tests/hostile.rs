@@ -271,6 +271,12 @@ fn gltf_accessors_and_silent_numbers_are_errors_naming_the_part() {
             "has a negative or non-finite component",
         ),
         (
+            // Regression: the gltf crate's validation indexed this accessor (a panic).
+            "position_index.gltf",
+            gltf_with(r#""POSITION": 0"#, r#""POSITION": 7"#),
+            "mesh 0, primitive 0: attribute POSITION names accessor 7, but the file has 3",
+        ),
+        (
             "junk.glb",
             "glTF\u{2}\0\0\0junk".into(),
             "not a valid binary glTF (GLB) container",
@@ -283,6 +289,38 @@ fn gltf_accessors_and_silent_numbers_are_errors_naming_the_part() {
         let p = common::temp_file("hostile-gltf", name, &body);
         let (ok, text) = cli(&["render", &p, "--technique", "shadow-map"]);
         assert!(!ok && text.contains(want), "{name}: {text}");
+    }
+}
+
+/// A glTF file loaded alone is built without scene text: its errors name the glTF file and
+/// the part of it, never a line or field of a scene file it does not have.
+#[test]
+fn a_gltf_alone_has_errors_about_itself() {
+    let far = (r#""translation": [0, 1, 0]"#, r#""translation": [1e8, 1, 0]"#);
+    let dark = (r#", "extensions": {"KHR_lights_punctual": {"light": 0}}"#, "");
+    for (name, (from, to), want) in [
+        ("far.gltf", far, "'leaf/tri/0' has a vertex at"),
+        ("dark.gltf", dark, "the glTF file has no KHR_lights_punctual light"),
+    ] {
+        let e = gltf_error(name, &gltf_with(from, to));
+        assert!(e.contains(name) && e.contains(want), "{name}: {e}");
+        assert!(
+            !e.contains(&format!("{name}:2")) && !e.contains("top level"),
+            "{name}: {e}"
+        );
+        // The same file as a GLB.
+        let glb = common::glb_file(&[0, 2, 1, 0, 3, 2], 4);
+        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        let json = String::from_utf8(glb[20..20 + json_len].to_vec())
+            .unwrap()
+            .replacen(from, to, 1);
+        let (_, bin) = common::gltf_parts(&[0, 2, 1, 0, 3, 2], 4);
+        let p = std::path::PathBuf::from(common::temp_file("hostile-gltf", "x", ""))
+            .with_file_name(name.replace(".gltf", ".glb"));
+        std::fs::write(&p, common::glb(json.as_bytes(), &bin)).unwrap();
+        let e = penumbra::scene::file::load(&p).err().unwrap().to_string();
+        assert!(e.contains(&p.display().to_string()) && e.contains(want), "{e}");
+        assert!(!e.contains("glb:2") && !e.contains("top level"), "{e}");
     }
 }
 
@@ -464,4 +502,115 @@ fn exported_material_names_stay_unique_after_sanitizing() {
     assert!(names.contains(&"a_b") && names.contains(&"a_b_2"), "{names:?}");
     let unique: std::collections::HashSet<&&str> = names.iter().collect();
     assert_eq!(unique.len(), names.len(), "{names:?}");
+}
+
+/// Numbers that cannot make an image are refused naming the field; an `up` of any finite,
+/// non-zero length is the unit vector it points along; the fields of one kind of light are
+/// errors on another; one light per scene.
+#[test]
+fn the_last_silent_numbers_are_errors_naming_the_field() {
+    let parse = |body: &str| penumbra::scene::file::parse(body, std::path::Path::new("n.toml"));
+    let with = |from: &str, to: &str| {
+        assert!(POINT.contains(from), "{from}");
+        POINT.replacen(from, to, 1)
+    };
+    // An up of 1e38, 3e38 or 1e-45 is the unit y axis (it overflowed or vanished in the view
+    // matrix: a flat image).
+    for up in ["1e38", "3e38", "1e-45"] {
+        let s = parse(&with(
+            "target = [0, 0, 0]\n",
+            &format!("target = [0, 0, 0]\nup = [0, {up}, 0]\n"),
+        ))
+        .unwrap();
+        assert_eq!(s.camera.up, glam::Vec3::Y, "{up}");
+    }
+    let cases: Vec<(String, &str)> = vec![
+        (
+            with("target = [0, 0, 0]\n", "target = [0, 0, 0]\nnear = 1e-38\n"),
+            "field `near`: 1e-38 is too close for far = 100",
+        ),
+        (
+            with("target = [0, 0, 0]\n", "target = [0, 0, 0]\nfov = 1e-30\n"),
+            "field `fov`: 1e-30 is outside [0.01, 179.9]",
+        ),
+        (
+            with("target = [0, 0, 0]\n", "target = [0, 0, 0]\nfov = 179.95\n"),
+            "field `fov`",
+        ),
+        (
+            with("type = \"point\"", "type = \"sphere\"\nradius = 1e38"),
+            "field `radius`: 1e38 must be positive and at most 1e7",
+        ),
+        (
+            with("type = \"point\"", "type = \"rectangle\"\nsize = [1e38, 1]"),
+            "field `size`",
+        ),
+        (
+            with("type = \"point\"", "type = \"rectangle\"\nsize = [nan, nan]"),
+            "field `size`",
+        ),
+        (
+            with("type = \"point\"", "type = \"spot\"\nangle = 1e-30"),
+            "field `angle`",
+        ),
+        (
+            with("type = \"point\"", "type = \"point\"\nradius = -5"),
+            "field `radius`: does not apply to a point light",
+        ),
+        (
+            with("type = \"point\"", "type = \"point\"\nangle = nan"),
+            "field `angle`: does not apply to a point light",
+        ),
+        (
+            with("type = \"point\"", "type = \"point\"\nsize = [nan, nan]"),
+            "field `size`: does not apply to a point light",
+        ),
+        (
+            with("type = \"point\"", "type = \"disk\"\nsize = [1, 1]"),
+            "field `size`: does not apply to a disk light",
+        ),
+        (
+            with("type = \"point\"", "type = \"directional\"\nradius = 1"),
+            "field `radius`: does not apply to a directional light",
+        ),
+        (
+            format!("{POINT}[[light]]\ntype = \"spot\"\nposition = [0, 2, 0]\n"),
+            "[[light]] #2 (spot), field `type`: a scene has one light, and its first [[light]] is at line 6",
+        ),
+    ];
+    for (body, want) in cases {
+        let e = parse(&body)
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {body}"))
+            .to_string();
+        assert!(e.contains(want) && e.starts_with("n.toml:"), "{want}: {e}");
+    }
+    // 2,000 lights: the same error, at the second.
+    let many = format!(
+        "{POINT}{}",
+        "[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\n".repeat(2000)
+    );
+    assert!(parse(&many).err().unwrap().to_string().contains("[[light]] #2"));
+    // OBJ: NaN or infinity in a vertex no face uses, or in a normal; a zero normal.
+    for (obj, want) in [
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 0 1\nv nan 0 0\nf 1 2 3\n",
+            "tri.obj:4: `v`: `nan` is not finite",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 0 1\nvn 0 inf 0\nf 1//1 2//1 3//1\n",
+            "tri.obj:4: `vn`: `inf` is not finite",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 0 1\nvn 0 0 0\nf 1//1 2//1 3//1\n",
+            "tri.obj:4: `vn 0 0 0`",
+        ),
+    ] {
+        let p = common::temp_file("hostile-obj", "tri.obj", obj);
+        let e = penumbra::scene::mesh::load_obj(std::path::Path::new(&p))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains(want), "{want}: {e}");
+    }
 }

@@ -15,8 +15,13 @@ use std::path::Path;
 /// The built-in scenes folder.
 pub const FIXTURES: &str = "fixtures/scenes";
 
+/// Loads a scene file, printing what loading chose on the user's behalf (`Scene::notes`).
 pub fn load(path: &Path) -> Result<(Scene, String), CliError> {
-    Ok(file::load_with_text(path)?)
+    let (s, text) = file::load_with_text(path)?;
+    for n in &s.notes {
+        eprintln!("note: {}: {n}", path.display());
+    }
+    Ok((s, text))
 }
 
 pub fn pipeline(threads: usize) -> Result<Pipeline, CliError> {

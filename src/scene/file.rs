@@ -44,6 +44,15 @@ pub const MAX_RESOLUTION: u32 = 8192;
 /// ray tracer's arithmetic.
 pub const MAX_COORDINATE: f32 = 1e7;
 
+/// The fields of view (a camera's `fov`, a spot light's `angle`) a scene may use, in degrees:
+/// narrower ones overflow the projection (a tangent of 1e-32), wider ones are not a frustum.
+pub const FOV_DEGREES: std::ops::RangeInclusive<f32> = 0.01..=179.9;
+const FOV_TEXT: &str = "[0.01, 179.9]";
+
+/// The largest far / near a camera may have: beyond it the depth buffer cannot tell
+/// surfaces apart (a `near` of 1e-38 made a flat image).
+pub const MAX_DEPTH_RATIO: f32 = 1e6;
+
 /// Largest scene file read (bytes): scene files are short; a larger "scene" is not one.
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
@@ -119,7 +128,7 @@ fn exact_opt<'de, D: serde::Deserializer<'de>, T: Deserialize<'de>, const N: usi
     exact::<D, T, N>(d).map(Some)
 }
 
-#[derive(Deserialize)]
+#[derive(Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
     /// A glTF file whose objects, materials, lights and camera the scene takes (see [`parse`]).
@@ -251,6 +260,9 @@ struct RawKey {
 struct Ctx<'a> {
     path: &'a Path,
     text: &'a str,
+    /// The scene is a glTF file alone: it has no lines of scene text to cite, so errors name
+    /// the glTF file and the part of the scene (its camera, its lights) without a line.
+    gltf_alone: bool,
 }
 
 impl Ctx<'_> {
@@ -267,17 +279,26 @@ impl Ctx<'_> {
     ) -> Result<T, Error> {
         Err(Error::Scene {
             file: self.path.into(),
-            line: Some(self.line(span.start)),
+            line: (!self.gltf_alone).then(|| self.line(span.start)),
             section: Some(what.to_string()),
             field: Some(field.to_string()),
             message: msg.to_string(),
         })
     }
 
+    /// An error about the glTF file the scene names: at the scene's `gltf` field, or (a glTF
+    /// file alone) at the glTF file itself.
+    fn gltf_err<T>(&self, raw: &RawScene, msg: impl std::fmt::Display) -> Result<T, Error> {
+        if self.gltf_alone {
+            return Err(Error::scene(self.path, msg.to_string()));
+        }
+        self.err(raw.gltf.as_ref().map_or(0..0, |g| g.span()), "top level", "gltf", msg)
+    }
+
     /// The `[camera]` section, or the glTF's first perspective camera without one.
     fn camera(&self, raw: &RawScene, gltf: Option<&super::gltf::GltfScene>) -> Result<Camera, Error> {
-        let (cs, c) = match (&raw.camera, gltf) {
-            (Some(c), _) => (c.span(), c.get_ref().clone()),
+        let (cs, c, cam) = match (&raw.camera, gltf) {
+            (Some(c), _) => (c.span(), c.get_ref().clone(), "[camera]"),
             (None, Some(g)) => match g.camera {
                 Some(gc) => (
                     raw.gltf.as_ref().map_or(0..0, |g| g.span()),
@@ -290,7 +311,14 @@ impl Ctx<'_> {
                         far: gc.far.or(Some(gc.near * 1e4)),
                         resolution: g.scene_camera(None).map(|c| [c.width, c.height]),
                     },
+                    "the glTF's camera",
                 ),
+                None if self.gltf_alone => {
+                    return Err(Error::scene(
+                        self.path,
+                        "the glTF file has no perspective camera (a scene file that names it with `gltf = \"...\"` can add a [camera])",
+                    ))
+                }
                 None => {
                     return Err(Error::scene(
                         self.path,
@@ -300,14 +328,13 @@ impl Ctx<'_> {
             },
             (None, None) => return Err(Error::scene(self.path, "the scene has no [camera]")),
         };
-        let cam = "[camera]";
         let (position, target, up) = match check_view(c.position, c.target, c.up) {
             Ok(v) => v,
             Err((field, msg)) => return self.err(cs, cam, field, msg),
         };
         let fov = c.fov.unwrap_or(45.0);
-        if !(fov > 0.0 && fov < 180.0) {
-            return self.err(cs, cam, "fov", format!("{fov} is outside (0, 180) degrees"));
+        if !FOV_DEGREES.contains(&fov) {
+            return self.err(cs, cam, "fov", format!("{} is outside {FOV_TEXT} degrees", shown(fov)));
         }
         let (near, far) = (c.near.unwrap_or(0.1), c.far.unwrap_or(100.0));
         if !(near > 0.0 && near.is_finite()) {
@@ -315,6 +342,18 @@ impl Ctx<'_> {
         }
         if !(far > near && far.is_finite()) {
             return self.err(cs, cam, "far", format!("{far} must be finite and beyond near ({near})"));
+        }
+        if far / near > MAX_DEPTH_RATIO {
+            return self.err(
+                cs,
+                cam,
+                "near",
+                format!(
+                    "{} is too close for far = {}: far / near may be at most {MAX_DEPTH_RATIO:e} (the depth buffer's precision)",
+                    shown(near),
+                    shown(far)
+                ),
+            );
         }
         let [width, height] = c.resolution.unwrap_or([640, 360]);
         if width == 0 || height == 0 || width > MAX_RESOLUTION || height > MAX_RESOLUTION {
@@ -607,22 +646,17 @@ impl Ctx<'_> {
                 }
                 materials.push(m);
             }
-            let gs = raw.gltf.as_ref().map_or(0..0, |g| g.span());
             for o in g.objects {
                 *triangles += o.mesh.triangles() as u64;
                 if *triangles > budget {
-                    return self.err(
-                        gs,
-                        "top level",
-                        "gltf",
+                    return self.gltf_err(
+                        raw,
                         format!("{triangles} triangles in the scene with the glTF's, beyond its budget of {budget} (raise it with PENUMBRA_MAX_TRIANGLES)"),
                     );
                 }
                 if let Some(p) = o.mesh.positions.iter().find(|p| p.abs().max_element() > MAX_COORDINATE) {
-                    return self.err(
-                        gs,
-                        "top level",
-                        "gltf",
+                    return self.gltf_err(
+                        raw,
                         format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
                     );
                 }
@@ -651,10 +685,46 @@ impl Ctx<'_> {
             .filter_map(|o| o.mesh.bounds())
             .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
             .map_or(Vec3::ZERO, |(a, b)| (a + b) * 0.5);
+        if let [first, second, ..] = &raw.lights[..] {
+            return self.err(
+                second.span(),
+                &format!("[[light]] #2 ({})", second.get_ref().kind),
+                "type",
+                format!(
+                    "a scene has one light, and its first [[light]] is at line {} (give each light its own scene file)",
+                    self.line(first.span().start)
+                ),
+            );
+        }
         let mut lights = Vec::new();
         for (i, l) in raw.lights.iter().enumerate() {
             let (s, l) = (l.span(), l.get_ref());
             let what = format!("[[light]] #{} ({})", i + 1, l.kind);
+            // The fields of one kind of light are errors on another: never accepted and
+            // ignored.
+            let own: &[&str] = match l.kind.as_str() {
+                "spot" => &["angle"],
+                "disk" | "sphere" => &["radius"],
+                "rectangle" => &["size"],
+                _ => &[],
+            };
+            for (field, given) in [
+                ("angle", l.angle.is_some()),
+                ("radius", l.radius.is_some()),
+                ("size", l.size.is_some()),
+            ] {
+                if given && !own.contains(&field) {
+                    return self.err(
+                        s,
+                        &what,
+                        field,
+                        format!(
+                            "does not apply to a {} light (angle is a spot light's, radius a disk or sphere light's, size a rectangle light's)",
+                            l.kind
+                        ),
+                    );
+                }
+            }
             let pos = match l.position {
                 Some(p) => Some(point3(p).or_else(|e| self.err(s.clone(), &what, "position", e))?),
                 None => None,
@@ -698,18 +768,23 @@ impl Ctx<'_> {
             };
             let radius = |default: f32| -> Result<f32, Error> {
                 let r = l.radius.unwrap_or(default);
-                if r.is_finite() && r > 0.0 {
+                if r.is_finite() && r > 0.0 && r <= MAX_COORDINATE {
                     Ok(r)
                 } else {
-                    self.err(s.clone(), &what, "radius", format!("{r} must be positive"))
+                    self.err(
+                        s.clone(),
+                        &what,
+                        "radius",
+                        format!("{} must be positive and at most {MAX_COORDINATE:e}", shown(r)),
+                    )
                 }
             };
             let kind = match l.kind.as_str() {
                 "directional" => LightKind::Directional,
                 "spot" => {
                     let a = l.angle.unwrap_or(60.0);
-                    if !(a > 0.0 && a < 180.0) {
-                        return self.err(s, &what, "angle", format!("{a} is outside (0, 180) degrees"));
+                    if !FOV_DEGREES.contains(&a) {
+                        return self.err(s, &what, "angle", format!("{} is outside {FOV_TEXT} degrees", shown(a)));
                     }
                     LightKind::Spot { angle_deg: a }
                 }
@@ -718,8 +793,17 @@ impl Ctx<'_> {
                 "sphere" => LightKind::Area(AreaShape::Sphere { radius: radius(0.25)? }),
                 "rectangle" => {
                     let [w, h] = l.size.unwrap_or([0.5, 0.5]);
-                    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
-                        return self.err(s, &what, "size", "both sides must be positive");
+                    if !(w > 0.0 && h > 0.0 && w <= MAX_COORDINATE && h <= MAX_COORDINATE) {
+                        return self.err(
+                            s,
+                            &what,
+                            "size",
+                            format!(
+                                "[{}, {}]: both sides must be positive and at most {MAX_COORDINATE:e}",
+                                shown(w),
+                                shown(h)
+                            ),
+                        );
                     }
                     LightKind::Area(AreaShape::Rectangle { width: w, height: h })
                 }
@@ -803,6 +887,16 @@ fn finite3(v: [f32; 3]) -> Option<Vec3> {
     v.is_finite().then_some(v)
 }
 
+/// A number as a message shows it: plainly, or in exponent form where the plain form would
+/// be a long run of zeros (1e-38, not 0.00000000000000000000000000000000000001).
+fn shown(v: f32) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
 /// A point: finite and within [`MAX_COORDINATE`].
 fn point3(v: [f32; 3]) -> Result<Vec3, String> {
     let p = Vec3::from(v);
@@ -845,7 +939,8 @@ fn check_view(
     };
     let up_v = finite3(up.unwrap_or([0.0, 1.0, 0.0])).unwrap_or(Vec3::ZERO);
     match unit3(up_v) {
-        Some(u) if u.cross(view).length() >= 1e-4 => Ok((position, target, up_v)),
+        // The unit vector: an up of 1e38 or 1e-45 would overflow or vanish in the view matrix.
+        Some(u) if u.cross(view).length() >= 1e-4 => Ok((position, target, u)),
         _ => Err(("up", "zero, not finite, or parallel to the view direction".into())),
     }
 }
@@ -855,19 +950,27 @@ pub fn load(path: &Path) -> Result<Scene, Error> {
     load_with_text(path).map(|(s, _)| s)
 }
 
-/// [`load`], also returning the scene's text (for a glTF file, the one-line scene that
-/// stands for it).
+/// [`load`], also returning the scene's text (for a glTF file, a comment line that names it:
+/// the scene is built from the glTF alone, without scene text).
 pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     if matches!(ext.as_deref(), Some("gltf" | "glb")) {
-        // A glTF file alone is the scene `gltf = "<its name>"`.
         let file = path
             .file_name()
             .map_or(String::new(), |f| f.to_string_lossy().into_owned());
         // The comment names the file with its control characters (a newline) shown as '?'.
         let shown: String = file.chars().map(|c| if c.is_control() { '?' } else { c }).collect();
-        let text = format!("# {shown} (glTF)\ngltf = {}\n", toml::Value::String(file.clone()));
-        return parse(&text, path).map(|s| (s, text));
+        let text = format!("# {shown} (glTF)\n");
+        let raw = RawScene {
+            gltf: Some(Spanned::new(0..0, file)),
+            ..RawScene::default()
+        };
+        let ctx = Ctx {
+            path,
+            text: &text,
+            gltf_alone: true,
+        };
+        return build(&ctx, raw, format!("{shown} (glTF)")).map(|s| (s, text));
     }
     let bytes = read_regular(path, "scene file", MAX_SCENE_BYTES)?;
     let text = String::from_utf8(bytes).map_err(|e| {
@@ -894,7 +997,11 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
 /// scene has no `[[light]]`, and its first perspective camera when the scene has no
 /// `[camera]` ([`super::gltf`]).
 pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
-    let ctx = Ctx { path, text };
+    let ctx = Ctx {
+        path,
+        text,
+        gltf_alone: false,
+    };
     let raw: RawScene = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| ctx.line(s.start)).unwrap_or(0);
         Error::Scene {
@@ -911,11 +1018,17 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
         .map(|l| l.trim_start().trim_start_matches('#').trim())
         .collect::<Vec<_>>()
         .join(" ");
+    build(&ctx, raw, description)
+}
 
-    // glTF.
+/// The scene from its parsed sections.
+fn build(ctx: &Ctx, raw: RawScene, description: String) -> Result<Scene, Error> {
+    let path = ctx.path;
     let dir = path.parent().unwrap_or(Path::new("."));
     let gltf = match &raw.gltf {
         None => None,
+        // A glTF file alone: its own errors name it (a scene file's cite its `gltf` field).
+        Some(g) if ctx.gltf_alone => Some(super::gltf::load(&dir.join(g.get_ref()))?),
         Some(g) => {
             Some(super::gltf::load(&dir.join(g.get_ref())).or_else(|e| ctx.err(g.span(), "top level", "gltf", e))?)
         }
@@ -928,7 +1041,25 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
         Some(g) => ctx.add_gltf(&raw, g, (&mut materials, &mut objects), (&mut triangles, budget))?,
         None => Vec::new(),
     };
+    let mut notes = Vec::new();
+    if raw.lights.is_empty() && gltf_lights.len() > 1 {
+        notes.push(format!(
+            "the glTF file has {} lights: the first in node order ({}) is the scene's light",
+            gltf_lights.len(),
+            match gltf_lights[0].kind {
+                LightKind::Directional => "directional light",
+                LightKind::Spot { .. } => "spot light",
+                _ => "point light",
+            }
+        ));
+    }
     let lights = ctx.lights(&raw, &objects, gltf_lights)?;
+    if lights.is_empty() && ctx.gltf_alone {
+        return Err(Error::scene(
+            path,
+            "the glTF file has no KHR_lights_punctual light (a scene file that names it with `gltf = \"...\"` can add a [[light]])",
+        ));
+    }
     if lights.is_empty() {
         return Err(Error::scene(path, "the scene has no [[light]]"));
     }
@@ -947,6 +1078,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
         camera,
         lights,
         camera_path,
+        notes,
     })
 }
 

@@ -101,7 +101,7 @@ impl GltfScene {
 /// instances included, against the triangle budget before any mesh is built.
 pub fn load(path: &Path) -> Result<GltfScene, Error> {
     let bytes = super::file::read_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
-    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| {
+    let read_error = |e: gltf::Error| {
         Error::scene(
             path,
             match e {
@@ -121,7 +121,32 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                 e => format!("cannot read glTF: {e}"),
             },
         )
-    })?;
+    };
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(read_error)?;
+    let root = document.into_json();
+    // The crate's validation indexes a primitive's POSITION accessor before it checks that
+    // the index exists (a panic): checked here first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, a) in &prim.attributes {
+                if a.value() >= root.accessors.len() {
+                    let semantic = match semantic {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "(unknown)".into(),
+                    };
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "mesh {m}, primitive {k}: attribute {semantic} names accessor {}, but the file has {}",
+                            a.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let doc = gltf::Document::from_json(root).map_err(read_error)?;
     let version = &doc.as_json().asset.version;
     if !version.starts_with("2.") {
         return Err(Error::scene(
@@ -288,7 +313,7 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                     ));
                 }
                 let fov = p.yfov().to_degrees();
-                if !(fov > 0.0 && fov < 180.0 && p.znear() > 0.0 && p.znear().is_finite()) {
+                if !(super::file::FOV_DEGREES.contains(&fov) && p.znear() > 0.0 && p.znear().is_finite()) {
                     return Err(Error::scene(
                         path,
                         format!(
@@ -365,12 +390,13 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                 Kind::Point => LightKind::Point,
                 Kind::Spot { outer_cone_angle, .. } => {
                     let angle_deg = 2.0 * outer_cone_angle.to_degrees();
-                    if !(angle_deg > 0.0 && angle_deg < 180.0) {
+                    if !super::file::FOV_DEGREES.contains(&angle_deg) {
                         return Err(Error::scene(
                             path,
                             format!(
-                                "{node_name}: light {}: outerConeAngle {outer_cone_angle} is outside (0, pi/2)",
-                                l.index()
+                                "{node_name}: light {}: outerConeAngle {outer_cone_angle} makes a cone of {angle_deg} degrees, outside {:?}",
+                                l.index(),
+                                super::file::FOV_DEGREES
                             ),
                         ));
                     }

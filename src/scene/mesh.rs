@@ -252,6 +252,7 @@ pub fn pleated(size: Vec2, n: u32, amplitude: f32, pleats: u32) -> Mesh {
 pub const MAX_OBJ_BYTES: u64 = 1 << 30;
 
 /// Checks an OBJ's element lines before parsing, so that errors carry line numbers: every
+/// vertex (`v`) and normal (`vn`) is finite (a normal also non-zero), used or not; every
 /// face (`f`) has three or more vertices whose position indices are integers naming a vertex
 /// defined so far (1-based, or negative: relative). Points and polylines (`p`, `l`) have no
 /// area: they are dropped (and counted). Returns the text to parse and the dropped count.
@@ -276,6 +277,18 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), Error> {
                 }
                 if let Some(bad) = nums.iter().take(3).find(|w| w.parse::<f32>().is_err()) {
                     return Err(at(format!("`{kw}`: `{bad}` is not a number")));
+                }
+                // Every vertex and normal, used by a face or not: NaN and infinity never pass
+                // (nor a zero normal, which has no direction).
+                if let Some(bad) = nums
+                    .iter()
+                    .take(3)
+                    .find(|w| !w.parse::<f32>().is_ok_and(f32::is_finite))
+                {
+                    return Err(at(format!("`{kw}`: `{bad}` is not finite")));
+                }
+                if kw == "vn" && nums.iter().take(3).all(|w| w.parse::<f32>() == Ok(0.0)) {
+                    return Err(at("`vn 0 0 0`: a normal of length zero has no direction".into()));
                 }
                 if kw == "v" {
                     vertices += 1;

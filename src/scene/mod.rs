@@ -200,7 +200,7 @@ pub enum LightKind {
     Directional,
     /// A point light shining into a cone of full angle `angle_deg` around `direction`.
     Spot {
-        /// Full cone angle in degrees, in (0, 180).
+        /// Full cone angle in degrees, in [`file::FOV_DEGREES`].
         angle_deg: f32,
     },
     /// A point light shining everywhere.
@@ -319,6 +319,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Camera path for stability tests (empty: a still camera).
     pub camera_path: Vec<Keyframe>,
+    /// What loading chose on the user's behalf (which of a glTF file's lights is used), for
+    /// the CLI to print.
+    pub notes: Vec<String>,
 }
 
 impl Scene {

@@ -135,5 +135,6 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
             intensity: 1.0,
         }],
         camera_path: vec![],
+        notes: Vec::new(),
     }
 }

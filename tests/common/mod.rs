@@ -32,6 +32,53 @@ pub fn temp_file(tag: &str, name: &str, body: &str) -> String {
 /// A small glTF 2.0 file: a ground quad under a floating, half-transparent triangle (placed
 /// by a parent node's translation and a child's scale), a camera and a sun.
 pub fn gltf_text(indices: &[u16], mode: u32) -> String {
+    let (json, bytes) = gltf_parts(indices, mode);
+    let uri = format!(r#""uri": "data:application/octet-stream;base64,{}""#, base64(&bytes));
+    json.replacen(
+        r#""byteLength": BUFFER"#,
+        &format!(r#""byteLength": {}, {uri}"#, bytes.len()),
+        1,
+    )
+}
+
+/// The same scene as a binary glTF: the JSON with its buffer in the GLB's BIN chunk.
+pub fn glb_file(indices: &[u16], mode: u32) -> Vec<u8> {
+    let (json, bytes) = gltf_parts(indices, mode);
+    let json = json.replacen(
+        r#""byteLength": BUFFER"#,
+        &format!(r#""byteLength": {}"#, bytes.len()),
+        1,
+    );
+    glb(json.as_bytes(), &bytes)
+}
+
+/// A GLB container (version 2) around a JSON chunk and a BIN chunk, each padded to 4 bytes.
+pub fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let pad = |b: &[u8], with: u8| {
+        let mut v = b.to_vec();
+        while !v.len().is_multiple_of(4) {
+            v.push(with);
+        }
+        v
+    };
+    let (json, bin) = (pad(json, b' '), pad(bin, 0));
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+/// The JSON of `gltf_text` with its one buffer's `"byteLength": BUFFER` left to fill in, and
+/// the buffer's bytes.
+pub fn gltf_parts(indices: &[u16], mode: u32) -> (String, Vec<u8>) {
     let positions: [[f32; 3]; 7] = [
         [-2.0, 0.0, -2.0],
         [2.0, 0.0, -2.0],
@@ -47,9 +94,8 @@ pub fn gltf_text(indices: &[u16], mode: u32) -> String {
     while !bytes.len().is_multiple_of(4) {
         bytes.push(0);
     }
-    let b64 = base64(&bytes);
     let n = indices.len();
-    format!(
+    let json = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
   "extensionsUsed": ["KHR_lights_punctual"],
@@ -73,7 +119,7 @@ pub fn gltf_text(indices: &[u16], mode: u32) -> String {
     {{"name": "quad", "primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0, "mode": {mode}}}]}},
     {{"name": "tri", "primitives": [{{"attributes": {{"POSITION": 2}}, "material": 1}}]}}
   ],
-  "buffers": [{{"byteLength": {len}, "uri": "data:application/octet-stream;base64,{b64}"}}],
+  "buffers": [{{"byteLength": BUFFER}}],
   "bufferViews": [
     {{"buffer": 0, "byteOffset": 0, "byteLength": 84}},
     {{"buffer": 0, "byteOffset": {index_offset}, "byteLength": {ilen}}}
@@ -84,9 +130,9 @@ pub fn gltf_text(indices: &[u16], mode: u32) -> String {
     {{"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 3, "type": "VEC3", "min": [-0.5, 0, -0.5], "max": [0.5, 0, 0.5]}}
   ]
 }}"#,
-        len = bytes.len(),
         ilen = n * 2,
-    )
+    );
+    (json, bytes)
 }
 
 pub fn base64(bytes: &[u8]) -> String {
