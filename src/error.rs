@@ -4,7 +4,7 @@
 //! Library messages name no command-line flag: a program built on the library knows how its
 //! users raise a limit (the CLI adds `--max-memory` to [`Error::Budget`] of [`Resource::Memory`]).
 
-use crate::pipeline::{mib, PipelineError};
+use crate::pipeline::{size_text, PipelineError};
 use std::fmt;
 use std::path::PathBuf;
 
@@ -236,9 +236,9 @@ impl fmt::Display for Error {
                 match resource {
                     Resource::Memory => write!(
                         f,
-                        "{what} would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB",
-                        mib(*needed),
-                        mib(*limit)
+                        "{what} would bring the buffers alive to {}, beyond the memory limit of {}",
+                        size_text(*needed),
+                        size_text(*limit)
                     ),
                     Resource::Triangles => write!(
                         f,
@@ -275,7 +275,7 @@ impl From<PipelineError> for Error {
                 live,
                 limit,
             } => Error::budget(
-                format!("{width}x{height} buffers of {:.0} MiB", mib(bytes)),
+                format!("{width}x{height} buffers of {}", size_text(bytes)),
                 live.saturating_add(bytes),
                 limit,
                 Resource::Memory,

@@ -237,7 +237,7 @@ fn cli_reports_bad_input_with_what_and_where() {
         ),
         (
             vec!["bench".into(), "frame".into(), "--triangles".into(), "1".into()],
-            "--triangles 1 is out of range",
+            "'--triangles <TRIANGLES>': 1 is outside 2..=10000000",
         ),
         (
             vec!["bench".into(), "raster".into(), "--mode".into(), "paint".into()],

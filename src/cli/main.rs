@@ -2,7 +2,7 @@
 
 use clap::{Args, Parser, Subcommand};
 use penumbra::bench::{FrameMode, FRAME_CAMERA_CULL};
-use penumbra::pipeline::{CullMode, Shading};
+use penumbra::pipeline::{CullMode, Shading, MAX_DIMENSION};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -31,13 +31,33 @@ struct Cli {
 /// Largest `--reps`: repetitions of a measurement that a 2-core machine finishes.
 const MAX_REPS: usize = 100;
 
-/// Parses `--reps` (0..=100).
+/// A whole-number option in `lo..=hi`. Negative, fractional and out-of-range values get a
+/// message with the range (clap alone calls `-1` an unknown argument); clap names the option.
+fn count<T: TryFrom<u64>>(lo: u64, hi: u64) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        let range = || format!("a whole number in {lo}..={hi}");
+        match s.trim().parse::<i128>() {
+            Ok(v) if v >= lo as i128 && v <= hi as i128 => T::try_from(v as u64).map_err(|_| range()),
+            Ok(v) => Err(format!("{v} is outside {lo}..={hi}")),
+            Err(_) => Err(format!("'{s}' is not {}", range())),
+        }
+    }
+}
+
+/// `--reps`: 0..=[`MAX_REPS`].
 fn parse_reps(s: &str) -> Result<usize, String> {
-    s.trim()
-        .parse::<usize>()
-        .ok()
-        .filter(|&r| r <= MAX_REPS)
-        .ok_or_else(|| format!("'{s}' is not a repetition count from 0 to {MAX_REPS}"))
+    count(0, MAX_REPS as u64)(s)
+}
+
+/// `--triangles` of the benchmarks: 2..=[`bench::MAX_BENCH_TRIANGLES`] (larger meshes take
+/// more than a few GB).
+fn parse_triangles(s: &str) -> Result<usize, String> {
+    count(2, bench::MAX_BENCH_TRIANGLES as u64)(s)
+}
+
+/// A side of a surface (`--map`, `--width`, `--height`): 1..=[`MAX_DIMENSION`].
+fn parse_side(s: &str) -> Result<u32, String> {
+    count(1, MAX_DIMENSION as u64)(s)
 }
 
 /// Parses `4G`, `512M`, `64K` or a byte count.
@@ -108,7 +128,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 3, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out")]
@@ -147,7 +167,7 @@ struct SweepArgs {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 2, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
@@ -188,7 +208,7 @@ struct TechniqueArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
     triangles: usize,
     /// A scene file to run instead of the spheres scene.
     #[arg(long)]
@@ -212,7 +232,7 @@ struct Common {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after the warm-up (the median is reported).
-    #[arg(long, default_value_t = 10, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 10, allow_negative_numbers = true, value_parser = parse_reps)]
     reps: usize,
     /// Print one JSON object on the last line.
     #[arg(long)]
@@ -222,20 +242,20 @@ struct Common {
 #[derive(Args)]
 struct FrameArgs {
     /// Target triangle count of the scene.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
     triangles: usize,
     /// depth | pcf2 | pcf5 | pcss (the classic PCSS shader: 16 blocker-search taps, 16 filter
     /// taps) | vsm (moments, a 5x5 box blur, Chebyshev's bound)
     #[arg(long, default_value = "pcf2")]
     mode: FrameMode,
     /// Shadow-map size S (S x S).
-    #[arg(long, default_value_t = 2048)]
+    #[arg(long, default_value_t = 2048, allow_negative_numbers = true, value_parser = parse_side)]
     map: u32,
     /// Image width.
-    #[arg(long, default_value_t = 1920)]
+    #[arg(long, default_value_t = 1920, allow_negative_numbers = true, value_parser = parse_side)]
     width: u32,
     /// Image height.
-    #[arg(long, default_value_t = 1080)]
+    #[arg(long, default_value_t = 1080, allow_negative_numbers = true, value_parser = parse_side)]
     height: u32,
     /// Write the image (and the shadow map) as PNG into this folder.
     #[arg(long)]
@@ -257,10 +277,11 @@ struct FrameArgs {
 #[derive(Args)]
 struct RaysArgs {
     /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
     triangles: usize,
-    /// Rays per repetition.
-    #[arg(long, default_value_t = 4_000_000)]
+    /// Rays per repetition (1000..=100000000: about 10 s per repetition on two cores at the
+    /// top).
+    #[arg(long, default_value_t = 4_000_000, allow_negative_numbers = true, value_parser = count::<usize>(1000, 100_000_000))]
     rays: usize,
     /// Incoherent rays instead of the camera's shadow rays: origins uniform in the scene's
     /// bounds, directions uniform on the sphere (SplitMix64, seed 1), unbounded.
@@ -279,7 +300,7 @@ struct RaysArgs {
 #[derive(Args)]
 struct RasterArgs {
     /// Number of triangles.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
     triangles: usize,
     /// Approximate area of each triangle in pixels.
     #[arg(long, default_value_t = 50.0)]

@@ -184,10 +184,10 @@ impl fmt::Display for PipelineError {
                 // `live + bytes` may not fit in a u64: that is how some requests are refused.
                 write!(
                     f,
-                    "{width}x{height} buffers of {:.0} MiB would bring the buffers alive to {:.0} MiB, beyond the memory limit of {:.0} MiB (lower the map size, cascades, faces or resolution, or raise the memory limit)",
-                    mib(*bytes),
-                    mib(live.saturating_add(*bytes)),
-                    mib(*limit)
+                    "{width}x{height} buffers of {} would bring the buffers alive to {}, beyond the memory limit of {} (lower the map size, cascades, faces or resolution, or raise the memory limit)",
+                    size_text(*bytes),
+                    size_text(live.saturating_add(*bytes)),
+                    size_text(*limit)
                 )
             }
         }
@@ -196,9 +196,17 @@ impl fmt::Display for PipelineError {
 
 impl std::error::Error for PipelineError {}
 
-/// Bytes in MiB, for messages.
-pub(crate) fn mib(bytes: u64) -> f64 {
-    bytes as f64 / (1u64 << 20) as f64
+/// A byte count for messages, in the unit that shows its digits: `512 bytes`, `4.0 KiB`,
+/// `1.5 MiB`, `4096 MiB` (a budget of 1K is not "0 MiB").
+pub(crate) fn size_text(bytes: u64) -> String {
+    let (kib, mib) = (bytes as f64 / 1024.0, bytes as f64 / (1u64 << 20) as f64);
+    match bytes {
+        0..1024 => format!("{bytes} bytes"),
+        _ if mib < 1.0 && kib < 10.0 => format!("{kib:.1} KiB"),
+        _ if mib < 1.0 => format!("{kib:.0} KiB"),
+        _ if mib < 10.0 => format!("{mib:.1} MiB"),
+        _ => format!("{mib:.0} MiB"),
+    }
 }
 
 /// Per-draw counters, for users exploring internals. Summed over draws with `+=`.
