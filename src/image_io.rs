@@ -12,9 +12,22 @@ pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), Error> {
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))?;
         }
     }
+    let png = encode_png(s).map_err(|e| Error::io(path, "cannot write", e))?;
+    std::fs::write(path, png).map_err(|e| Error::io(path, "cannot write", e))
+}
+
+/// An RGBA8 surface as the bytes of a PNG file (row 0 at the top).
+pub fn encode_png(s: &Surface<Rgba8>) -> Result<Vec<u8>, image::ImageError> {
+    use image::ImageEncoder;
     let bytes: Vec<u8> = s.data().iter().flat_map(|p| p.iter().copied()).collect();
-    image::save_buffer(path, &bytes, s.width(), s.height(), image::ColorType::Rgba8)
-        .map_err(|e| Error::io(path, "cannot write", e))
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out).write_image(
+        &bytes,
+        s.width(),
+        s.height(),
+        image::ExtendedColorType::Rgba8,
+    )?;
+    Ok(out)
 }
 
 /// A grey-scale view of a float surface mapped from `[lo, hi]` to black..white.

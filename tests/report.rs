@@ -406,3 +406,127 @@ fn a_technique_left_out_of_a_scene_is_skipped_not_missing() {
     let merged = merge_shards(&dir, &parts);
     assert_eq!(rows, rows_without_timings(&merged.join("results.csv")));
 }
+
+/// `sweep --merge` reads only regular files inside the shards' folders and writes only inside
+/// `--out`, never through a link; each row it merges must be one the sweep could have
+/// written, and each error names the folder, the file and the row.
+#[test]
+fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
+    let dir = temp_dir("merge-hostile");
+    let scene = dir.join("hard.toml");
+    std::fs::write(&scene, HARD).unwrap();
+    let mut parts = Vec::new();
+    for i in 0..2 {
+        let out = dir.join(format!("part{i}"));
+        let (ok, text) = cli(&[
+            "sweep",
+            scene.to_str().unwrap(),
+            "--techniques",
+            "reference,shadow-map,planar",
+            "--reps",
+            "1",
+            "--shard",
+            &format!("{i}/2"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+        parts.push(out);
+    }
+    let merged = dir.join("merged");
+    let merge = |p0: &Path| {
+        let (p1, out) = (parts[1].to_str().unwrap(), merged.to_str().unwrap());
+        cli(&["sweep", "--out", out, "--merge", p0.to_str().unwrap(), p1])
+    };
+    assert!(merge(&parts[0]).0);
+    // A copy of shard 0 that each case spoils in one way.
+    let spoiled = dir.join("spoiled");
+    let fresh = || {
+        let _ = std::fs::remove_dir_all(&spoiled);
+        std::fs::create_dir_all(spoiled.join("images")).unwrap();
+        for name in ["results.csv", "sweep.json"] {
+            std::fs::copy(parts[0].join(name), spoiled.join(name)).unwrap();
+        }
+        std::fs::read_to_string(spoiled.join("results.csv")).unwrap()
+    };
+    let csv = fresh();
+    let (head, rows) = csv.split_once('\n').unwrap();
+    let first = rows.lines().next().unwrap();
+    let field = |k: usize| first.split(',').nth(k).unwrap().to_string();
+    let with_first = |from: &str, to: &str| {
+        let row = first.replacen(from, to, 1);
+        assert_ne!(row, first, "{from}");
+        csv.replacen(first, &row, 1)
+    };
+    let ms = format!(",{},", field(6));
+    let cases: Vec<(String, String)> = vec![
+        (String::new(), "results.csv: empty".into()),
+        (format!("{head}\n"), "spoiled: shard 0/2 should hold runs 0..".into()),
+        (
+            format!("{head},extra\n{}", rows.lines().map(|l| format!("{l},1\n")).collect::<String>()),
+            "columns not in it: [\"extra\"]".into(),
+        ),
+        (with_first(&ms, ",NaN,"), "run 0: column ms: NaN".into()),
+        (with_first(&ms, ",-3,"), "run 0: column ms: -3".into()),
+        (with_first("0,hard,", "999,hard,"), "row 1 (run 999): the run is not in this folder's shard 0/2".into()),
+        (
+            with_first(",reference,reference,", ",nope,reference,"),
+            "row 1 (run 0): is 'nope' on scene 'hard' (hard), but the sweep's run 0 is 'reference'".into(),
+        ),
+        (with_first("0,hard,", "0,other,"), "is 'reference' on scene 'other'".into()),
+        (format!("{csv}{first}\n"), "(run 0): the same run as row 1 of the same file".into()),
+    ];
+    for (body, want) in cases {
+        fresh();
+        std::fs::write(spoiled.join("results.csv"), &body).unwrap();
+        let (ok, text) = merge(&spoiled);
+        assert!(!ok && text.contains(want.as_str()) && text.contains("spoiled"), "{want}: {text}");
+    }
+    // An unknown technique in the manifest.
+    fresh();
+    let json = std::fs::read_to_string(spoiled.join("sweep.json")).unwrap();
+    std::fs::write(spoiled.join("sweep.json"), json.replacen("\"planar\"", "\"nope\"", 1)).unwrap();
+    let (ok, text) = merge(&spoiled);
+    assert!(!ok && text.contains("technique 'nope', which penumbra does not have"), "{text}");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::symlink;
+        let secret = dir.join("secret.txt");
+        std::fs::write(&secret, "not for the report").unwrap();
+        // A link in a shard's images/ is not followed (it would copy any file on the machine).
+        fresh();
+        symlink(&secret, spoiled.join("images/hard_reference.png")).unwrap();
+        let (ok, text) = merge(&spoiled);
+        assert!(!ok && text.contains("hard_reference.png") && text.contains("symbolic link"), "{text}");
+        // A linked results.csv is not read either.
+        fresh();
+        std::fs::remove_file(spoiled.join("results.csv")).unwrap();
+        symlink(parts[0].join("results.csv"), spoiled.join("results.csv")).unwrap();
+        let (ok, text) = merge(&spoiled);
+        assert!(!ok && text.contains("symbolic link"), "{text}");
+        // A FIFO as results.csv is refused before it is opened (a read would hang).
+        fresh();
+        std::fs::remove_file(spoiled.join("results.csv")).unwrap();
+        let made = std::process::Command::new("mkfifo").arg(spoiled.join("results.csv")).status();
+        if made.is_ok_and(|s| s.success()) {
+            let (ok, text) = merge(&spoiled);
+            assert!(!ok && text.contains("not a regular file"), "{text}");
+        }
+        // An output whose images/ links elsewhere is not written through.
+        let outside = dir.join("outside");
+        std::fs::create_dir_all(&outside).unwrap();
+        let _ = std::fs::remove_dir_all(&merged);
+        std::fs::create_dir_all(&merged).unwrap();
+        symlink(&outside, merged.join("images")).unwrap();
+        let (ok, text) = merge(&parts[0]);
+        assert!(!ok && text.contains("not a folder"), "{text}");
+        assert_eq!(std::fs::read_dir(&outside).unwrap().count(), 0);
+        // Nor a report file that is a link.
+        let _ = std::fs::remove_dir_all(&merged);
+        std::fs::create_dir_all(&merged).unwrap();
+        symlink(&secret, merged.join("report.md")).unwrap();
+        let (ok, text) = merge(&parts[0]);
+        assert!(!ok && text.contains("report.md") && text.contains("not written through"), "{text}");
+        assert_eq!(std::fs::read_to_string(&secret).unwrap(), "not for the report");
+    }
+}

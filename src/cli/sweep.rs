@@ -203,51 +203,149 @@ fn print_outputs(out: &Path) {
     println!("data:   {}", out.join("results.csv").display());
 }
 
+/// Checks one shard's rows against its manifest: every technique of the manifest is known,
+/// every row is a run of the shard's own range with the scene, setting and class the run list
+/// has there, no run is in it twice or was skipped, and none of its range is missing. Errors
+/// name the folder, the file and the row.
+fn check_shard(dir: &Path, rows: &[RunResult], m: &Manifest) -> Result<(), CliError> {
+    let csv = dir.join("results.csv");
+    let json = dir.join("sweep.json");
+    let known: Vec<&str> = shadow::registry().iter().map(|t| t.name).chain(["reference"]).collect();
+    for (k, setting) in m.settings.iter().enumerate() {
+        let name = setting.split(" [").next().unwrap_or("");
+        if !known.contains(&name) {
+            return Err(format!(
+                "{}: setting {} is of technique '{name}', which penumbra does not have",
+                json.display(),
+                k + 1
+            )
+            .into());
+        }
+    }
+    let (i, n) = parse_shard(&m.shard).map_err(|e| format!("{}: shard: {e}", json.display()))?;
+    let runs = m.runs();
+    let range = shard_range(runs, (i, n));
+    let mut seen: Vec<Option<usize>> = vec![None; range.len()];
+    for (k, r) in rows.iter().enumerate() {
+        let row = k + 1;
+        let at = |what: String| -> CliError { format!("{}: row {row} (run {}): {what}", csv.display(), r.index).into() };
+        if !range.contains(&r.index) {
+            return Err(at(format!(
+                "the run is not in this folder's shard {} (runs {}..{} of {runs})",
+                m.shard, range.start, range.end
+            )));
+        }
+        let (scene, setting) = (&m.scenes[r.index / m.settings.len()], &m.settings[r.index % m.settings.len()]);
+        if r.scene != scene.name || r.label() != *setting || r.class != scene.class {
+            return Err(at(format!(
+                "is '{}' on scene '{}' ({}), but the sweep's run {} is '{setting}' on scene '{}' ({})",
+                r.label(),
+                r.scene,
+                r.class.key(),
+                r.index,
+                scene.name,
+                scene.class.key()
+            )));
+        }
+        if m.skipped.contains(&r.index) {
+            return Err(at("the sweep skips this run (its technique does not apply to the scene)".into()));
+        }
+        match seen[r.index - range.start] {
+            Some(first) => return Err(at(format!("the same run as row {first} of the same file"))),
+            None => seen[r.index - range.start] = Some(row),
+        }
+    }
+    if let Some(k) = seen
+        .iter()
+        .enumerate()
+        .position(|(k, s)| s.is_none() && !m.skipped.contains(&(range.start + k)))
+    {
+        return Err(format!(
+            "{}: shard {} should hold runs {}..{} of {runs}, and run {} is not in its results.csv ({} rows)",
+            dir.display(),
+            m.shard,
+            range.start,
+            range.end,
+            range.start + k,
+            rows.len()
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Copies a shard's `images/` into `out/images`: regular files only, read and written
+/// without following links (a shard's link could name any file; a linked `out/images` would
+/// write outside the output folder).
+fn copy_images(dir: &Path, out: &Path) -> Result<(), CliError> {
+    let images = dir.join("images");
+    match std::fs::symlink_metadata(&images) {
+        Ok(m) if m.file_type().is_dir() => {}
+        Ok(_) => {
+            return Err(format!(
+                "{}: a symbolic link or a file, not a folder: links are not followed",
+                images.display()
+            )
+            .into())
+        }
+        Err(_) => return Ok(()),
+    }
+    let to = out.join("images");
+    report::files::create_folder(&to)?;
+    if std::fs::canonicalize(&images).ok() == std::fs::canonicalize(&to).ok() {
+        return Ok(());
+    }
+    let rd = std::fs::read_dir(&images).map_err(|e| format!("{}: cannot list: {e}", images.display()))?;
+    for e in rd {
+        let e = e.map_err(|e| format!("{}: cannot list: {e}", images.display()))?;
+        let bytes = report::files::read_plain(&e.path(), "a shard's image", report::files::MAX_SHARD_FILE)?;
+        report::files::write_plain(&to.join(e.file_name()), &bytes)?;
+    }
+    Ok(())
+}
+
 /// `penumbra sweep --merge DIR...`: the shards' rows in run order, their images, and every
 /// chart and report page, as one unsharded run writes them. Errors name the folder that is
-/// missing, inconsistent or duplicated.
+/// missing, inconsistent or duplicated, and the file and row that no sweep wrote.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     if dirs.is_empty() {
         return Err("--merge needs the shards' output folders".into());
     }
-    let mut all: Vec<RunResult> = Vec::new();
+    let mut all: Vec<(RunResult, usize)> = Vec::new();
     let mut manifest: Option<(Manifest, &PathBuf)> = None;
-    for d in dirs {
+    for (k, d) in dirs.iter().enumerate() {
         let (rs, m) = read_sweep_data(d)?;
         if let Some((first, fd)) = &manifest {
-            if first.scenes != m.scenes || first.settings != m.settings {
+            if first.scenes != m.scenes || first.settings != m.settings || first.skipped != m.skipped {
                 return Err(format!(
-                    "{} and {} are shards of different sweeps (their scenes or technique settings differ)",
+                    "{} and {} are shards of different sweeps (their scenes, technique settings or skipped runs differ)",
                     fd.display(),
                     d.display()
                 )
                 .into());
             }
-        } else {
+        }
+        check_shard(d, &rs, &m)?;
+        if manifest.is_none() {
             manifest = Some((m, d));
         }
-        all.extend(rs);
-        let images = d.join("images");
-        if images.is_dir() {
-            let to = out.join("images");
-            std::fs::create_dir_all(&to).map_err(|e| format!("cannot create {}: {e}", to.display()))?;
-            let rd = std::fs::read_dir(&images).map_err(|e| format!("{}: cannot list: {e}", images.display()))?;
-            for e in rd.flatten() {
-                let dest = to.join(e.file_name());
-                if e.path() != dest {
-                    std::fs::copy(e.path(), &dest)
-                        .map_err(|err| format!("cannot copy {} to {}: {err}", e.path().display(), dest.display()))?;
-                }
-            }
-        }
+        all.extend(rs.into_iter().map(|r| (r, k)));
+        copy_images(d, out)?;
     }
     let (mut m, _) = manifest.expect("at least one folder");
-    all.sort_by_key(|r| r.index);
+    all.sort_by_key(|(r, _)| r.index);
     for w in all.windows(2) {
-        if w[0].index == w[1].index {
-            return Err(format!("run {} is in two shards (a folder was given twice?)", w[0].index).into());
+        if w[0].0.index == w[1].0.index {
+            return Err(format!(
+                "run {} is in two shards, {} and {} (a folder was given twice?)",
+                w[0].0.index,
+                dirs[w[0].1].display(),
+                dirs[w[1].1].display()
+            )
+            .into());
         }
     }
+    let all: Vec<RunResult> = all.into_iter().map(|(r, _)| r).collect();
     let missing: Vec<usize> = (0..m.runs())
         .filter(|i| all.binary_search_by_key(i, |r| r.index).is_err() && !m.skipped.contains(i))
         .collect();

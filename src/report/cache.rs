@@ -17,7 +17,9 @@ impl DirCache {
 
 impl ReferenceCache for DirCache {
     fn get(&self, key: u64, pixels: usize) -> Option<Visibility> {
-        let bytes = std::fs::read(self.file(key)).ok()?;
+        // A regular file of at most three floats per pixel, never through a link (a FIFO
+        // planted in the cache would hang the read).
+        let bytes = super::files::read_plain(&self.file(key), "cached reference", pixels as u64 * 12).ok()?;
         if bytes.len() % 4 != 0 {
             return None;
         }
@@ -29,9 +31,8 @@ impl ReferenceCache for DirCache {
     }
 
     fn put(&self, key: u64, v: &Visibility) -> Result<(), Error> {
-        std::fs::create_dir_all(&self.0).map_err(|e| Error::io(&self.0, "cannot create cache folder", e))?;
-        let f = self.file(key);
+        super::files::create_folder(&self.0)?;
         let bytes: Vec<u8> = v.to_flat().iter().flat_map(|x| x.to_le_bytes()).collect();
-        std::fs::write(&f, bytes).map_err(|e| Error::io(&f, "cannot write", e))
+        super::files::write_plain(&self.file(key), &bytes)
     }
 }

@@ -40,6 +40,37 @@ struct Row {
     counters: String,
 }
 
+/// The columns of `results.csv`, in order: [`Row`]'s fields (a test checks that they agree).
+/// Written even when a shard has no rows, so that every results.csv starts with them.
+const COLUMNS: [&str; 26] = [
+    "run",
+    "scene",
+    "class",
+    "technique",
+    "family",
+    "settings",
+    "ms",
+    "threads",
+    "rmse",
+    "mae",
+    "wrong_pct",
+    "penumbra_rmse",
+    "pixels",
+    "penumbra_pixels",
+    "transparent_rmse",
+    "transparent_mae",
+    "transparent_wrong_pct",
+    "transparent_penumbra_rmse",
+    "transparent_pixels",
+    "transparent_penumbra_pixels",
+    "flicker",
+    "discontinuity",
+    "banding",
+    "path_chart",
+    "passes_ms",
+    "counters",
+];
+
 fn pairs(v: &[(String, f64)]) -> String {
     v.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(";")
 }
@@ -53,7 +84,9 @@ fn parse_pairs(s: &str, what: &str) -> Result<Vec<(String, f64)>, String> {
                 .ok_or_else(|| format!("column {what}: '{p}' is not name=value"))?;
             let v = v
                 .parse::<f64>()
-                .map_err(|_| format!("column {what}: '{v}' is not a number"))?;
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| format!("column {what}: '{v}' is not a finite number >= 0"))?;
             Ok((k.to_string(), v))
         })
         .collect()
@@ -80,7 +113,8 @@ fn uncell(text: String) -> String {
 
 /// The sweep's CSV (one row per technique setting and scene, in run order).
 pub fn csv(results: &[RunResult]) -> String {
-    let mut w = ::csv::Writer::from_writer(Vec::new());
+    let mut w = ::csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+    w.write_record(COLUMNS).expect("writing CSV to memory");
     for r in results {
         let (e, t) = (&r.errors, &r.transparent);
         w.serialize(Row {
@@ -117,8 +151,25 @@ pub fn csv(results: &[RunResult]) -> String {
 }
 
 /// Reads a CSV that [`csv()`] wrote back into results; errors name `source` and the line.
+/// The header must be [`csv()`]'s exactly (no column more or less), every row as long as it,
+/// every time, error and count a finite number >= 0.
 pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
+    if text.trim().is_empty() {
+        return Err(Error::input(format!(
+            "{source}: empty (a results.csv starts with its header line: run,scene,...)"
+        )));
+    }
     let mut r = ::csv::Reader::from_reader(text.as_bytes());
+    let head = r
+        .headers()
+        .map_err(|e| Error::input(format!("{source}:1: not the header of penumbra's results.csv: {e}")))?;
+    if head.iter().ne(COLUMNS) {
+        let extra: Vec<&str> = head.iter().filter(|h| !COLUMNS.contains(h)).collect();
+        let missing: Vec<&str> = COLUMNS.into_iter().filter(|c| !head.iter().any(|h| h == *c)).collect();
+        return Err(Error::input(format!(
+            "{source}:1: not the header of penumbra's results.csv (columns not in it: {extra:?}; missing: {missing:?}; or out of order)"
+        )));
+    }
     let mut out = Vec::new();
     for row in r.deserialize::<Row>() {
         let row = row.map_err(|e| {
@@ -126,6 +177,23 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
             Error::input(format!("{source}:{line}: not a row of penumbra's results.csv: {e}"))
         })?;
         let at = |what: String| Error::input(format!("{source}: run {}: {what}", row.run));
+        let numbers = [
+            ("ms", row.ms),
+            ("rmse", row.rmse),
+            ("mae", row.mae),
+            ("wrong_pct", row.wrong_pct),
+            ("penumbra_rmse", row.penumbra_rmse),
+            ("transparent_rmse", row.transparent_rmse),
+            ("transparent_mae", row.transparent_mae),
+            ("transparent_wrong_pct", row.transparent_wrong_pct),
+            ("transparent_penumbra_rmse", row.transparent_penumbra_rmse),
+            ("flicker", row.flicker),
+            ("discontinuity", row.discontinuity),
+            ("banding", row.banding),
+        ];
+        if let Some((name, v)) = numbers.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+            return Err(at(format!("column {name}: {v} is not a finite number >= 0")));
+        }
         out.push(RunResult {
             index: row.run,
             class: SceneClass::from_key(&row.class)
@@ -213,6 +281,43 @@ mod tests {
             counted_path: true,
             passes: vec![("light pass".into(), 1.25)],
             counters: vec![("taps".into(), 123456.0), ("a=b".into(), 1.0)],
+        }
+    }
+
+    /// The written header is the one serde would write for [`Row`], and a CSV without rows
+    /// still has it.
+    #[test]
+    fn the_header_is_the_rows_fields() {
+        let mut w = ::csv::Writer::from_writer(Vec::new());
+        let one = csv(&[result("s", "")]);
+        let row = read_csv(&one, "t.csv").unwrap();
+        assert_eq!(row.len(), 1);
+        let r = ::csv::Reader::from_reader(one.as_bytes()).deserialize::<Row>().next().unwrap().unwrap();
+        w.serialize(r).unwrap();
+        let serde_text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert_eq!(serde_text.lines().next(), one.lines().next());
+        assert_eq!(csv(&[]).trim_end(), COLUMNS.join(","));
+        assert!(read_csv(&csv(&[]), "t.csv").unwrap().is_empty());
+    }
+
+    /// Rows that no sweep writes are errors naming the file and the line or run: an extra
+    /// column, a NaN, negative or infinite time or error, an empty file.
+    #[test]
+    fn rows_no_sweep_writes_are_refused() {
+        let good = csv(&[result("s", "")]);
+        let (head, row) = good.split_once('\n').unwrap();
+        for (text, want) in [
+            (String::new(), "t.csv: empty"),
+            (format!("{head},extra\n{}", row.trim_end().to_string() + ",1\n"), "columns not in it: [\"extra\"]"),
+            (format!("{head}\n{}", row.trim_end().to_string() + ",1\n"), "t.csv:2: not a row"),
+            (good.replacen(",12.345678901,", ",NaN,", 1), "run 3: column ms: NaN"),
+            (good.replacen(",12.345678901,", ",-1,", 1), "run 3: column ms: -1"),
+            (good.replacen(",12.345678901,", ",inf,", 1), "run 3: column ms: inf"),
+            (good.replacen(",0.07,", ",-0.07,", 1), "column penumbra_rmse: -0.07"),
+            (good.replacen("taps=123456", "taps=NaN", 1), "column counters: 'NaN'"),
+        ] {
+            let e = read_csv(&text, "t.csv").err().unwrap_or_else(|| panic!("read: {text}")).to_string();
+            assert!(e.contains(want), "{want}: {e}");
         }
     }
 

@@ -2,7 +2,7 @@
 //! for camera paths, the path's CSV and chart.
 
 use super::{chart, csv, file_safe, images, markdown, SceneInfo};
-use crate::image_io::write_png;
+use crate::image_io::encode_png;
 use crate::run::{RenderOutput, RunResult};
 use crate::scene::SceneClass;
 use crate::Error;
@@ -29,9 +29,111 @@ pub struct Manifest {
 
 fn write(dir: &Path, name: &str, body: &str, files: &mut Vec<PathBuf>) -> Result<(), Error> {
     let path = dir.join(name);
-    std::fs::write(&path, body).map_err(|e| Error::io(&path, "cannot write", e))?;
+    write_plain(&path, body.as_bytes())?;
     files.push(path);
     Ok(())
+}
+
+/// Largest file read from a shard's folder: a whole sweep's results.csv is about 1 MB, an
+/// image a few MB.
+pub const MAX_SHARD_FILE: u64 = 256 << 20;
+
+/// Reads a file of a sweep's folder: a regular file of at most `limit` bytes, never through a
+/// symbolic link (a shard's link could name any file on the machine), and never a FIFO or
+/// device (refused before it is opened: a read would hang or never end).
+pub fn read_plain(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error> {
+    use std::io::Read;
+    let doing = format!("cannot read {what}");
+    let meta = std::fs::symlink_metadata(path).map_err(|e| Error::io(path, &doing, e))?;
+    let kind = meta.file_type();
+    if kind.is_symlink() {
+        return Err(Error::io(path, &doing, "it is a symbolic link, and links are not followed"));
+    }
+    if !kind.is_file() {
+        return Err(Error::io(path, &doing, "not a regular file (a folder, FIFO or device)"));
+    }
+    if meta.len() > limit {
+        return Err(Error::io(
+            path,
+            &doing,
+            format!("{} bytes, more than the {limit} read at most", meta.len()),
+        ));
+    }
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, &doing, e))?;
+    // The file opened is the one checked (not a link put in its place since).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let opened = f.metadata().map_err(|e| Error::io(path, &doing, e))?;
+        if (opened.dev(), opened.ino()) != (meta.dev(), meta.ino()) {
+            return Err(Error::io(path, &doing, "the file changed while it was opened"));
+        }
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    f.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, &doing, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(Error::io(path, &doing, format!("grew past {limit} bytes while read")));
+    }
+    Ok(bytes)
+}
+
+/// Writes `bytes` to `path` as a regular file: a regular file already there is replaced; a
+/// symbolic link, folder, FIFO or device there is refused, never written through. The bytes
+/// go to a new file beside it (created exclusively, which follows no link) that is renamed
+/// over `path` (which replaces an entry, never writes through one), so that two writers of
+/// the same file leave one whole file.
+pub fn write_plain(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    use std::io::Write;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_file() => {}
+        Ok(_) => {
+            return Err(Error::io(
+                path,
+                "cannot write",
+                "a symbolic link, folder, FIFO or device is in its place: not written through",
+            ))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(Error::io(path, "cannot write", e)),
+    }
+    let name = path.file_name().map_or("file".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(
+        ".{name}.{}-{}.part",
+        std::process::id(),
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    ));
+    let written = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .and_then(|mut f| f.write_all(bytes))
+        .and_then(|()| std::fs::rename(&tmp, path));
+    written.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, "cannot write", e)
+    })
+}
+
+/// Creates the folder `dir` of an output (and its parents) unless it is one already: a
+/// symbolic link or a file in its place is refused (writing into a linked `images/` would
+/// write outside the output folder).
+pub fn create_folder(dir: &Path) -> Result<(), Error> {
+    match std::fs::symlink_metadata(dir) {
+        Ok(m) if m.file_type().is_dir() => Ok(()),
+        Ok(_) => Err(Error::io(
+            dir,
+            "cannot write into",
+            "it is a symbolic link or a file, not a folder: output is not written through links",
+        )),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))
+        }
+        Err(e) => Err(Error::io(dir, "cannot create folder", e)),
+    }
 }
 
 impl Manifest {
@@ -51,18 +153,25 @@ pub fn write_sweep_data(dir: &Path, results: &[RunResult], manifest: &Manifest) 
     Ok(files)
 }
 
-/// Reads what [`write_sweep_data`] wrote in `dir`.
+/// Reads what [`write_sweep_data`] wrote in `dir` (regular files only, never through links:
+/// [`read_plain`]).
 pub fn read_sweep_data(dir: &Path) -> Result<(Vec<RunResult>, Manifest), Error> {
     let read = |name: &str| -> Result<(String, String), Error> {
         let path = dir.join(name);
         let shown = path.display().to_string();
-        std::fs::read_to_string(&path).map(|t| (t, shown.clone())).map_err(|e| {
-            Error::io(
-                &path,
-                "cannot read",
-                format!("{e} (is {} a sweep's output folder?)", dir.display()),
-            )
-        })
+        let bytes = read_plain(&path, &format!("a sweep's {name}"), MAX_SHARD_FILE).map_err(|e| {
+            let hint = format!(" (is {} a sweep's output folder?)", dir.display());
+            match e {
+                Error::Io { path, message } => Error::Io {
+                    path,
+                    message: message + &hint,
+                },
+                e => e,
+            }
+        })?;
+        String::from_utf8(bytes)
+            .map(|t| (t, shown.clone()))
+            .map_err(|_| Error::input(format!("{shown}: not UTF-8 text")))
     };
     let (text, shown) = read("results.csv")?;
     let results = csv::read_csv(&text, &shown)?;
@@ -86,7 +195,7 @@ pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Re
         }
     }
     let charts = dir.join("charts");
-    std::fs::create_dir_all(&charts).map_err(|e| Error::io(&charts, "cannot create folder", e))?;
+    create_folder(&charts)?;
     for s in &manifest.scenes {
         let rs: Vec<RunResult> = results.iter().filter(|r| r.scene == s.name).cloned().collect();
         let svg = chart::class_chart_svg(&format!("{}: time vs {}", s.name, s.class.metric()), s.class, &rs);
@@ -136,6 +245,7 @@ pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, Error> {
     let f = &r.first;
     let (w, h) = (f.width, f.height);
     let mut files = Vec::new();
+    create_folder(dir)?;
     for (suffix, img) in [
         ("", f.shaded.clone()),
         ("_visibility", images::visibility_image(&f.visibility, w, h)),
@@ -146,7 +256,8 @@ pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, Error> {
         ("_reference", images::visibility_image(&f.reference, w, h)),
     ] {
         let path = dir.join(format!("{stem}{suffix}.png"));
-        write_png(&path, &img)?;
+        let png = encode_png(&img).map_err(|e| Error::io(&path, "cannot write", e))?;
+        write_plain(&path, &png)?;
         files.push(path);
     }
     if r.path.len() > 1 {
@@ -156,7 +267,7 @@ pub fn write_run(dir: &Path, r: &RenderOutput) -> Result<Vec<PathBuf>, Error> {
             ("_path.svg", chart::path_chart_svg(&title, &r.path)),
         ] {
             let file = dir.join(format!("{stem}{suffix}"));
-            std::fs::write(&file, body).map_err(|e| Error::io(&file, "cannot write", e))?;
+            write_plain(&file, body.as_bytes())?;
             files.push(file);
         }
     }
