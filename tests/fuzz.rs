@@ -486,17 +486,21 @@ fn a_scene_called_lt_is_escaped() {
 #[test]
 #[ignore]
 fn long_fuzz_run() {
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
-        cases: 20_000,
-        ..ProptestConfig::default()
-    });
-    runner
+    // A fresh runner per target: a runner counts its successes across runs, so one runner
+    // would run the first target's cases and none of the others'.
+    let runner = || {
+        proptest::test_runner::TestRunner::new(ProptestConfig {
+            cases: 20_000,
+            ..ProptestConfig::default()
+        })
+    };
+    runner()
         .run(&".{0,400}", |t| {
             check_parse(&t);
             Ok(())
         })
         .unwrap();
-    runner
+    runner()
         .run(
             &prop::collection::vec((any::<u8>(), any::<u16>(), any::<u8>()), 1..12),
             |seed| {
@@ -505,19 +509,19 @@ fn long_fuzz_run() {
             },
         )
         .unwrap();
-    runner
+    runner()
         .run(&(0usize..64, 0usize..64), |(a, b)| {
             extreme_case(a, b);
             Ok(())
         })
         .unwrap();
-    runner
+    runner()
         .run(&obj_text(), |b| {
             obj_case(&b);
             Ok(())
         })
         .unwrap();
-    runner
+    runner()
         .run(&(any::<bool>(), gltf_edits(1..10)), |(glb, e)| {
             gltf_case(glb, &e);
             Ok(())

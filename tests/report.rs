@@ -463,31 +463,49 @@ fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
         (String::new(), "results.csv: empty".into()),
         (format!("{head}\n"), "spoiled: shard 0/2 should hold runs 0..".into()),
         (
-            format!("{head},extra\n{}", rows.lines().map(|l| format!("{l},1\n")).collect::<String>()),
+            format!(
+                "{head},extra\n{}",
+                rows.lines().map(|l| format!("{l},1\n")).collect::<String>()
+            ),
             "columns not in it: [\"extra\"]".into(),
         ),
         (with_first(&ms, ",NaN,"), "run 0: column ms: NaN".into()),
         (with_first(&ms, ",-3,"), "run 0: column ms: -3".into()),
-        (with_first("0,hard,", "999,hard,"), "row 1 (run 999): the run is not in this folder's shard 0/2".into()),
+        (
+            with_first("0,hard,", "999,hard,"),
+            "row 1 (run 999): the run is not in this folder's shard 0/2".into(),
+        ),
         (
             with_first(",reference,reference,", ",nope,reference,"),
             "row 1 (run 0): is 'nope' on scene 'hard' (hard), but the sweep's run 0 is 'reference'".into(),
         ),
-        (with_first("0,hard,", "0,other,"), "is 'reference' on scene 'other'".into()),
-        (format!("{csv}{first}\n"), "(run 0): the same run as row 1 of the same file".into()),
+        (
+            with_first("0,hard,", "0,other,"),
+            "is 'reference' on scene 'other'".into(),
+        ),
+        (
+            format!("{csv}{first}\n"),
+            "(run 0): the same run as row 1 of the same file".into(),
+        ),
     ];
     for (body, want) in cases {
         fresh();
         std::fs::write(spoiled.join("results.csv"), &body).unwrap();
         let (ok, text) = merge(&spoiled);
-        assert!(!ok && text.contains(want.as_str()) && text.contains("spoiled"), "{want}: {text}");
+        assert!(
+            !ok && text.contains(want.as_str()) && text.contains("spoiled"),
+            "{want}: {text}"
+        );
     }
     // An unknown technique in the manifest.
     fresh();
     let json = std::fs::read_to_string(spoiled.join("sweep.json")).unwrap();
     std::fs::write(spoiled.join("sweep.json"), json.replacen("\"planar\"", "\"nope\"", 1)).unwrap();
     let (ok, text) = merge(&spoiled);
-    assert!(!ok && text.contains("technique 'nope', which penumbra does not have"), "{text}");
+    assert!(
+        !ok && text.contains("technique 'nope', which penumbra does not have"),
+        "{text}"
+    );
     #[cfg(unix)]
     {
         use std::os::unix::fs::symlink;
@@ -497,7 +515,10 @@ fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
         fresh();
         symlink(&secret, spoiled.join("images/hard_reference.png")).unwrap();
         let (ok, text) = merge(&spoiled);
-        assert!(!ok && text.contains("hard_reference.png") && text.contains("symbolic link"), "{text}");
+        assert!(
+            !ok && text.contains("hard_reference.png") && text.contains("symbolic link"),
+            "{text}"
+        );
         // A linked results.csv is not read either.
         fresh();
         std::fs::remove_file(spoiled.join("results.csv")).unwrap();
@@ -507,7 +528,9 @@ fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
         // A FIFO as results.csv is refused before it is opened (a read would hang).
         fresh();
         std::fs::remove_file(spoiled.join("results.csv")).unwrap();
-        let made = std::process::Command::new("mkfifo").arg(spoiled.join("results.csv")).status();
+        let made = std::process::Command::new("mkfifo")
+            .arg(spoiled.join("results.csv"))
+            .status();
         if made.is_ok_and(|s| s.success()) {
             let (ok, text) = merge(&spoiled);
             assert!(!ok && text.contains("not a regular file"), "{text}");
@@ -526,7 +549,10 @@ fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
         std::fs::create_dir_all(&merged).unwrap();
         symlink(&secret, merged.join("report.md")).unwrap();
         let (ok, text) = merge(&parts[0]);
-        assert!(!ok && text.contains("report.md") && text.contains("not written through"), "{text}");
+        assert!(
+            !ok && text.contains("report.md") && text.contains("not written through"),
+            "{text}"
+        );
         assert_eq!(std::fs::read_to_string(&secret).unwrap(), "not for the report");
     }
 }

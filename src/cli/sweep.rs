@@ -228,14 +228,18 @@ fn check_shard(dir: &Path, rows: &[RunResult], m: &Manifest) -> Result<(), CliEr
     let mut seen: Vec<Option<usize>> = vec![None; range.len()];
     for (k, r) in rows.iter().enumerate() {
         let row = k + 1;
-        let at = |what: String| -> CliError { format!("{}: row {row} (run {}): {what}", csv.display(), r.index).into() };
+        let at =
+            |what: String| -> CliError { format!("{}: row {row} (run {}): {what}", csv.display(), r.index).into() };
         if !range.contains(&r.index) {
             return Err(at(format!(
                 "the run is not in this folder's shard {} (runs {}..{} of {runs})",
                 m.shard, range.start, range.end
             )));
         }
-        let (scene, setting) = (&m.scenes[r.index / m.settings.len()], &m.settings[r.index % m.settings.len()]);
+        let (scene, setting) = (
+            &m.scenes[r.index / m.settings.len()],
+            &m.settings[r.index % m.settings.len()],
+        );
         if r.scene != scene.name || r.label() != *setting || r.class != scene.class {
             return Err(at(format!(
                 "is '{}' on scene '{}' ({}), but the sweep's run {} is '{setting}' on scene '{}' ({})",
@@ -248,7 +252,9 @@ fn check_shard(dir: &Path, rows: &[RunResult], m: &Manifest) -> Result<(), CliEr
             )));
         }
         if m.skipped.contains(&r.index) {
-            return Err(at("the sweep skips this run (its technique does not apply to the scene)".into()));
+            return Err(at(
+                "the sweep skips this run (its technique does not apply to the scene)".into(),
+            ));
         }
         match seen[r.index - range.start] {
             Some(first) => return Err(at(format!("the same run as row {first} of the same file"))),

@@ -292,7 +292,11 @@ mod tests {
         let one = csv(&[result("s", "")]);
         let row = read_csv(&one, "t.csv").unwrap();
         assert_eq!(row.len(), 1);
-        let r = ::csv::Reader::from_reader(one.as_bytes()).deserialize::<Row>().next().unwrap().unwrap();
+        let r = ::csv::Reader::from_reader(one.as_bytes())
+            .deserialize::<Row>()
+            .next()
+            .unwrap()
+            .unwrap();
         w.serialize(r).unwrap();
         let serde_text = String::from_utf8(w.into_inner().unwrap()).unwrap();
         assert_eq!(serde_text.lines().next(), one.lines().next());
@@ -308,15 +312,24 @@ mod tests {
         let (head, row) = good.split_once('\n').unwrap();
         for (text, want) in [
             (String::new(), "t.csv: empty"),
-            (format!("{head},extra\n{}", row.trim_end().to_string() + ",1\n"), "columns not in it: [\"extra\"]"),
-            (format!("{head}\n{}", row.trim_end().to_string() + ",1\n"), "t.csv:2: not a row"),
+            (
+                format!("{head},extra\n{}", row.trim_end().to_string() + ",1\n"),
+                "columns not in it: [\"extra\"]",
+            ),
+            (
+                format!("{head}\n{}", row.trim_end().to_string() + ",1\n"),
+                "t.csv:2: not a row",
+            ),
             (good.replacen(",12.345678901,", ",NaN,", 1), "run 3: column ms: NaN"),
             (good.replacen(",12.345678901,", ",-1,", 1), "run 3: column ms: -1"),
             (good.replacen(",12.345678901,", ",inf,", 1), "run 3: column ms: inf"),
             (good.replacen(",0.07,", ",-0.07,", 1), "column penumbra_rmse: -0.07"),
             (good.replacen("taps=123456", "taps=NaN", 1), "column counters: 'NaN'"),
         ] {
-            let e = read_csv(&text, "t.csv").err().unwrap_or_else(|| panic!("read: {text}")).to_string();
+            let e = read_csv(&text, "t.csv")
+                .err()
+                .unwrap_or_else(|| panic!("read: {text}"))
+                .to_string();
             assert!(e.contains(want), "{want}: {e}");
         }
     }

@@ -47,7 +47,11 @@ pub fn read_plain(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error>
     let meta = std::fs::symlink_metadata(path).map_err(|e| Error::io(path, &doing, e))?;
     let kind = meta.file_type();
     if kind.is_symlink() {
-        return Err(Error::io(path, &doing, "it is a symbolic link, and links are not followed"));
+        return Err(Error::io(
+            path,
+            &doing,
+            "it is a symbolic link, and links are not followed",
+        ));
     }
     if !kind.is_file() {
         return Err(Error::io(path, &doing, "not a regular file (a folder, FIFO or device)"));
@@ -100,7 +104,9 @@ pub fn write_plain(path: &Path, bytes: &[u8]) -> Result<(), Error> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
         Err(e) => return Err(Error::io(path, "cannot write", e)),
     }
-    let name = path.file_name().map_or("file".into(), |n| n.to_string_lossy().into_owned());
+    let name = path
+        .file_name()
+        .map_or("file".into(), |n| n.to_string_lossy().into_owned());
     let tmp = path.with_file_name(format!(
         ".{name}.{}-{}.part",
         std::process::id(),
