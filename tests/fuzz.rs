@@ -373,7 +373,7 @@ fn mutate_gltf(glb: bool, edits: &[GltfEdit]) -> Vec<u8> {
                     bin.truncate(i);
                 }
             }
-            5 if glb => lengths.push((at as usize % 3, [0, 1, 12, 84, v as u32, u32::MAX][v % 6])),
+            5 if glb => lengths.push((at % 3, [0, 1, 12, 84, v as u32, u32::MAX][v % 6])),
             _ => {}
         }
     }
