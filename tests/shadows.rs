@@ -990,6 +990,26 @@ fn izb_samples(scene: &str, k: &str) -> (f64, Vec<f32>, penumbra::frame::Frame<'
     (wrong as f64 / sv.len() as f64 * 100.0, v, f)
 }
 
+/// Regression: sub-pixel samples on the pixel's tangent plane (the plane of its interpolated
+/// normal) lay under the neighbouring facets of a smooth-shaded heightfield, which shadowed
+/// them: `izb [samples=4]` was 1.88 % wrong on `terrain` (RMSE 0.23, dark speckle over the lit
+/// ground) and 1.30 % on `forest_floor`, where one sample per pixel is exact. On the visible
+/// triangle they are exact at their points and the image is as right as one sample's.
+/// Measured: 0.000 % on terrain and 0.007 % on forest_floor at 4 samples, 0.000 % at the
+/// samples themselves.
+#[test]
+fn izb_sub_pixel_samples_stay_on_a_heightfields_surface() {
+    for scene in ["terrain", "forest_floor"] {
+        let e = hard_errors(scene, "izb", &[("samples", "4")]);
+        assert!(e.wrong_pct <= 0.02, "{scene}: izb [samples=4] wrong {} %", e.wrong_pct);
+        let (at_samples, _, _) = izb_samples(scene, "4");
+        assert!(
+            at_samples <= 0.02,
+            "{scene}: {at_samples} % of samples differ at their points"
+        );
+    }
+}
+
 #[test]
 fn izb_with_sub_pixel_samples_is_exact_at_its_samples_and_anti_aliases_edges() {
     let (wrong1, v1, f) = izb_samples("contact", "1");

@@ -138,7 +138,7 @@ contact cookie [filter=bilinear] c93d6c01041b34c0
 contact izb [] 2fd73c8de3d90925
 contact izb [size=256] 2fd73c8de3d90925
 contact izb [raster=standard] 3731232881757c18
-contact izb [samples=4] 48e99983207c68d8
+contact izb [samples=4] 65fd796df2f84518
 contact hybrid [] d45bccf606578031
 contact hybrid [units=100000] 2fd73c8de3d90925
 contact hybrid [from=0;to=1] 60ac82a6b4d03761
@@ -243,7 +243,7 @@ point_casters cookie [filter=bilinear] ded4554a99be3cb5
 point_casters izb [] 7d2dde7445ac2ca5
 point_casters izb [size=256] 7d2dde7445ac2ca5
 point_casters izb [raster=standard] 05e07069e83cd455
-point_casters izb [samples=4] 441e2e9284640ea8
+point_casters izb [samples=4] f979eb70de328af2
 point_casters hybrid [] 7d2dde7445ac2ca5
 point_casters hybrid [units=100000] 7d2dde7445ac2ca5
 point_casters hybrid [from=0;to=1] 7d2dde7445ac2ca5
@@ -348,7 +348,7 @@ planar cookie [filter=bilinear] d911fc5a0ae3990a
 planar izb [] e7ae3989c62b5f28
 planar izb [size=256] e7ae3989c62b5f28
 planar izb [raster=standard] 5b00abc8cd2b1445
-planar izb [samples=4] dfc9a4b0777abaa5
+planar izb [samples=4] 37ac2438e3ecc465
 planar hybrid [] e7ae3989c62b5f28
 planar hybrid [units=100000] e7ae3989c62b5f28
 planar hybrid [from=0;to=1] e7ae3989c62b5f28
@@ -453,7 +453,7 @@ cookie cookie [filter=bilinear] b6b0542fa6ee02a6
 cookie izb [] 98dcae3592fe9025
 cookie izb [size=256] 98dcae3592fe9025
 cookie izb [raster=standard] 995597da4d751a88
-cookie izb [samples=4] ed80d40f457a5b88
+cookie izb [samples=4] 297454ae2832ced2
 cookie hybrid [] 98dcae3592fe9025
 cookie hybrid [units=100000] 98dcae3592fe9025
 cookie hybrid [from=0;to=1] 98dcae3592fe9025
@@ -558,7 +558,7 @@ long_view cookie [filter=bilinear] bc92601305405580
 long_view izb [] a023432d53f6f625
 long_view izb [size=256] a023432d53f6f625
 long_view izb [raster=standard] f3013b410a491278
-long_view izb [samples=4] d8b14261c1cae438
+long_view izb [samples=4] ac8fb19272e34848
 long_view hybrid [] a023432d53f6f625
 long_view hybrid [units=100000] a023432d53f6f625
 long_view hybrid [from=0;to=1] a023432d53f6f625

@@ -10,8 +10,11 @@
 //! Pass by pass:
 //! 1. **Samples**: one per pixel (the G-buffer's point) or `k` per pixel (4, 16, 32) at
 //!    stratified sub-pixel positions, each the pixel's sub-sample camera ray intersected with
-//!    the pixel's tangent plane (position and normal), as Wyman et al. place them. Samples
-//!    whose normal faces away from the light are unlit and never inserted.
+//!    the triangle visible at the pixel (the pixel's own point where the ray passes beside
+//!    it). Wyman et al. place them on the pixel's tangent plane; with interpolated normals
+//!    that plane leaves the surface, and on a heightfield its sub-samples lay under the
+//!    neighbouring facets, which shadowed them. Samples whose normal faces away from the
+//!    light are unlit and never inserted.
 //! 2. **Grid**: the light's view ([`crate::shadow::light::light_views`]: orthographic for a
 //!    directional light, six cube faces for point, area and spot lights, since samples may lie
 //!    outside a spot's cone) cropped to the light-space bounds of its samples ("tight bounds

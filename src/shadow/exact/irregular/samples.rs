@@ -1,5 +1,5 @@
 //! Pass 1's samples: one per pixel (the G-buffer's point) or `k` per pixel at stratified
-//! sub-pixel positions on the pixel's tangent plane, and which of them face the light.
+//! sub-pixel positions on the pixel's visible triangle, and which of them face the light.
 
 use super::*;
 
@@ -8,7 +8,7 @@ use super::*;
 pub struct CameraSample {
     /// Row-major pixel index.
     pub pixel: u32,
-    /// The point on the pixel's tangent plane, and the pixel's normal.
+    /// The point on the pixel's visible triangle, and the pixel's normal.
     pub point: SamplePoint,
     /// Scene-wide id of the triangle visible at the pixel.
     pub triangle: u32,
@@ -16,8 +16,8 @@ pub struct CameraSample {
 
 /// The camera samples of `frame`, `k` per covered pixel (pixel-major, strata row by row):
 /// with one sample, the G-buffer's point; with more, stratified sub-pixel camera rays
-/// intersected with the pixel's tangent plane (falling back to the G-buffer's point where the
-/// plane is seen edge-on or the hit lands more than two pixels' footprint away).
+/// intersected with the triangle visible at the pixel (falling back to the G-buffer's point
+/// where the ray passes beside that triangle or sees it edge-on).
 pub fn camera_samples(frame: &Frame, k: SamplesPerPixel) -> Vec<CameraSample> {
     camera_samples_grid(frame, k.grid())
 }
@@ -90,24 +90,25 @@ impl<'a> SampleFiller<'a> {
                 let ndc = Vec2::new(px / w as f32 * 2.0 - 1.0, 1.0 - py / h as f32 * 2.0);
                 (self.inv.project_point3(ndc.extend(1.0)) - self.eye).normalize()
             };
-            // The pixel's footprint at the point, for the fall-back test.
-            let dist = (s.position - self.eye).length();
-            let foot = (ray(x as f32 + 0.5, y as f32 + 0.5) - ray(x as f32 + 1.5, y as f32 + 0.5)).length() * dist;
+            // The visible triangle itself: a sub-sample is where its camera ray meets that
+            // triangle. (On the pixel's tangent plane, the plane of its interpolated normal, a
+            // sub-sample of a smooth-shaded heightfield lay below the neighbouring facets,
+            // which then shadowed it: dark speckle over lit terrain.)
+            let tri = {
+                let obj = f.gbuffer.object.data()[i] as usize;
+                let prim = f.gbuffer.prim.data()[i] as usize;
+                let m = &f.scene.objects[obj].mesh;
+                let v = |k: usize| m.positions[m.indices[3 * prim + k] as usize];
+                [v(0), v(1), v(2)]
+            };
+            let ng = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
             for r in 0..rows {
                 for c in 0..cols {
                     let d = ray(
                         x as f32 + (c as f32 + 0.5) / cols as f32,
                         y as f32 + (r as f32 + 0.5) / rows as f32,
                     );
-                    let denom = s.normal.dot(d);
-                    let mut p = s.position;
-                    if denom.abs() > 1e-6 {
-                        let t = s.normal.dot(s.position - self.eye) / denom;
-                        let q = self.eye + d * t;
-                        if t > 0.0 && (q - s.position).length() <= 2.0 * foot.max(1e-12) {
-                            p = q;
-                        }
-                    }
+                    let p = on_triangle(self.eye, d, &tri, ng).unwrap_or(s.position);
                     out[o] = CameraSample {
                         pixel: i as u32,
                         point: SamplePoint {
@@ -122,6 +123,23 @@ impl<'a> SampleFiller<'a> {
         }
         debug_assert_eq!(o, out.len());
     }
+}
+
+/// Where the ray from `eye` along `d` meets the triangle `tri` (geometric normal `ng`), if it
+/// meets it in front of the eye and inside its edges; `None` where it passes beside it or the
+/// triangle is seen edge-on (the sample is then the pixel's own G-buffer point).
+fn on_triangle(eye: Vec3, d: Vec3, tri: &[Vec3; 3], ng: Vec3) -> Option<Vec3> {
+    let denom = ng.dot(d);
+    if !(denom.abs() > 1e-7 * ng.length()) {
+        return None;
+    }
+    let t = ng.dot(tri[0] - eye) / denom;
+    let q = eye + d * t;
+    let inside = (0..3).all(|k| {
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        (b - a).cross(q - a).dot(ng) >= 0.0
+    });
+    (t > 0.0 && inside).then_some(q)
 }
 
 impl Default for CameraSample {
