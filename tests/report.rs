@@ -556,3 +556,30 @@ fn merge_refuses_links_devices_and_rows_no_sweep_wrote() {
         assert_eq!(std::fs::read_to_string(&secret).unwrap(), "not for the report");
     }
 }
+
+/// A sweep whose stderr is not a terminal (a CI log, a batch job) prints plain progress lines
+/// (done/total, elapsed, what is at work) when it starts and at a fixed interval, instead of
+/// nothing for its whole run.
+#[test]
+fn a_piped_sweep_prints_progress_lines() {
+    let dir = temp_dir("progress");
+    let scene = dir.join("hard.toml");
+    std::fs::write(&scene, HARD).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(["sweep", scene.to_str().unwrap(), "--techniques", "reference,shadow-map"])
+        .args(["--reps", "3", "--out", dir.join("out").to_str().unwrap()])
+        .env("PENUMBRA_PROGRESS_SECS", "0.001")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("sweep: ")).collect();
+    assert!(
+        lines[0].starts_with("sweep: 0/") && lines[0].contains(" runs, "),
+        "{err}"
+    );
+    assert!(
+        lines.len() >= 2 && lines.iter().any(|l| l.contains(", at hard / ")),
+        "{err}"
+    );
+}

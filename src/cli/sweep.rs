@@ -52,14 +52,99 @@ pub fn shard_range(total: usize, (i, n): (usize, usize)) -> std::ops::Range<usiz
     (total * i / n)..(total * (i + 1) / n)
 }
 
-fn progress(total: usize) -> ProgressBar {
-    let bar = ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed} {msg}")
-            .expect("a valid template")
-            .progress_chars("#>."),
-    );
-    bar
+/// Progress of a long command: indicatif's bar on a terminal; where stderr is not one (CI
+/// logs, batch jobs), a plain line when it starts and then every 10 seconds
+/// (`PENUMBRA_PROGRESS_SECS` sets the interval): done/total, elapsed, what is at work.
+pub struct Progress {
+    bar: Option<ProgressBar>,
+    state: std::sync::Arc<std::sync::Mutex<(u64, String)>>,
+    stop: Option<(std::sync::mpsc::Sender<()>, std::thread::JoinHandle<()>)>,
+}
+
+impl Progress {
+    /// Progress of `total` steps of the command `label`.
+    pub fn new(label: &'static str, total: usize) -> Progress {
+        use std::io::IsTerminal;
+        let state = std::sync::Arc::new(std::sync::Mutex::new((0u64, String::new())));
+        if std::io::stderr().is_terminal() {
+            let bar = ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
+            bar.set_style(
+                ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed} {msg}")
+                    .expect("a valid template")
+                    .progress_chars("#>."),
+            );
+            return Progress {
+                bar: Some(bar),
+                state,
+                stop: None,
+            };
+        }
+        let every = std::env::var("PENUMBRA_PROGRESS_SECS")
+            .ok()
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .unwrap_or(10.0)
+            .min(3600.0);
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let shared = state.clone();
+        let t0 = Instant::now();
+        let line = move || {
+            let (done, what) = shared.lock().map(|g| g.clone()).unwrap_or_default();
+            eprintln!(
+                "{label}: {done}/{total} runs, {:.0} s{}",
+                t0.elapsed().as_secs_f64(),
+                if what.is_empty() {
+                    String::new()
+                } else {
+                    format!(", at {what}")
+                }
+            );
+        };
+        line();
+        let thread = std::thread::spawn(move || {
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                rx.recv_timeout(std::time::Duration::from_secs_f64(every))
+            {
+                line();
+            }
+        });
+        Progress {
+            bar: None,
+            state,
+            stop: Some((tx, thread)),
+        }
+    }
+
+    /// One more step done.
+    pub fn inc(&self) {
+        if let Some(b) = &self.bar {
+            b.inc(1);
+        }
+        if let Ok(mut g) = self.state.lock() {
+            g.0 += 1;
+        }
+    }
+
+    /// What is at work now.
+    pub fn set_message(&self, msg: String) {
+        if let Some(b) = &self.bar {
+            b.set_message(msg.clone());
+        }
+        if let Ok(mut g) = self.state.lock() {
+            g.1 = msg;
+        }
+    }
+
+    /// Clears the bar, or stops the lines.
+    pub fn finish(mut self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+        if let Some((tx, thread)) = self.stop.take() {
+            drop(tx);
+            let _ = thread.join();
+        }
+    }
 }
 
 /// `penumbra sweep`.
@@ -131,7 +216,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
     let cache = DirCache(o.out.join("cache"));
     let mut results: Vec<RunResult> = Vec::new();
     let t0 = Instant::now();
-    let bar = progress(mine.len());
+    let bar = Progress::new("sweep", mine.len());
     for (si, (s, text)) in loaded.iter().enumerate() {
         let runs = si * jobs.len()..(si + 1) * jobs.len();
         if runs.end <= mine.start || runs.start >= mine.end {
@@ -144,7 +229,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
                 continue;
             }
             if skipped.contains(&index) {
-                bar.inc(1);
+                bar.inc();
                 continue;
             }
             bar.set_message(format!("{} / {name}", s.name));
@@ -152,10 +237,10 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
             let r = run::render_prepared(&p, &prepared, name, sets, reps)?;
             report::files::write_run(&thumbs_dir, &r)?;
             results.push(RunResult { index, ..r.result });
-            bar.inc(1);
+            bar.inc();
         }
     }
-    bar.finish_and_clear();
+    bar.finish();
     let manifest = Manifest {
         settings: jobs
             .iter()
