@@ -130,7 +130,7 @@ impl<'a> SampleFiller<'a> {
 /// triangle is seen edge-on (the sample is then the pixel's own G-buffer point).
 fn on_triangle(eye: Vec3, d: Vec3, tri: &[Vec3; 3], ng: Vec3) -> Option<Vec3> {
     let denom = ng.dot(d);
-    if !(denom.abs() > 1e-7 * ng.length()) {
+    if denom.is_nan() || denom.abs() <= 1e-7 * ng.length() {
         return None;
     }
     let t = ng.dot(tri[0] - eye) / denom;
