@@ -95,11 +95,35 @@ enum Cmd {
     Export(SceneArgs),
     /// List techniques with their options and defaults, and the built-in scenes.
     List,
+    /// Write a random scene (seeded, reproducible): a scene file and the OBJ files it names.
+    Random(RandomArgs),
     /// Benchmarks: the shadow-mapped spheres frame, or random triangles.
     Bench {
         #[command(subcommand)]
         which: BenchCmd,
     },
+}
+
+#[derive(Args)]
+struct RandomArgs {
+    /// The seed: the same seed is the same scene on every machine.
+    #[arg(long, allow_negative_numbers = true, value_parser = count::<u64>(0, u64::MAX))]
+    seed: u64,
+    /// Output folder (the scene is `random_<seed>.toml` in it).
+    #[arg(long, default_value = "out/random")]
+    out: PathBuf,
+    /// Only opaque materials (for the hard techniques' exactness).
+    #[arg(long)]
+    opaque: bool,
+    /// Only this kind of light: directional, spot, point, disk, sphere or rectangle.
+    #[arg(long)]
+    light: Option<String>,
+    /// Camera resolution.
+    #[arg(long, default_value_t = 160, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    width: u32,
+    /// Camera resolution.
+    #[arg(long, default_value_t = 90, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    height: u32,
 }
 
 #[derive(Args)]
@@ -369,6 +393,7 @@ fn main() -> ExitCode {
         }),
         Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),
         Some(Cmd::List) => export::list(),
+        Some(Cmd::Random(a)) => random(a),
         Some(Cmd::Bench {
             which: BenchCmd::Frame(a),
         }) => bench::frame(a),
@@ -411,4 +436,32 @@ fn parse_threads(s: &str) -> Result<usize, String> {
         ));
     }
     Ok(n)
+}
+
+/// `penumbra random`: writes the scene of a seed.
+fn random(a: RandomArgs) -> Result<(), error::CliError> {
+    use penumbra::scene::random::{generate, Params, LIGHT_KINDS};
+    let lights = match a.light.as_deref() {
+        None => LIGHT_KINDS.to_vec(),
+        Some(k) => match LIGHT_KINDS.iter().find(|&&l| l == k) {
+            Some(&l) => vec![l],
+            None => return Err(format!("--light '{k}': one of {}", LIGHT_KINDS.join(", ")).into()),
+        },
+    };
+    let params = Params {
+        width: a.width,
+        height: a.height,
+        translucent: !a.opaque,
+        lights,
+        ..Params::default()
+    };
+    let r = generate(a.seed, &params);
+    // Checked as any scene is before it is written.
+    r.scene()?;
+    let path = r.write(&a.out)?;
+    println!("{}", path.display());
+    for (name, _) in &r.meshes {
+        println!("{}", a.out.join(name).display());
+    }
+    Ok(())
 }

@@ -263,6 +263,8 @@ struct Ctx<'a> {
     /// The scene is a glTF file alone: it has no lines of scene text to cite, so errors name
     /// the glTF file and the part of the scene (its camera, its lights) without a line.
     gltf_alone: bool,
+    /// OBJ files held in memory (name, text), taken before the disk ([`parse_with_files`]).
+    files: &'a [(String, String)],
 }
 
 impl Ctx<'_> {
@@ -538,7 +540,11 @@ impl Ctx<'_> {
                 }
                 p if p.to_ascii_lowercase().ends_with(".obj") => {
                     let full: PathBuf = dir.join(p);
-                    mesh::load_obj(&full).or_else(|e| self.err(s.clone(), &what, "mesh", e))?
+                    match self.files.iter().find(|(name, _)| name == p) {
+                        Some((_, text)) => mesh::obj_from_bytes(text.as_bytes(), &full),
+                        None => mesh::load_obj(&full),
+                    }
+                    .or_else(|e| self.err(s.clone(), &what, "mesh", e))?
                 }
                 p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
                     let full: PathBuf = dir.join(p);
@@ -969,6 +975,7 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
             path,
             text: &text,
             gltf_alone: true,
+            files: &[],
         };
         return build(&ctx, raw, format!("{shown} (glTF)")).map(|s| (s, text));
     }
@@ -997,10 +1004,17 @@ pub fn load_with_text(path: &Path) -> Result<(Scene, String), Error> {
 /// scene has no `[[light]]`, and its first perspective camera when the scene has no
 /// `[camera]` ([`super::gltf`]).
 pub fn parse(text: &str, path: &Path) -> Result<Scene, Error> {
+    parse_with_files(text, path, &[])
+}
+
+/// [`parse`], with OBJ files held in memory: an object whose `mesh` is one of `files`' names
+/// takes that text instead of reading the file (generated scenes, [`super::random`]).
+pub fn parse_with_files(text: &str, path: &Path, files: &[(String, String)]) -> Result<Scene, Error> {
     let ctx = Ctx {
         path,
         text,
         gltf_alone: false,
+        files,
     };
     let raw: RawScene = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| ctx.line(s.start)).unwrap_or(0);

@@ -335,7 +335,13 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), Error> {
 #[cfg(feature = "files")]
 pub fn load_obj(path: &Path) -> Result<Mesh, Error> {
     let bytes = super::file::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
-    let text = String::from_utf8_lossy(&bytes);
+    obj_from_bytes(&bytes, path)
+}
+
+/// [`load_obj`] of an OBJ file's bytes already in memory; `path` names it in errors.
+#[cfg(feature = "files")]
+pub fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh, Error> {
+    let text = String::from_utf8_lossy(bytes);
     let (text, _dropped) = check_obj(&text, path)?;
     let opts = tobj::LoadOptions {
         triangulate: true,

@@ -8,6 +8,8 @@ pub mod file;
 #[cfg(feature = "files")]
 pub mod gltf;
 pub mod mesh;
+#[cfg(feature = "files")]
+pub mod random;
 pub mod spheres;
 
 use glam::{Mat4, Vec3};
