@@ -140,7 +140,7 @@ fn spherical(dist: f32, elev: f32, az: f32) -> [f32; 3] {
 
 /// Generates the scene of `seed` under `params`.
 pub fn generate(seed: u64, params: &Params) -> RandomScene {
-    let mut g = Rng(seed ^ 0x5eed_0f_5ce7e5);
+    let mut g = Rng(seed ^ 0x5eed_0f5c_e7e5);
     let mut t = String::new();
     let mut meshes = Vec::new();
     let _ = writeln!(t, "# Random scene {seed} (penumbra random --seed {seed}).");
