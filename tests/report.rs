@@ -583,3 +583,42 @@ fn a_piped_sweep_prints_progress_lines() {
         "{err}"
     );
 }
+
+/// `penumbra random` writes a seed's scene (and the OBJ files it names) so that it renders
+/// like any fixture; the same seed writes the same files.
+#[test]
+fn random_writes_a_scene_that_renders() {
+    let dir = temp_dir("random");
+    let mut texts = Vec::new();
+    for run in 0..2 {
+        let out = dir.join(format!("r{run}"));
+        // Seed 11 has a knot (an OBJ beside the scene).
+        let (ok, text) = cli(&["random", "--seed", "11", "--out", out.to_str().unwrap()]);
+        assert!(ok, "{text}");
+        let scene = text.lines().next().unwrap().to_string();
+        assert!(scene.ends_with("random_11.toml") && text.contains(".obj"), "{text}");
+        texts.push(std::fs::read_to_string(&scene).unwrap());
+        let (ok, text) = cli(&[
+            "render",
+            &scene,
+            "--technique",
+            "shadow-map",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{text}");
+    }
+    assert_eq!(texts[0], texts[1]);
+    let (ok, text) = cli(&[
+        "random",
+        "--seed",
+        "1",
+        "--light",
+        "laser",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("one of directional, spot"), "{text}");
+    let (ok, text) = cli(&["random", "--seed", "-1"]);
+    assert!(!ok && text.contains("-1 is outside"), "{text}");
+}
