@@ -81,30 +81,39 @@ proptest! {
 }
 
 /// Soft techniques reduce to hard ones under a hard light (directional, spot, point): on
-/// each generated scene no worse than the hard map beyond a margin, and no worse on average.
-/// Measured over 300 seeds (2026-12-06), percentage points of wrong pixels above the map's
-/// (mean 0.297 %): PCSS and PVM at most +0.015 (mean -0.018), CHS +0.72 (mean +0.006),
-/// multi-sample maps +0.31 (mean +0.040). PVMF is not here: its default depth layer, the
-/// dissertation's second-depth map, leaks light through open surfaces under any light
-/// (`shadow-map [layer=second]` has the same error): over 40 seeds up to 9.8 % wrong where
-/// the map is 0.9 % (`layer=first`: 1.7 %).
+/// each generated scene no worse than the hard map beyond a margin, and no worse on average
+/// beyond a smaller one. Measured over 300 seeds (2026-12-06), percentage points of wrong
+/// pixels above the map's (mean 0.297 %): PCSS and PVM at most +0.015 (mean -0.018), CHS
+/// +0.72 (mean +0.006), multi-sample maps +0.31 (mean +0.040), PVMF +2.18 (mean +0.159: its
+/// map is 512² by default, the plain map's 2048²). PVMF's former default depth layer, the
+/// dissertation's second depth, leaks light through open surfaces under any light: over 40
+/// seeds up to 9.8 % wrong where the map is 0.9 %; midpoint is its default now.
 #[test]
 fn soft_techniques_reduce_to_the_hard_map_under_hard_lights() {
     let n = cases(48) as u64;
-    let margins = [("pcss", 0.05), ("chs", 1.0), ("pvm", 0.05), ("multi-sample", 0.5)];
-    let mut sums = [0.0f64; 5];
+    let margins = [
+        ("pcss", 0.05, 0.05),
+        ("chs", 1.0, 0.1),
+        ("pvm", 0.05, 0.05),
+        ("multi-sample", 0.5, 0.1),
+        ("pvmf", 2.5, 0.25),
+    ];
+    let mut sums = [0.0f64; 6];
     for seed in 0..n {
         let s = random(seed, &hard_params()).unwrap();
         let map = hard_wrong(&s, "shadow-map");
         sums[0] += map;
-        for (k, (t, margin)) in margins.iter().enumerate() {
+        for (k, (t, margin, _)) in margins.iter().enumerate() {
             let w = hard_wrong(&s, t);
             sums[k + 1] += w;
             assert!(w <= map + margin, "seed {seed}: {t} {w} % wrong, the hard map {map} %");
         }
     }
-    for (k, (t, _)) in margins.iter().enumerate() {
+    for (k, (t, _, mean_margin)) in margins.iter().enumerate() {
         let (mean, map) = (sums[k + 1] / n as f64, sums[0] / n as f64);
-        assert!(mean <= map + 0.1, "{t}: mean {mean} % wrong, the hard map's {map} %");
+        assert!(
+            mean <= map + mean_margin,
+            "{t}: mean {mean} % wrong, the hard map's {map} %"
+        );
     }
 }

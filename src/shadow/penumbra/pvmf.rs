@@ -1,9 +1,9 @@
 //! Penumbra volume mask filtering (Cournia 2005, chapter 5): five steps.
 //!
 //! 1. **Depth map** from the light's centre (the shadow map's light pass). The text renders
-//!    back faces only, second-depth shadow mapping (5.5, `layer=second`, the default), and
-//!    names midpoint shadow maps as future work (`layer=midpoint`); `layer=first` is the plain
-//!    map.
+//!    back faces only, second-depth shadow mapping (5.5, `layer=second`), and names midpoint
+//!    shadow maps as future work (`layer=midpoint`, the default here: second depth leaks
+//!    light through open surfaces, which most scenes have); `layer=first` is the plain map.
 //! 2. **Penumbra volume mask** (5.1). Every light-space silhouette edge `e0 e1`
 //!    ([`super::silhouettes`], the shadow volumes' adjacency) gives its own volume, with no
 //!    neighbour: the end points are moved toward the light by the same distance,
@@ -86,7 +86,10 @@ pub struct Options {
     pub map: MapOptions,
     /// Normal-offset and receiver-plane bias. Default: none.
     pub bias: Bias,
-    /// What pass 1's map stores. Default: second (the text's).
+    /// What pass 1's map stores. Default: midpoint. The text's second depth (`layer=second`)
+    /// leaks light through open surfaces (planes, sheets, terrain patches): on generated
+    /// scenes under hard lights it was up to 9.8 % wrong where the plain map is 0.9 %, and
+    /// on the area fixtures midpoint is as close to the reference (`tests/random.rs`).
     pub layer: Layer,
     /// The bias cone across the filter, and the hierarchy: it classifies each filter's
     /// footprint first and skips the taps of one fully lit or fully shadowed (the same image,
@@ -126,7 +129,7 @@ impl Default for Options {
                 ..Default::default()
             },
             bias: Bias::default(),
-            layer: Layer::Second,
+            layer: Layer::Midpoint,
             wide: Wide {
                 cone: 0.0,
                 hierarchy: true,
@@ -154,7 +157,7 @@ pub fn declaration() -> Declaration<Options> {
     fields.extend([
         Field::new(
             "layer",
-            "pass 1: first, second (back faces, the text's) or midpoint depth",
+            "pass 1: first, second (back faces, the text's) or midpoint depth (the default)",
             |o: &mut Options| &mut o.layer,
         ),
         light_field(|o: &mut Options| &mut o.light),
@@ -222,7 +225,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[
             &[("pcf", "3")],
             &[("jitter", "false")],
-            &[("layer", "midpoint")],
+            &[("layer", "second")],
             &[("layer", "first")],
             &[("pcf", "12"), ("size", "1024")],
             &[("spread", "1")],
