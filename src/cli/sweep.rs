@@ -272,9 +272,10 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
     }
     write_sweep(&o.out, &results, &manifest)?;
     println!(
-        "sweep: {} runs on {} scenes in {:.1} s, {} threads",
+        "sweep: {} runs on {} scene{} in {:.1} s, {} threads",
         results.len(),
         loaded.len(),
+        if loaded.len() == 1 { "" } else { "s" },
         t0.elapsed().as_secs_f64(),
         p.threads()
     );
