@@ -296,9 +296,8 @@ const GLTF_VALUES: &[&str] = &[
 /// The glTF corpus: the small scene as `.gltf` text (its buffer a `data:` URI) and as `.glb`
 /// (its buffer the BIN chunk).
 fn gltf_corpus(glb: bool) -> (Vec<u8>, Vec<u8>) {
-    let (json, bin) = common::gltf_parts(&[0, 2, 1, 0, 3, 2], 4);
     if glb {
-        let json = json.replacen(r#""byteLength": BUFFER"#, &format!(r#""byteLength": {}"#, bin.len()), 1);
+        let (json, bin) = common::glb_parts(&[0, 2, 1, 0, 3, 2], 4);
         (json.into_bytes(), bin)
     } else {
         (common::gltf_text(&[0, 2, 1, 0, 3, 2], 4).into_bytes(), Vec::new())

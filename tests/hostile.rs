@@ -342,12 +342,8 @@ fn a_gltf_alone_has_errors_about_itself() {
             "{name}: {e}"
         );
         // The same file as a GLB.
-        let glb = common::glb_file(&[0, 2, 1, 0, 3, 2], 4);
-        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-        let json = String::from_utf8(glb[20..20 + json_len].to_vec())
-            .unwrap()
-            .replacen(from, to, 1);
-        let (_, bin) = common::gltf_parts(&[0, 2, 1, 0, 3, 2], 4);
+        let (json, bin) = common::glb_parts(&[0, 2, 1, 0, 3, 2], 4);
+        let json = json.replacen(from, to, 1);
         let p = std::path::PathBuf::from(common::temp_file("hostile-gltf", "x", ""))
             .with_file_name(name.replace(".gltf", ".glb"));
         std::fs::write(&p, common::glb(json.as_bytes(), &bin)).unwrap();

@@ -42,45 +42,7 @@ pub const MAX_SHARD_FILE: u64 = 256 << 20;
 /// symbolic link (a shard's link could name any file on the machine), and never a FIFO or
 /// device (refused before it is opened: a read would hang or never end).
 pub fn read_plain(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error> {
-    use std::io::Read;
-    let doing = format!("cannot read {what}");
-    let meta = std::fs::symlink_metadata(path).map_err(|e| Error::io(path, &doing, e))?;
-    let kind = meta.file_type();
-    if kind.is_symlink() {
-        return Err(Error::io(
-            path,
-            &doing,
-            "it is a symbolic link, and links are not followed",
-        ));
-    }
-    if !kind.is_file() {
-        return Err(Error::io(path, &doing, "not a regular file (a folder, FIFO or device)"));
-    }
-    if meta.len() > limit {
-        return Err(Error::io(
-            path,
-            &doing,
-            format!("{} bytes, more than the {limit} read at most", meta.len()),
-        ));
-    }
-    let f = std::fs::File::open(path).map_err(|e| Error::io(path, &doing, e))?;
-    // The file opened is the one checked (not a link put in its place since).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        let opened = f.metadata().map_err(|e| Error::io(path, &doing, e))?;
-        if (opened.dev(), opened.ino()) != (meta.dev(), meta.ino()) {
-            return Err(Error::io(path, &doing, "the file changed while it was opened"));
-        }
-    }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    f.take(limit + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Error::io(path, &doing, e))?;
-    if bytes.len() as u64 > limit {
-        return Err(Error::io(path, &doing, format!("grew past {limit} bytes while read")));
-    }
-    Ok(bytes)
+    crate::scene::file::read_unlinked(path, what, limit)
 }
 
 /// Writes `bytes` to `path` as a regular file: a regular file already there is replaced; a

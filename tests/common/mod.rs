@@ -43,13 +43,19 @@ pub fn gltf_text(indices: &[u16], mode: u32) -> String {
 
 /// The same scene as a binary glTF: the JSON with its buffer in the GLB's BIN chunk.
 pub fn glb_file(indices: &[u16], mode: u32) -> Vec<u8> {
+    let (json, bytes) = glb_parts(indices, mode);
+    glb(json.as_bytes(), &bytes)
+}
+
+/// The JSON and the BIN chunk of [`glb_file`] before they are put in the container.
+pub fn glb_parts(indices: &[u16], mode: u32) -> (String, Vec<u8>) {
     let (json, bytes) = gltf_parts(indices, mode);
     let json = json.replacen(
         r#""byteLength": BUFFER"#,
         &format!(r#""byteLength": {}"#, bytes.len()),
         1,
     );
-    glb(json.as_bytes(), &bytes)
+    (json, bytes)
 }
 
 /// A GLB container (version 2) around a JSON chunk and a BIN chunk, each padded to 4 bytes.
