@@ -83,6 +83,8 @@ pub mod alloc;
 #[cfg(feature = "cli")]
 #[doc(hidden)]
 pub mod bench;
+#[cfg(feature = "cli")]
+pub mod choose;
 pub mod error;
 pub mod frame;
 pub mod hash;

@@ -622,3 +622,73 @@ fn random_writes_a_scene_that_renders() {
     let (ok, text) = cli(&["random", "--seed", "-1"]);
     assert!(!ok && text.contains("-1 is outside"), "{text}");
 }
+
+/// `penumbra choose`: on an opaque scene under the sun no volumetric and no penumbra technique
+/// runs (each is listed as skipped, with why); the pick meets the error bound and no faster
+/// run of the same call does; an unreachable goal names the closest setting; bad goals are
+/// refused with the number and the flag.
+#[test]
+fn choose_picks_the_cheapest_setting_within_the_goal() {
+    let dir = temp_dir("choose");
+    let scene = dir.join("hard.toml");
+    std::fs::write(&scene, HARD).unwrap();
+    let s = scene.to_str().unwrap();
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    let (ok, text) = cli(&["choose", s, "--max-error", "2", "--reps", "1", "--json", "--out", o]);
+    assert!(ok, "{text}");
+    // stdout (the JSON object) comes first, stderr's progress lines after it.
+    let json = &text[text.find('{').unwrap()..=text.find("\n}").unwrap() + 1];
+    let doc: serde_json::Value = serde_json::from_str(json).unwrap();
+    let runs = doc["runs"].as_array().unwrap();
+    let skipped: Vec<&str> = doc["skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["technique"].as_str().unwrap())
+        .collect();
+    // Under the sun, with every object opaque, a technique runs when it models nothing more
+    // than a hard shadow (and works on the scene); the others are listed as skipped.
+    let parsed = penumbra::scene::file::parse(HARD, &scene).unwrap();
+    for t in penumbra::shadow::registry().iter().filter(|t| t.name != "reference") {
+        let ran = runs.iter().any(|r| r["technique"] == t.name);
+        assert_eq!(ran, t.models.is_empty() && t.applies_to(&parsed), "{}", t.name);
+        assert_eq!(skipped.contains(&t.name), !ran, "{}", t.name);
+    }
+    for t in ["avsm", "deep-shadow-map", "pcss", "pvm"] {
+        assert!(skipped.contains(&t), "{t}: {skipped:?}");
+    }
+    let pick = &doc["pick"];
+    let (err, ms) = (pick["error"].as_f64().unwrap(), pick["ms"].as_f64().unwrap());
+    assert!(err <= 2.0, "{pick}");
+    for r in runs {
+        let (e, t) = (r["error"].as_f64().unwrap(), r["ms"].as_f64().unwrap());
+        assert!(
+            !(e <= 2.0 && t < ms),
+            "{r} is within the bound and faster than the pick {pick}"
+        );
+    }
+    assert!(out.join("hard.svg").is_file());
+    // An unreachable goal: no pick, the closest named.
+    let (ok, text) = cli(&["choose", s, "--budget-ms", "0.000001", "--reps", "0", "--out", o]);
+    assert!(
+        ok && text.contains("nothing runs within 0.000001 ms; the fastest is "),
+        "{text}"
+    );
+    let (ok, text) = cli(&["choose", s, "--max-error", "0", "--reps", "0", "--out", o]);
+    assert!(
+        ok && (text.contains("pick (") || text.contains("nothing within 0; the most accurate is ")),
+        "{text}"
+    );
+    for (flag, value, says) in [
+        ("--max-error", "-1", "--max-error -1: an error is a finite number"),
+        ("--max-error", "NaN", "--max-error NaN"),
+        ("--budget-ms", "0", "--budget-ms 0: a time budget"),
+        ("--budget-ms", "inf", "--budget-ms inf"),
+        ("--budget-ms", "soon", "'soon' is not a number"),
+        ("--scale", "0", "'0' is not a scale in (0, 4]"),
+    ] {
+        let (ok, text) = cli(&["choose", s, flag, value, "--out", o]);
+        assert!(!ok && text.contains(says), "{flag} {value}: {text}");
+    }
+}

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod bench;
+mod choose;
 mod error;
 mod export;
 mod scene;
@@ -91,6 +92,10 @@ enum Cmd {
     Reference(SceneArgs),
     /// Every technique (and each option set it declares) on every scene: CSV, charts, report.
     Sweep(SweepArgs),
+    /// Which technique for this scene? Names what the scene has, runs the techniques that model
+    /// it against the reference, prints the Pareto front and picks: the cheapest within
+    /// --max-error, or the most accurate within --budget-ms.
+    Choose(ChooseArgs),
     /// Write a scene in world space as OBJ plus a JSON of camera and lights.
     Export(SceneArgs),
     /// List techniques with their options and defaults, and the built-in scenes.
@@ -124,6 +129,38 @@ struct RandomArgs {
     /// Camera resolution.
     #[arg(long, default_value_t = 90, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
     height: u32,
+}
+
+#[derive(Args)]
+struct ChooseArgs {
+    /// Scene file (TOML, glTF).
+    scene: PathBuf,
+    /// Pick the cheapest setting whose error is at most E, on the scene's metric (wrong
+    /// pixels in % for hard shadows, penumbra RMSE under an area light, transmittance RMSE
+    /// where light passes through casters). Default: 0.5 % wrong, or an RMSE of 0.05.
+    #[arg(long, value_name = "E", allow_negative_numbers = true, value_parser = choose::parse_number, conflicts_with = "budget_ms")]
+    max_error: Option<f64>,
+    /// Pick the most accurate setting whose median time is at most T milliseconds.
+    #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = choose::parse_number)]
+    budget_ms: Option<f64>,
+    /// Run at the scene's resolution times this, in (0, 4] (0.5 for a quick answer).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = choose::parse_scale)]
+    scale: f64,
+    /// Also every technique's extended option sets.
+    #[arg(long)]
+    all: bool,
+    /// Timed repetitions after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = parse_reps)]
+    reps: usize,
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    threads: usize,
+    /// Print one JSON object (facts, runs, front, pick, alternatives) instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Output folder: the chart (`<scene>.svg`) and the reference cache.
+    #[arg(long, default_value = "out/choose")]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -390,6 +427,20 @@ fn main() -> ExitCode {
             out: a.out,
             all: a.all,
             shard: a.shard.unwrap_or((0, 1)),
+        }),
+        Some(Cmd::Choose(a)) => choose::choose_cmd(choose::ChooseOpts {
+            scene: a.scene,
+            goal: match (a.max_error, a.budget_ms) {
+                (Some(e), _) => Some(penumbra::choose::Goal::MaxError(e)),
+                (None, Some(t)) => Some(penumbra::choose::Goal::BudgetMs(t)),
+                (None, None) => None,
+            },
+            scale: a.scale,
+            all: a.all,
+            reps: a.reps,
+            threads: a.threads,
+            json: a.json,
+            out: a.out,
         }),
         Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),
         Some(Cmd::List) => export::list(),

@@ -218,6 +218,46 @@ pub struct TechniqueInfo {
     /// scene (the sweep, the golden hashes): `None` for every scene. On another scene its
     /// `visibility` is an error that says what is missing.
     pub applies: Option<fn(&Scene) -> bool>,
+    /// What the technique models beyond the hard shadow of opaque casters from a point (empty:
+    /// nothing more). `penumbra choose` skips a technique whose scene has none of these: no
+    /// penumbra technique under a point light, no volumetric one where nothing transmits light.
+    pub models: &'static [Effect],
+}
+
+/// An effect a technique models beyond the hard shadow of opaque casters from a point
+/// ([`TechniqueInfo::models`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Effect {
+    /// The penumbra of an area light (a light with a size).
+    AreaLight,
+    /// Light through translucent or coloured casters (partial and coloured transmittance).
+    Transmittance,
+}
+
+impl Effect {
+    /// Whether `scene` (its first light, its materials) has this effect.
+    pub fn in_scene(self, scene: &Scene) -> bool {
+        match self {
+            Effect::AreaLight => matches!(
+                scene.lights.first().map(|l| l.kind),
+                Some(crate::scene::LightKind::Area(_))
+            ),
+            Effect::Transmittance => scene.objects.iter().any(|o| {
+                scene
+                    .materials
+                    .get(o.material)
+                    .is_some_and(crate::scene::Material::is_transparent)
+            }),
+        }
+    }
+
+    /// A name for people: `an area light`, `translucent casters`.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Effect::AreaLight => "an area light's penumbra",
+            Effect::Transmittance => "light through translucent or coloured casters",
+        }
+    }
 }
 
 impl TechniqueInfo {

@@ -58,6 +58,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(RefTechnique::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

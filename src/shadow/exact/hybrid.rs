@@ -104,6 +104,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("from", "0"), ("to", "1")], &[("from", "2"), ("to", "12")]],
         create: |pairs| Ok(Box::new(Hybrid::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

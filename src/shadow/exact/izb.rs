@@ -61,6 +61,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(Izb::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

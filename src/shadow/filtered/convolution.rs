@@ -105,6 +105,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("terms", "16")], &[("damping", "2")]],
         create: |pairs| Ok(Box::new(Convolution::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

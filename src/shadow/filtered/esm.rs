@@ -95,6 +95,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("prefilter", "mips")], &[("storage", "f16"), ("exponent", "10"), ("log", "false")]],
         create: |pairs| Ok(Box::new(Esm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

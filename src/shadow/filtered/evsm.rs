@@ -120,6 +120,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("positive", "80")]],
         create: |pairs| Ok(Box::new(Evsm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

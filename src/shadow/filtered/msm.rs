@@ -109,6 +109,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("prefilter", "sat")]],
         create: |pairs| Ok(Box::new(Msm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

@@ -117,6 +117,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("prefilter", "mips")], &[("storage", "f16")], &[("radius", "8"), ("size", "1024")]],
         create: |pairs| Ok(Box::new(Vsm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

@@ -112,6 +112,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
         create: |pairs| Ok(Box::new(Chs::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

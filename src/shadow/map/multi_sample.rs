@@ -121,6 +121,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

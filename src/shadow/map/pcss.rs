@@ -66,6 +66,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(Pcss::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

@@ -80,6 +80,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(ShadowMap::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

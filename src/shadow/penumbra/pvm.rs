@@ -114,6 +114,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
         create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

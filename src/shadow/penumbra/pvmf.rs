@@ -233,6 +233,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::AreaLight],
     }
 }
 

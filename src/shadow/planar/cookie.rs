@@ -92,6 +92,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(Cookie::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

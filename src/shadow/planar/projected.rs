@@ -101,6 +101,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(Planar::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

@@ -66,6 +66,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("size", "512")], &[("steps", "32"), ("jitter", "false")]],
         create: |pairs| Ok(Box::new(ContactMap::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

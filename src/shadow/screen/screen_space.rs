@@ -58,6 +58,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("steps", "64")], &[("length", "0.5")]],
         create: |pairs| Ok(Box::new(ScreenSpace::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

@@ -127,6 +127,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("grid", "1024"), ("size", "4096")], &[("iterations", "0")]],
         create: |pairs| Ok(Box::new(TerrainHeight::new(declaration().parse(pairs)?)?)),
         applies: Some(applies),
+        models: &[],
     }
 }
 

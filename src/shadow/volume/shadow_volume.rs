@@ -64,6 +64,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(ShadowVolume::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[],
     }
 }
 

@@ -124,6 +124,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::Transmittance],
     }
 }
 

@@ -133,6 +133,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("filter", "nearest")]],
         create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::Transmittance],
     }
 }
 

@@ -121,6 +121,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::Transmittance],
     }
 }
 

@@ -77,6 +77,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(TransparencyMap::new(declaration().parse(pairs)?)?)),
         applies: None,
+        models: &[crate::shadow::Effect::Transmittance],
     }
 }
 
