@@ -15,7 +15,7 @@ use std::borrow::Cow;
 use std::time::Instant;
 
 /// Bump when the reference's algorithm changes, so caches made before do not match.
-const REFERENCE_REVISION: u32 = 2;
+const REFERENCE_REVISION: u32 = 3;
 
 /// Key of a cached reference: the scene file's bytes, the geometry and the shading points
 /// actually built from it (so a change to a mesh generator or to the G-buffer cannot reuse a

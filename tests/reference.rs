@@ -13,10 +13,7 @@ fn scene(objects: &str, light: &str) -> penumbra::scene::Scene {
 }
 
 fn ground_point(x: f32, z: f32) -> SamplePoint {
-    SamplePoint {
-        position: Vec3::new(x, 0.0, z),
-        normal: Vec3::Y,
-    }
+    SamplePoint::flat(Vec3::new(x, 0.0, z), Vec3::Y)
 }
 
 /// Exact slab test in f64: does the ray o + t d (t > 0) hit the box?

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod bench;
 mod choose;
+mod defaults;
 mod error;
 mod export;
 mod scene;
@@ -96,6 +97,9 @@ enum Cmd {
     /// it against the reference, prints the Pareto front and picks: the cheapest within
     /// --max-error, or the most accurate within --budget-ms.
     Choose(ChooseArgs),
+    /// The soft and volumetric techniques' option sets across many generated scenes: mean,
+    /// median, 90th percentile and worst error and median time per setting.
+    Defaults(DefaultsArgs),
     /// Write a scene in world space as OBJ plus a JSON of camera and lights.
     Export(SceneArgs),
     /// List techniques with their options and defaults, and the built-in scenes.
@@ -160,6 +164,36 @@ struct ChooseArgs {
     json: bool,
     /// Output folder: the chart (`<scene>.svg`) and the reference cache.
     #[arg(long, default_value = "out/choose")]
+    out: PathBuf,
+}
+
+#[derive(Args)]
+struct DefaultsArgs {
+    /// Generated scenes per class (area-light scenes for the soft techniques, scenes with
+    /// translucent casters for the volumetric ones).
+    #[arg(long, default_value_t = 200, allow_negative_numbers = true, value_parser = count::<usize>(1, 100_000))]
+    scenes: usize,
+    /// The first seed (scenes are the seeds from it on, those of the class kept).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = count::<u64>(0, u64::MAX / 2))]
+    first_seed: u64,
+    /// A comma-separated list of technique names (default: every technique that models an
+    /// area light or transmittance).
+    #[arg(long, value_delimiter = ',')]
+    techniques: Vec<String>,
+    /// Camera resolution of the generated scenes.
+    #[arg(long, default_value_t = 160, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    width: u32,
+    /// Camera resolution of the generated scenes.
+    #[arg(long, default_value_t = 90, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    height: u32,
+    /// Timed repetitions after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = parse_reps)]
+    reps: usize,
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    threads: usize,
+    /// Output folder: defaults.md, results.csv and the reference cache.
+    #[arg(long, default_value = "out/defaults")]
     out: PathBuf,
 }
 
@@ -440,6 +474,16 @@ fn main() -> ExitCode {
             reps: a.reps,
             threads: a.threads,
             json: a.json,
+            out: a.out,
+        }),
+        Some(Cmd::Defaults(a)) => defaults::defaults(defaults::DefaultsOpts {
+            scenes: a.scenes,
+            first_seed: a.first_seed,
+            techniques: a.techniques,
+            width: a.width,
+            height: a.height,
+            reps: a.reps,
+            threads: a.threads,
             out: a.out,
         }),
         Some(Cmd::Export(a)) => export::export(&a.scene, &a.out),

@@ -52,8 +52,25 @@ impl Default for ReferenceOptions {
 pub struct SamplePoint {
     /// World position.
     pub position: Vec3,
-    /// Unit surface normal.
+    /// Unit surface normal (the shading normal, interpolated across smooth surfaces).
     pub normal: Vec3,
+    /// Unit normal of the triangle the point lies on, turned to `normal`'s side: shadow rays
+    /// start offset along it ([`offset_origin`]). Offset along an interpolated normal that
+    /// leans away from the triangle, the per-axis scaled offset can land under the
+    /// triangle's plane, and the ray then hits the point's own triangle. Equal to `normal`
+    /// for flat-shaded surfaces.
+    pub face: Vec3,
+}
+
+impl SamplePoint {
+    /// A point on a flat surface: the face normal is the normal.
+    pub fn flat(position: Vec3, normal: Vec3) -> SamplePoint {
+        SamplePoint {
+            position,
+            normal,
+            face: normal,
+        }
+    }
 }
 
 /// The ray tracer of one scene.
@@ -312,7 +329,7 @@ impl Reference {
     }
 
     fn hard_c<C: Channels>(&self, s: &SamplePoint, light: &Light) -> C {
-        let o = offset_origin(s.position, s.normal);
+        let o = offset_origin(s.position, s.face);
         match light.kind {
             LightKind::Directional => C::trace(self, o, -light.direction, f32::INFINITY),
             _ => {
@@ -382,7 +399,7 @@ impl Reference {
             LightKind::Area(shape) if opts.area => shape,
             _ => return self.hard_c(s, light),
         };
-        let o = offset_origin(s.position, s.normal);
+        let o = offset_origin(s.position, s.face);
         let strata = |n: u32, salt: u64| -> C {
             let mut sum = C::ZERO;
             for j in 0..n {

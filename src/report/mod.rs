@@ -1,8 +1,9 @@
 //! Reporting: every file the sweep and the CLI write about a run, one format per file:
 //! [`images`] (visibility, reference, error), [`mod@csv`], [`chart`] (SVG), [`markdown`] and
-//! [`html`] (the report page), [`cache`] (reference images on disk) and [`files`] (a run's
+//! [`html`] (the report page), [`across`] (settings across many scenes), [`cache`] (reference images on disk) and [`files`] (a run's
 //! files in a folder). Measuring is [`crate::run`]'s, which writes nothing.
 
+pub mod across;
 pub mod cache;
 pub mod chart;
 pub mod csv;

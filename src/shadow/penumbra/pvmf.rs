@@ -41,8 +41,9 @@
 //!    separably as the text's implementation does (a horizontal pass, then a vertical one, each
 //!    `n_blur + 1` samples). The ids are the G-buffer's objects, or (`ids=group`) runs of
 //!    `group` consecutive triangles of an object, the per-triangle-group ids the text suggests
-//!    for complex objects. `blur=0` turns the blur off, which lets shadows bleed nowhere but
-//!    leaves the noise.
+//!    for complex objects. The text's `n_blur` is 12 (`blur=12`); the default here is 0, no
+//!    blur, which lets shadows bleed nowhere but leaves the noise: across generated scenes the
+//!    blur's widening costs more than the noise does ([`Options::blur`]).
 //! 5. **Compositing**: the visibility buffer modulates the light's centre as a point light
 //!    (the frame's shading).
 //!
@@ -113,7 +114,11 @@ pub struct Options {
     pub pcf: u32,
     /// Jitter each filter tap inside its cell. Default: true.
     pub jitter: bool,
-    /// `n_blur`: blur samples per axis (0: no blur). Default: 12 (the text's).
+    /// `n_blur`: blur samples per axis (0: no blur). Default: 0. The text's 12 (`blur=12`)
+    /// hides the jittered filter's noise but widens narrow penumbrae by up to 12 screen
+    /// pixels: across generated area-light scenes (`penumbra defaults`) it doubled PVMF's
+    /// penumbra RMSE (mean 0.257 against 0.125 unblurred at 320x180, the hard map 0.271),
+    /// and on the area fixtures it was 0.109 against 0.083.
     pub blur: u32,
     /// The blur's ids. Default: object.
     pub ids: Ids,
@@ -140,7 +145,7 @@ impl Default for Options {
             region: 1,
             pcf: 7,
             jitter: true,
-            blur: 12,
+            blur: 0,
             ids: Ids::Object,
             group: 64,
         }
@@ -221,7 +226,7 @@ pub fn info() -> TechniqueInfo {
         family: Family::Penumbra,
         summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
         options: declaration().infos(),
-        sweep: &[&[], &[("size", "2048")], &[("blur", "0")]],
+        sweep: &[&[], &[("size", "2048")], &[("blur", "12")]],
         extended: &[
             &[("pcf", "3")],
             &[("jitter", "false")],
@@ -230,6 +235,7 @@ pub fn info() -> TechniqueInfo {
             &[("pcf", "12"), ("size", "1024")],
             &[("spread", "1")],
             &[("ids", "group")],
+            &[("blur", "4")],
         ],
         create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
         applies: None,

@@ -174,9 +174,10 @@ impl IrregularZBuffer {
                         meta[j] = f as u8 | if skip_own { META_SKIP_OWN } else { 0 };
                         rec[j] = Rec {
                             // The ray starts where the reference's does: the point moved a few
-                            // ULPs along its normal (Wächter and Binder 2019), a property of
-                            // float numbers, not a bias that depends on the scene or the light.
-                            origin: offset_origin(s.position, s.normal),
+                            // ULPs along its triangle's normal (Wächter and Binder 2019), a
+                            // property of float numbers, not a bias that depends on the scene or
+                            // the light.
+                            origin: offset_origin(s.position, s.face),
                             triangle: if skip_own { triangle } else { NO_TRIANGLE },
                         };
                     };

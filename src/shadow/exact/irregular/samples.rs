@@ -111,10 +111,7 @@ impl<'a> SampleFiller<'a> {
                     let p = on_triangle(self.eye, d, &tri, ng).unwrap_or(s.position);
                     out[o] = CameraSample {
                         pixel: i as u32,
-                        point: SamplePoint {
-                            position: p,
-                            normal: s.normal,
-                        },
+                        point: SamplePoint { position: p, ..s },
                         triangle,
                     };
                     o += 1;
@@ -146,10 +143,7 @@ impl Default for CameraSample {
     fn default() -> Self {
         CameraSample {
             pixel: u32::MAX,
-            point: SamplePoint {
-                position: Vec3::ZERO,
-                normal: Vec3::ZERO,
-            },
+            point: SamplePoint::flat(Vec3::ZERO, Vec3::ZERO),
             triangle: u32::MAX,
         }
     }

@@ -130,7 +130,7 @@ fn parallel_list_sort_equals_the_serial_one() {
             assert_eq!(at as u32, *c, "{scene}: sample {i} out of the serial order");
             *c += 1;
             let rec = t.views[v].store.data()[at];
-            assert_eq!(rec.position, offset_origin(smp.point.position, smp.point.normal));
+            assert_eq!(rec.position, offset_origin(smp.point.position, smp.point.face));
             assert_eq!(t.slot(i), Some((v, at)));
         }
         assert_eq!(inserted, t.inserted);

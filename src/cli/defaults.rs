@@ -1,0 +1,167 @@
+//! `penumbra defaults`: the soft and volumetric techniques' option sets across many generated
+//! scenes ([`penumbra::scene::random`]), so that a default is chosen on scenes nobody picked:
+//! per setting the mean, median, 90th percentile and worst of its class's error and its median
+//! time ([`penumbra::report::across`]).
+
+use super::scene::{cache, pipeline};
+use super::sweep::Progress;
+use crate::error::CliError;
+use penumbra::report::across::across_markdown;
+use penumbra::report::files::{create_folder, write_plain};
+use penumbra::run::{self, RunResult};
+use penumbra::scene::random::{generate, Params};
+use penumbra::scene::SceneClass;
+use penumbra::shadow::{self, Effect};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Options of `penumbra defaults`.
+pub struct DefaultsOpts {
+    /// Generated scenes per class.
+    pub scenes: usize,
+    /// The first seed.
+    pub first_seed: u64,
+    /// `soft,volumetric`-style technique names (empty: every technique that models an area
+    /// light or transmittance).
+    pub techniques: Vec<String>,
+    /// Camera resolution.
+    pub width: u32,
+    /// Camera resolution.
+    pub height: u32,
+    /// Timed repetitions after one warm-up.
+    pub reps: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+/// `penumbra defaults`.
+pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
+    let reg = shadow::registry();
+    for t in &o.techniques {
+        if !reg.iter().any(|i| i.name == t) {
+            return Err(format!(
+                "unknown technique '{t}' (known: {})",
+                reg.iter().map(|i| i.name).collect::<Vec<_>>().join(", ")
+            )
+            .into());
+        }
+    }
+    let wanted = |name: &str, models: &[Effect]| {
+        if o.techniques.is_empty() {
+            !models.is_empty()
+        } else {
+            o.techniques.iter().any(|t| t == name)
+        }
+    };
+    // Per class: the scenes' parameters and the settings (the hard map as the baseline).
+    let mut plans: Vec<(SceneClass, Params, Vec<(&str, Vec<(String, String)>)>)> = Vec::new();
+    for (class, effect, params) in [
+        (
+            SceneClass::Area,
+            Effect::AreaLight,
+            Params {
+                width: o.width,
+                height: o.height,
+                translucent: false,
+                lights: vec!["disk", "sphere", "rectangle"],
+                ..Params::default()
+            },
+        ),
+        (
+            SceneClass::Transparent,
+            Effect::Transmittance,
+            Params {
+                width: o.width,
+                height: o.height,
+                translucent: true,
+                ..Params::default()
+            },
+        ),
+    ] {
+        let mut jobs = vec![("shadow-map", Vec::new())];
+        for t in reg
+            .iter()
+            .filter(|t| t.models.contains(&effect) && wanted(t.name, t.models))
+        {
+            for set in t.sweep.iter().chain(t.extended) {
+                jobs.push((
+                    t.name,
+                    set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
+                ));
+            }
+        }
+        if jobs.len() > 1 {
+            plans.push((class, params, jobs));
+        }
+    }
+    if plans.is_empty() {
+        return Err("no soft or volumetric technique among --techniques".into());
+    }
+    let p = pipeline(o.threads)?;
+    create_folder(&o.out)?;
+    let dir_cache = cache(&o.out);
+    let total: usize = plans.iter().map(|(_, _, j)| j.len() * o.scenes).sum();
+    let bar = Progress::new("defaults", total);
+    let t0 = Instant::now();
+    let mut results: Vec<RunResult> = Vec::new();
+    for (class, params, jobs) in &plans {
+        // Seeds in order from the first, keeping the scenes of the class (translucent casters
+        // are drawn on some scenes only), at most 8 seeds per scene wanted.
+        let mut found = 0;
+        let mut seed = o.first_seed;
+        while found < o.scenes && seed < o.first_seed + 8 * o.scenes as u64 {
+            let r = generate(seed, params);
+            seed += 1;
+            let s = r.scene()?;
+            if s.class() != *class {
+                continue;
+            }
+            found += 1;
+            bar.set_message(format!("{} / reference", s.name));
+            let prepared = run::Prepared::new(&p, &s, &r.text, Some(&dir_cache))?;
+            for (name, sets) in jobs {
+                bar.set_message(format!("{} / {}", s.name, run::label(name, &run::settings_text(sets))));
+                let out = run::render_prepared(&p, &prepared, name, sets, o.reps)?;
+                results.push(RunResult {
+                    index: results.len(),
+                    ..out.result
+                });
+                bar.inc();
+            }
+        }
+    }
+    bar.finish();
+    let mut md = format!(
+        "Settings across generated scenes: `penumbra defaults --scenes {} --first-seed {}` at {}x{}, {} threads, {:.0} s. The defaults are in bold.\n",
+        o.scenes,
+        o.first_seed,
+        o.width,
+        o.height,
+        p.threads(),
+        t0.elapsed().as_secs_f64()
+    );
+    for (class, _, _) in &plans {
+        let n = results
+            .iter()
+            .filter(|r| r.class == *class && r.technique == "shadow-map")
+            .count();
+        md += &format!(
+            "\n### {} scenes ({n}: {})\n\n",
+            class.key(),
+            match class {
+                SceneClass::Area => "opaque casters under a disk, sphere or rectangle light",
+                SceneClass::Transparent => "some casters translucent or coloured, any light",
+                SceneClass::Hard => "hard lights",
+            }
+        );
+        md += &across_markdown(&results, *class);
+    }
+    write_plain(&o.out.join("defaults.md"), md.as_bytes())?;
+    write_plain(&o.out.join("results.csv"), penumbra::report::csv(&results).as_bytes())?;
+    println!("{md}");
+    println!("table: {}", o.out.join("defaults.md").display());
+    println!("data:  {}", o.out.join("results.csv").display());
+    Ok(())
+}
