@@ -65,7 +65,7 @@ fn reference_outputs_match_their_golden_hashes() {
 
 const GOLDEN: &str = "
 big_light hard 5bce5fa3e2cb2db5
-big_light area64 00bf8f7beea12208
+big_light area64 6629d44df2e9bf60
 contact hard 2fd73c8de3d90925
 contact area64 3060df55a81db12b
 cookie hard 98dcae3592fe9025
@@ -79,17 +79,17 @@ facing_light area64 3fc5db1eb6acf625
 far_plane hard 3d67203d4715c298
 far_plane area64 3d67203d4715c298
 forest hard e775b7d05552a438
-forest area64 2279bb97ba2754cb
-forest_floor hard 3843f3274f3fcfa5
-forest_floor area64 3843f3274f3fcfa5
+forest area64 ed0809815c53486a
+forest_floor hard 69379f97ac810b28
+forest_floor area64 69379f97ac810b28
 grazing hard 80d515230cb75075
 grazing area64 80d515230cb75075
 hidden_caster hard c1420752c00f69f5
 hidden_caster area64 c1420752c00f69f5
 layers hard 18ee2b4e570516d4
 layers area64 18ee2b4e570516d4
-long_view hard 4bf61421b66a1015
-long_view area64 4bf61421b66a1015
+long_view hard e478e3196b10c3e8
+long_view area64 e478e3196b10c3e8
 near_plane hard 5a23e25645c78675
 near_plane area64 5a23e25645c78675
 offscreen hard bf8760d8b6588735
@@ -114,8 +114,8 @@ stained_glass hard d4a9a59bc1803348
 stained_glass area64 d4a9a59bc1803348
 subtexel_path hard 9ad33f8a97ef6835
 subtexel_path area64 9ad33f8a97ef6835
-terrain hard 3bfe8df9abbd2e45
-terrain area64 3bfe8df9abbd2e45
+terrain hard 68fa3bac37446695
+terrain area64 68fa3bac37446695
 thin_sheet hard df6631047c08de65
 thin_sheet area64 df6631047c08de65
 wires hard 48ea67295b84b325

@@ -234,7 +234,7 @@ pub fn info() -> TechniqueInfo {
             &[("layer", "first")],
             &[("pcf", "12"), ("size", "1024")],
             &[("spread", "1")],
-            &[("ids", "group")],
+            &[("ids", "group"), ("blur", "12")],
             &[("blur", "4")],
         ],
         create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
