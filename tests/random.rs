@@ -2,8 +2,8 @@
 //! ([`penumbra::scene::random`]), seeds that nobody picked. The cases run at 160x90 with fixed
 //! seeds, so CI replays the same scenes; `PENUMBRA_PROPTEST_CASES=N` runs N of them (and
 //! fresh seeds with `PENUMBRA_PROPTEST_SEED=S`). A failing seed is written by
-//! `penumbra random --seed N --opaque --light KIND` as a scene file to open, render and
-//! inspect like any fixture.
+//! `penumbra random --seed N --opaque --light directional,spot,point` (or the parameters of
+//! the property) as a scene file to open, render and inspect like any fixture.
 
 use penumbra::frame;
 use penumbra::metrics::compare_scalar;
@@ -240,7 +240,8 @@ fn multi_sample_volumes_equal_the_reference_at_the_same_light_points() {
 /// sphere or rectangle light) each has a mean penumbra RMSE ratio to the hard map's below a
 /// bound, and on no scene is it worse than the hard map by more than a margin. Measured over
 /// 60 seeds (56 with a penumbra) at 160x90 (2026-12-06), mean ratio and worst excess over
-/// the map: PCSS 0.61, +0.033; CHS 0.44, -0.032; PVM 0.54, +0.038; multi-sample maps 0.25,
+/// the map: PCSS 0.61, +0.033; CHS 0.44, -0.032; PVM 0.45, +0.011 (with the text's
+/// smoothing, its default until then, 0.54, +0.038); multi-sample maps 0.25,
 /// -0.130; PVMF 0.43, -0.084 (with the text's 12-pixel blur, its default until then, 1.12 and
 /// +0.178: it did not soften at all).
 #[test]
@@ -250,7 +251,7 @@ fn soft_techniques_soften_under_area_lights() {
     let soft = [
         ("pcss", 0.7, 0.05),
         ("chs", 0.5, 0.0),
-        ("pvm", 0.62, 0.05),
+        ("pvm", 0.5, 0.03),
         ("pvmf", 0.5, 0.0),
         ("multi-sample", 0.3, 0.0),
     ];
@@ -425,4 +426,33 @@ fn every_technique_on_every_scene() {
             }
         }
     }
+}
+
+/// Regression (a generated scene kept under `fixtures/scenes/regressions/`): rough
+/// heightfield casters under the sun, where the reference's shadow rays, offset along the
+/// interpolated normal, started under their own triangle and hit it: the IZB and the
+/// reference differed on 0.21 % of the pixels (all wrongly dark in the reference). Offset
+/// along the triangle's normal ([`penumbra::reference::SamplePoint::face`]) they agree.
+#[test]
+fn shadow_rays_leave_rough_surfaces_along_the_triangles_normal() {
+    let s = penumbra::scene::file::load(std::path::Path::new(
+        "fixtures/scenes/regressions/rough_heightfield.toml",
+    ))
+    .unwrap();
+    let izb = hard_wrong(&s, "izb");
+    assert!(izb <= 0.01, "izb {izb} % wrong against the reference");
+    // The interpolated normals there lean far from their triangles' (the cause): measured 38
+    // points beyond 45°.
+    let p = Pipeline::new(2).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let leaning = f
+        .points()
+        .iter()
+        .flatten()
+        .filter(|s| s.normal.dot(s.face) < 0.7)
+        .count();
+    assert!(
+        leaning > 20,
+        "{leaning} points whose normal leans more than 45° from their triangle's"
+    );
 }

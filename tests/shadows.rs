@@ -1289,9 +1289,10 @@ fn transparency_maps_tint_the_ground_but_miss_overlaps_and_transparent_receivers
 fn opacity_maps_band_between_slices_and_deep_opacity_maps_need_fewer() {
     let e = |scene: &str, sets: &[(&str, &str)]| errors(scene, "opacity-maps", sets).rmse;
     // Measured on smoke: uniform 4 slices 0.0503, 16 slices 0.0406; deep 4 slices 0.0345.
+    let uniform = [("layout", "uniform"), ("slices", "16")];
     let (u4, u16, d4) = (
-        e("smoke", &[("slices", "4")]),
-        e("smoke", &[]),
+        e("smoke", &[("layout", "uniform"), ("slices", "4")]),
+        e("smoke", &uniform),
         e("smoke", &[("layout", "deep"), ("slices", "4")]),
     );
     assert!(u4 > u16 * 1.1, "more slices, less banding: {u4} vs {u16}");
@@ -1303,14 +1304,14 @@ fn opacity_maps_band_between_slices_and_deep_opacity_maps_need_fewer() {
     // in front of it; deep slices start on the first layer. Measured: layers 0.186 / 0.098,
     // stained_glass 0.147 / 0.051 (uniform 16 / deep 4).
     for (scene, uniform_above, deep_below) in [("layers", 0.15, 0.11), ("stained_glass", 0.12, 0.06)] {
-        let (u, d) = (e(scene, &[]), e(scene, &[("layout", "deep"), ("slices", "4")]));
+        let (u, d) = (e(scene, &uniform), e(scene, &[("layout", "deep"), ("slices", "4")]));
         assert!(u > uniform_above && d < deep_below, "{scene}: uniform {u}, deep {d}");
     }
     // The curtain: a thin sheet whose folds span a small part of the light's depth range.
     // Measured: uniform 16 slices 0.0815, 64 slices 0.0796; deep 4 slices 0.0474.
     let (u16, u64, d4) = (
-        e("curtain", &[]),
-        e("curtain", &[("slices", "64")]),
+        e("curtain", &uniform),
+        e("curtain", &[("layout", "uniform"), ("slices", "64")]),
         e("curtain", &[("layout", "deep"), ("slices", "4")]),
     );
     assert!(
@@ -1920,7 +1921,7 @@ fn pvm_jumps_where_volumes_overlap_and_pvmf_does_not() {
     //   0.1039, 0.0630, 0.01042 (PVMF's midpoint map; with the text's second depth 0.1265,
     //   0.0966, 0.00084).
     for (scene, pvm_bound, pvmf_bound) in [("overlap", 0.10, 0.13), ("forest", 0.11, 0.145)] {
-        let pvm = penumbra_volume_errors(scene, "pvm", &[]);
+        let pvm = penumbra_volume_errors(scene, "pvm", &[("smooth", "true")]);
         let pvmf = penumbra_volume_errors(scene, "pvmf", &[("blur", "12")]);
         let raw = penumbra_volume_errors(scene, "pvmf", &[]);
         eprintln!("{scene}: pvm {pvm:?} pvmf {pvmf:?} unblurred {raw:?}");
@@ -1940,7 +1941,7 @@ fn pvm_jumps_where_volumes_overlap_and_pvmf_does_not() {
         );
     }
     // Overlapping volumes shade pixels from the wrong occluder: PVM 0.70 % wrong, PCSS 0.
-    let pvm = errors("overlap", "pvm", &[]).wrong_pct;
+    let pvm = errors("overlap", "pvm", &[("smooth", "true")]).wrong_pct;
     let pcss = errors("overlap", "pcss", &[]).wrong_pct;
     assert!(pvm > 0.4 && pcss < 0.1, "pvm {pvm} %, pcss {pcss} %");
 }
@@ -2040,10 +2041,10 @@ fn pvmf_blur_widens_contact_penumbrae_and_bleeds_without_ids() {
 fn one_silhouette_fails_under_a_large_near_light() {
     // big_light: a ball of radius 0.35 1.1 below a disk of radius 1.5. Measured penumbra
     // RMSE: PVM 0.1583 (0.0878 on overlap), PVMF 0.0604, 64 light samples 0.0412.
-    let pvm = errors("big_light", "pvm", &[]).penumbra_rmse;
+    let pvm = errors("big_light", "pvm", &[("smooth", "true")]).penumbra_rmse;
     let pvmf = errors("big_light", "pvmf", &[("blur", "12")]).penumbra_rmse;
     let ms = errors("big_light", "multi-sample", &[]).penumbra_rmse;
-    let pvm_overlap = errors("overlap", "pvm", &[]).penumbra_rmse;
+    let pvm_overlap = errors("overlap", "pvm", &[("smooth", "true")]).penumbra_rmse;
     eprintln!("big_light: pvm {pvm} pvmf {pvmf} multi-sample {ms}; pvm on overlap {pvm_overlap}");
     assert!(
         pvm > 1.5 * pvm_overlap && ms < 0.35 * pvm,

@@ -124,9 +124,11 @@ struct RandomArgs {
     /// Only opaque materials (for the hard techniques' exactness).
     #[arg(long)]
     opaque: bool,
-    /// Only this kind of light: directional, spot, point, disk, sphere or rectangle.
-    #[arg(long)]
-    light: Option<String>,
+    /// Only these kinds of light, comma-separated: directional, spot, point, disk, sphere,
+    /// rectangle (the properties of `tests/random.rs` draw from `directional,spot,point` or
+    /// `disk,sphere,rectangle`).
+    #[arg(long, value_delimiter = ',')]
+    light: Vec<String>,
     /// Camera resolution.
     #[arg(long, default_value_t = 160, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
     width: u32,
@@ -536,13 +538,16 @@ fn parse_threads(s: &str) -> Result<usize, String> {
 /// `penumbra random`: writes the scene of a seed.
 fn random(a: RandomArgs) -> Result<(), error::CliError> {
     use penumbra::scene::random::{generate, Params, LIGHT_KINDS};
-    let lights = match a.light.as_deref() {
-        None => LIGHT_KINDS.to_vec(),
-        Some(k) => match LIGHT_KINDS.iter().find(|&&l| l == k) {
-            Some(&l) => vec![l],
+    let mut lights = Vec::new();
+    for k in a.light.iter().map(|k| k.trim()) {
+        match LIGHT_KINDS.iter().find(|&&l| l == k) {
+            Some(&l) => lights.push(l),
             None => return Err(format!("--light '{k}': one of {}", LIGHT_KINDS.join(", ")).into()),
-        },
-    };
+        }
+    }
+    if lights.is_empty() {
+        lights = LIGHT_KINDS.to_vec();
+    }
     let params = Params {
         width: a.width,
         height: a.height,

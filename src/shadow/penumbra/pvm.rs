@@ -25,8 +25,8 @@
 //!    cutting plane through `h0, h1` and the pixel, `n = (h1 - h0) x (p - h0) / |...|`,
 //!    `d = -n . h0`, cuts a disk of the light's radius centred at the light and perpendicular
 //!    to it at `s = n . l + d`; the area beyond, eq. 4.1, gives `k = 2 a / (pi r^2)` (eq. 4.2)
-//!    and the visibility `3 k^2 - 2 k^3` (Parker et al.'s Bernstein smoothing; `smooth=false`
-//!    keeps `k`). Outside every volume the depth map decides umbra or lit (one hardware 2x2
+//!    and the visibility `3 k^2 - 2 k^3` (Parker et al.'s Bernstein smoothing, with `smooth=true`;
+//!    the default keeps `k`, see [`Options::smooth`]). Outside every volume the depth map decides umbra or lit (one hardware 2x2
 //!    comparison).
 //!
 //! The light is a sphere of radius `r`: half the scene's area light width
@@ -69,8 +69,10 @@ pub struct Options {
     /// The light's radius as a multiple of half the scene's area light width (0: the hard
     /// shadow map). Default: 1.
     pub light: f32,
-    /// Bernstein smoothing `3 k^2 - 2 k^3` of the disk visibility (Parker et al.). Default:
-    /// true.
+    /// Bernstein smoothing `3 k^2 - 2 k^3` of the disk visibility (Parker et al.), as the text
+    /// does. Default: false: the smoothed ramp is steeper than the cut disk's, and without it
+    /// the penumbra RMSE was lower across 150 generated area-light scenes (mean 0.1245
+    /// against 0.1486, `penumbra defaults`) and on the area fixtures (0.106 against 0.114).
     pub smooth: bool,
 }
 
@@ -80,7 +82,7 @@ impl Default for Options {
             map: MapOptions::default(),
             bias: Bias::default(),
             light: 1.0,
-            smooth: true,
+            smooth: false,
         }
     }
 }
@@ -110,7 +112,7 @@ pub fn info() -> TechniqueInfo {
         family: Family::Penumbra,
         summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
         options: declaration().infos(),
-        sweep: &[&[], &[("smooth", "false")]],
+        sweep: &[&[], &[("smooth", "true")]],
         extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
         create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
         applies: None,

@@ -53,10 +53,13 @@ choice_enum! {
 pub struct Options {
     /// Map side in texels (per cube face for point lights). Default: 512.
     pub size: u32,
-    /// Slices, 1 to 64. Default: 16.
+    /// Slices, 1 to 64. Default: 4.
     pub slices: u32,
     /// Uniform slices (opacity shadow maps) or slices from the first depth (deep opacity
-    /// maps). Default: uniform.
+    /// maps). Default: deep, with 4 slices: more accurate and faster than 16 uniform slices
+    /// on the transparent fixtures (transmittance RMSE 0.058 against 0.114) and across 150
+    /// generated scenes with translucent casters (0.0787 against 0.0871, `penumbra
+    /// defaults`). `layout=uniform slices=16` is Kim and Neumann's.
     pub layout: Slices,
     /// Constant polygon offset of the opaque map and the first-depth map. Default: 4.
     pub units: f32,
@@ -68,8 +71,8 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             size: 512,
-            slices: 16,
-            layout: Slices::Uniform,
+            slices: 4,
+            layout: Slices::Deep,
             units: 4.0,
             slope: 1.1,
         }
@@ -114,11 +117,11 @@ pub fn info() -> TechniqueInfo {
         summary: "opacity shadow maps (Kim and Neumann 2001) and deep opacity maps (Yuksel and Keyser 2008): optical depth in K slices, interpolated; banding between slices",
         options: declaration().infos(),
         sweep: &[
-            &[("slices", "4")],
+            &[("layout", "uniform"), ("slices", "4")],
+            &[("layout", "uniform"), ("slices", "16")],
             &[],
-            &[("layout", "deep"), ("slices", "4")],
         ],
-        extended: &[],
+        extended: &[&[("slices", "16")]],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
         applies: None,
         models: &[crate::shadow::Effect::Transmittance],
