@@ -133,10 +133,10 @@ fn facts(scene: &Scene, frame: Option<&Frame>) -> Vec<String> {
         .map(|o| o.name.as_str())
         .collect();
     facts.push(if thin.is_empty() {
-        "thin objects: none".into()
+        "thin or flat objects: none".into()
     } else {
         format!(
-            "thin objects (shortest side under {}% of the longest; a map's bias can let light through them): {}",
+            "thin or flat objects (shortest side under {}% of the longest; a map's bias can let light through them): {}",
             THIN * 100.0,
             names(&thin)
         )
@@ -236,57 +236,45 @@ pub fn choose(runs: &[RunResult], goal: Goal) -> Choice {
     let finite: Vec<usize> = (0..runs.len())
         .filter(|&i| points[i].0.is_finite() && points[i].1.is_finite())
         .collect();
-    let (mut ok, why_not): (Vec<usize>, String) = match goal {
-        Goal::MaxError(e) => {
-            let mut ok: Vec<usize> = finite.iter().copied().filter(|&i| points[i].1 <= e).collect();
-            ok.sort_by(|&a, &b| {
-                points[a]
-                    .0
-                    .total_cmp(&points[b].0)
-                    .then(points[a].1.total_cmp(&points[b].1))
-            });
-            let best = finite.iter().copied().min_by(|&a, &b| {
-                points[a]
-                    .1
-                    .total_cmp(&points[b].1)
-                    .then(points[a].0.total_cmp(&points[b].0))
-            });
-            let why = match best {
-                Some(i) => format!(
-                    "nothing within {e}; the most accurate is {} at {} ({:.3} ms)",
-                    runs[i].label(),
-                    fmt_error(points[i].1),
-                    points[i].0
-                ),
-                None => "nothing was measured".into(),
-            };
-            (ok, why)
+    // By time then error (cheapest first), or by error then time (most accurate first).
+    let order = |a: usize, b: usize, by_time: bool| {
+        let (p, q) = (points[a], points[b]);
+        if by_time {
+            p.0.total_cmp(&q.0).then(p.1.total_cmp(&q.1))
+        } else {
+            p.1.total_cmp(&q.1).then(p.0.total_cmp(&q.0))
         }
-        Goal::BudgetMs(t) => {
-            let mut ok: Vec<usize> = finite.iter().copied().filter(|&i| points[i].0 <= t).collect();
-            ok.sort_by(|&a, &b| {
-                points[a]
-                    .1
-                    .total_cmp(&points[b].1)
-                    .then(points[a].0.total_cmp(&points[b].0))
-            });
-            let fastest = finite.iter().copied().min_by(|&a, &b| {
-                points[a]
-                    .0
-                    .total_cmp(&points[b].0)
-                    .then(points[a].1.total_cmp(&points[b].1))
-            });
-            let why = match fastest {
-                Some(i) => format!(
-                    "nothing runs within {t} ms; the fastest is {} at {:.3} ms (error {})",
-                    runs[i].label(),
-                    points[i].0,
-                    fmt_error(points[i].1)
-                ),
-                None => "nothing was measured".into(),
-            };
-            (ok, why)
+    };
+    let (by_time, limit) = match goal {
+        Goal::MaxError(e) => (true, e),
+        Goal::BudgetMs(t) => (false, t),
+    };
+    let meets = |i: usize| {
+        if by_time {
+            points[i].1 <= limit
+        } else {
+            points[i].0 <= limit
         }
+    };
+    let mut ok: Vec<usize> = finite.iter().copied().filter(|&i| meets(i)).collect();
+    ok.sort_by(|&a, &b| order(a, b, by_time));
+    // Nothing meets the goal: the closest to it is the most accurate (an error bound) or the
+    // fastest (a budget).
+    let closest = finite.iter().copied().min_by(|&a, &b| order(a, b, !by_time));
+    let why_not = match (closest, goal) {
+        (None, _) => "nothing was measured".to_string(),
+        (Some(i), Goal::MaxError(e)) => format!(
+            "nothing within {e}; the most accurate is {} at {} ({:.3} ms)",
+            runs[i].label(),
+            fmt_error(points[i].1),
+            points[i].0
+        ),
+        (Some(i), Goal::BudgetMs(t)) => format!(
+            "nothing runs within {t} ms; the fastest is {} at {:.3} ms (error {})",
+            runs[i].label(),
+            points[i].0,
+            fmt_error(points[i].1)
+        ),
     };
     if ok.is_empty() {
         return Choice {
