@@ -36,6 +36,9 @@ pub struct DefaultsOpts {
     pub out: PathBuf,
 }
 
+/// Settings to run: a technique and its `key=value` settings.
+type Jobs<'a> = Vec<(&'a str, Vec<(String, String)>)>;
+
 /// `penumbra defaults`.
 pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
     let reg = shadow::registry();
@@ -56,7 +59,7 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
         }
     };
     // Per class: the scenes' parameters and the settings (the hard map as the baseline).
-    let mut plans: Vec<(SceneClass, Params, Vec<(&str, Vec<(String, String)>)>)> = Vec::new();
+    let mut plans: Vec<(SceneClass, Params, Jobs)> = Vec::new();
     for (class, effect, params) in [
         (
             SceneClass::Area,
@@ -80,7 +83,7 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
             },
         ),
     ] {
-        let mut jobs = vec![("shadow-map", Vec::new())];
+        let mut jobs: Jobs = vec![("shadow-map", Vec::new())];
         for t in reg
             .iter()
             .filter(|t| t.models.contains(&effect) && wanted(t.name, t.models))
