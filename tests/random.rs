@@ -79,7 +79,11 @@ proptest! {
     #![proptest_config(ProptestConfig {
         cases: cases(64),
         rng_seed: rng_seed(),
-        failure_persistence: None,
+        // A failing case is written to `tests/random.proptest-regressions` and replayed
+        // first from then on (commit the file with the fix).
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::SourceParallel(
+            "proptest-regressions",
+        ))),
         ..ProptestConfig::default()
     })]
 
