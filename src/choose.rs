@@ -68,7 +68,7 @@ pub fn analyse(scene: &Scene, frame: Option<&Frame>, all: bool) -> Analysis {
         for set in t.sweep.iter().chain(extended) {
             a.runs.push(Candidate {
                 technique: t.name,
-                sets: set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
+                sets: shadow::owned_sets(set),
             });
         }
     }

@@ -89,10 +89,7 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
             .filter(|t| t.models.contains(&effect) && wanted(t.name, t.models))
         {
             for set in t.sweep.iter().chain(t.extended) {
-                jobs.push((
-                    t.name,
-                    set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
-                ));
+                jobs.push((t.name, shadow::owned_sets(set)));
             }
         }
         if jobs.len() > 1 {

@@ -180,10 +180,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
     for t in reg.iter().filter(|t| names.contains(&t.name)) {
         let extended: &[&[(&str, &str)]] = if o.all { t.extended } else { &[] };
         for set in t.sweep.iter().chain(extended) {
-            jobs.push((
-                t.name,
-                set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
-            ));
+            jobs.push((t.name, shadow::owned_sets(set)));
         }
     }
     let p = pipeline(o.threads)?;

@@ -343,6 +343,11 @@ impl ShadowTechnique for Named {
     }
 }
 
+/// A registry option set (`sweep`, `extended`) as the owned `key=value` pairs [`create`] takes.
+pub fn owned_sets(set: &[(&str, &str)]) -> Vec<(String, String)> {
+    set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+}
+
 /// Parses `key=value` strings.
 pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>, Error> {
     sets.iter()
