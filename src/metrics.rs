@@ -240,6 +240,24 @@ impl Flicker {
     }
 }
 
+/// The median and 99th percentile (nearest rank) of a per-pixel shadow-map texel footprint
+/// ([`crate::shadow::light::texel_footprint`], in camera pixels) over the pixels of `mask`
+/// where it is finite; NaN for both where there is none.
+pub fn footprint(values: &[f32], mask: &[bool]) -> (f64, f64) {
+    let mut v: Vec<f64> = values
+        .iter()
+        .zip(mask)
+        .filter(|(f, m)| **m && f.is_finite())
+        .map(|(f, _)| *f as f64)
+        .collect();
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    v.sort_by(f64::total_cmp);
+    let rank = ((0.99 * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+    (median_of(&mut v), v[rank])
+}
+
 /// Median of timings (seconds), the value reported after warm-up runs.
 pub fn median(mut v: Vec<f64>) -> f64 {
     median_of(&mut v)

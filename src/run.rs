@@ -118,6 +118,12 @@ pub struct RunResult {
     pub discontinuity: f64,
     /// Plateaus of one partial visibility in the penumbra ([`metrics::banding`]).
     pub banding: f64,
+    /// Median footprint of the light's map texels in camera pixels over the metric's pixels
+    /// ([`shadow::light::texel_footprint`]; 1 is ideal, above 1 the map is magnified); NaN
+    /// for techniques without maps.
+    pub texel_px: f64,
+    /// The footprint's 99th percentile (NaN without maps).
+    pub texel_px_p99: f64,
     /// Whether the technique reported work counters on the path's frames (their chart is
     /// worth showing).
     pub counted_path: bool,
@@ -393,6 +399,10 @@ pub fn render_prepared_with_progress(
                     ms,
                     metrics::discontinuity(&v, r_ref, mask_ref, f.gbuffer.object.data(), f.width() as usize),
                     metrics::banding(&v, r_ref, mask_ref, f.gbuffer.object.data(), f.width() as usize),
+                    match t.light_views() {
+                        views if views.is_empty() => (f64::NAN, f64::NAN),
+                        views => metrics::footprint(&shadow::light::texel_footprint(f, &views), mask_ref),
+                    },
                 ),
                 FirstFrame {
                     width: f.width(),
@@ -411,7 +421,8 @@ pub fn render_prepared_with_progress(
             prev = Some((v, r, mask));
         }
     }
-    let (errors, transparent, (ms, discontinuity, banding), first) = first.expect("at least one frame");
+    let (errors, transparent, (ms, discontinuity, banding, (texel_px, texel_px_p99)), first) =
+        first.expect("at least one frame");
     let settings = settings_text(sets);
     let result = RunResult {
         index: 0,
@@ -427,6 +438,8 @@ pub fn render_prepared_with_progress(
         flicker: flicker.value(),
         discontinuity,
         banding,
+        texel_px,
+        texel_px_p99,
         counted_path: path.len() > 1 && path.iter().any(|f| !f.counters.is_empty()),
         passes: pass_times.iter().map(|&(k, v)| (k.to_string(), v)).collect(),
         counters: path

@@ -112,6 +112,8 @@ stack hard df21eb1c7844be75
 stack area64 47755835a8dfe045
 stained_glass hard d4a9a59bc1803348
 stained_glass area64 d4a9a59bc1803348
+street hard 1d5541b23e424ef5
+street area64 1d5541b23e424ef5
 subtexel_path hard 9ad33f8a97ef6835
 subtexel_path area64 9ad33f8a97ef6835
 terrain hard 68fa3bac37446695

@@ -347,7 +347,7 @@ fn fitting_lists_the_fitted_frustum_and_improves_long_views() {
     let mut t = shadow::create("shadow-map", &[("fit".into(), "receivers".into())]).unwrap();
     t.visibility(&p, &f).unwrap();
     let names: Vec<String> = t.stages(&p, &f).unwrap().iter().map(|s| s.name().to_string()).collect();
-    assert_eq!(names, ["depth_map0", "fitted_frustum"]);
+    assert_eq!(names, ["depth_map0", "fitted_frustum", "texel_footprint"]);
     assert!(t.timings().iter().any(|(n, _)| *n == "lookup pass"));
     // Measured: 0.03 % wrong fitted, 0.05 % fitted to the whole scene.
     let fitted = errors("long_view", "shadow-map", &[("fit", "receivers")]);

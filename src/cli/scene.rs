@@ -100,6 +100,12 @@ pub fn render(
             r.result.banding
         );
     }
+    if r.result.texel_px.is_finite() {
+        println!(
+            "texels    {:.3} px median, {:.3} px 99th percentile (a map texel's footprint in camera pixels; 1 is ideal, above it the map is magnified)",
+            r.result.texel_px, r.result.texel_px_p99
+        );
+    }
     if r.result.transparent.pixels > 0 {
         let t = &r.result.transparent;
         println!(

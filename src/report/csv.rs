@@ -35,6 +35,8 @@ struct Row {
     flicker: f64,
     discontinuity: f64,
     banding: f64,
+    texel_px: f64,
+    texel_px_p99: f64,
     path_chart: bool,
     passes_ms: String,
     counters: String,
@@ -42,7 +44,7 @@ struct Row {
 
 /// The columns of `results.csv`, in order: [`Row`]'s fields (a test checks that they agree).
 /// Written even when a shard has no rows, so that every results.csv starts with them.
-const COLUMNS: [&str; 26] = [
+const COLUMNS: [&str; 28] = [
     "run",
     "scene",
     "class",
@@ -66,6 +68,8 @@ const COLUMNS: [&str; 26] = [
     "flicker",
     "discontinuity",
     "banding",
+    "texel_px",
+    "texel_px_p99",
     "path_chart",
     "passes_ms",
     "counters",
@@ -141,6 +145,8 @@ pub fn csv(results: &[RunResult]) -> String {
             flicker: r.flicker,
             discontinuity: r.discontinuity,
             banding: r.banding,
+            texel_px: r.texel_px,
+            texel_px_p99: r.texel_px_p99,
             path_chart: r.counted_path,
             passes_ms: pairs(&r.passes),
             counters: pairs(&r.counters),
@@ -194,6 +200,12 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
         if let Some((name, v)) = numbers.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
             return Err(at(format!("column {name}: {v} is not a finite number >= 0")));
         }
+        // The texel footprint: NaN for techniques without maps.
+        for (name, v) in [("texel_px", row.texel_px), ("texel_px_p99", row.texel_px_p99)] {
+            if !(v.is_nan() || (v.is_finite() && v >= 0.0)) {
+                return Err(at(format!("column {name}: {v} is not NaN or a finite number >= 0")));
+            }
+        }
         out.push(RunResult {
             index: row.run,
             class: SceneClass::from_key(&row.class)
@@ -225,6 +237,8 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
             flicker: row.flicker,
             discontinuity: row.discontinuity,
             banding: row.banding,
+            texel_px: row.texel_px,
+            texel_px_p99: row.texel_px_p99,
             counted_path: row.path_chart,
         });
     }
@@ -278,6 +292,8 @@ mod tests {
             flicker: 0.0,
             discontinuity: 1e-7,
             banding: 0.5,
+            texel_px: 2.5,
+            texel_px_p99: f64::NAN,
             counted_path: true,
             passes: vec![("light pass".into(), 1.25)],
             counters: vec![("taps".into(), 123456.0), ("a=b".into(), 1.0)],

@@ -1095,11 +1095,7 @@ fn build(ctx: &Ctx, raw: RawScene, description: String) -> Result<Scene, Error> 
         notes.push(format!(
             "the glTF file has {} lights: the first in node order ({}) is the scene's light",
             gltf_lights.len(),
-            match gltf_lights[0].kind {
-                LightKind::Directional => "directional light",
-                LightKind::Spot { .. } => "spot light",
-                _ => "point light",
-            }
+            gltf_lights[0].kind.describe().trim_start_matches("a ")
         ));
     }
     let lights = ctx.lights(&raw, &objects, gltf_lights)?;

@@ -211,6 +211,19 @@ pub enum LightKind {
     Area(AreaShape),
 }
 
+impl LightKind {
+    /// A name for messages: `a directional light`, `a spot light`, `a point light`, `an area
+    /// light`.
+    pub fn describe(self) -> &'static str {
+        match self {
+            LightKind::Directional => "a directional light",
+            LightKind::Spot { .. } => "a spot light",
+            LightKind::Point => "a point light",
+            LightKind::Area(_) => "an area light",
+        }
+    }
+}
+
 /// A light. Every light has a centre (`position`, the point a hard-shadow technique uses) and a
 /// direction (where a directional light travels, where a spot or a disk/rectangle faces).
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -116,6 +116,12 @@ pub trait ShadowTechnique: Send {
     fn counters(&self) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
+    /// The light views of the last call's maps (map-based techniques; empty for the others):
+    /// the texel-footprint metric ([`light::texel_footprint`]) measures their resolution at
+    /// each camera pixel. Default: none.
+    fn light_views(&self) -> Vec<light::LightView> {
+        Vec::new()
+    }
 }
 
 /// The family a technique belongs to: its folder under `src/shadow/` (DESIGN.md section 3).
@@ -275,6 +281,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
     vec![
         reference::info(),
         map::shadow_map::info(),
+        map::cascaded::info(),
         map::pcss::info(),
         map::chs::info(),
         map::multi_sample::info(),
@@ -340,6 +347,9 @@ impl ShadowTechnique for Named {
     }
     fn counters(&self) -> Vec<(&'static str, f64)> {
         self.0.counters()
+    }
+    fn light_views(&self) -> Vec<light::LightView> {
+        self.0.light_views()
     }
 }
 

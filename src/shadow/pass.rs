@@ -31,6 +31,11 @@ pub trait Pass: Send {
     fn notes(&self) -> Vec<String> {
         Vec::new()
     }
+    /// The light views of the last run's maps ([`ShadowTechnique::light_views`]). Default:
+    /// none.
+    fn light_views(&self) -> Vec<crate::shadow::light::LightView> {
+        Vec::new()
+    }
 }
 
 /// The technique `name` that is the pass `P`.
@@ -87,5 +92,9 @@ impl<P: Pass> ShadowTechnique for PassTechnique<P> {
 
     fn notes(&self) -> Vec<String> {
         self.pass.notes()
+    }
+
+    fn light_views(&self) -> Vec<crate::shadow::light::LightView> {
+        self.pass.light_views()
     }
 }

@@ -49,6 +49,15 @@ impl Passes {
         }
     }
 
+    /// [`Passes::end`] of pass `name` whose sub-passes, reported with [`Passes::add`], took
+    /// `timed` of its milliseconds: the pass keeps the rest.
+    pub fn end_after(&mut self, name: &'static str, timed: f64) {
+        let now = Instant::now();
+        let ms = (now - self.at).as_secs_f64() * 1e3;
+        self.at = now;
+        self.add(name, (ms - timed).max(0.0));
+    }
+
     /// Leaves the time since the last end out of every pass (work that is not a pass of the
     /// technique).
     pub fn skip(&mut self) {

@@ -690,6 +690,10 @@ impl<M: Moments> Pass for FilteredPass<M> {
         Ok(out)
     }
 
+    fn light_views(&self) -> Vec<crate::shadow::light::LightView> {
+        self.maps.views()
+    }
+
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
         if self.views.is_empty() || frame.point(x, y).is_none() {
             return Vec::new();

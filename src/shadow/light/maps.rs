@@ -11,6 +11,7 @@
 //! faces for cube maps), its texture coordinate and depth there. [`MapPoint::inside`] is the
 //! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
 
+use super::cascades::{cascade_fit, cascade_of, Cascades};
 use super::{fit, merged_casters, DepthPass, LightView};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -57,8 +58,12 @@ pub struct MapOptions {
     pub slope: f32,
     /// Directional lights: fit the map to the scene or to the visible receivers. Default: scene.
     pub fit: FitTo,
-    /// Snap the fitted frustum to whole texels (against shimmering). Default: false.
+    /// Snap the fitted frustum to whole texels (against shimmering); with cascades, fit each
+    /// to its slice's bounding sphere on whole texels. Default: false.
     pub snap: bool,
+    /// Cascades over the view range instead of one map (directional lights; declared by the
+    /// techniques that offer them, [`Cascades::fields`]). Default: none.
+    pub cascades: Option<Cascades>,
 }
 
 impl Default for MapOptions {
@@ -70,6 +75,7 @@ impl Default for MapOptions {
             slope: 1.1,
             fit: FitTo::Scene,
             snap: false,
+            cascades: None,
         }
     }
 }
@@ -186,14 +192,15 @@ impl<T> OnView for (T, LightView) {
     }
 }
 
-/// Which of `views` sees world point `p`: a cube face by the direction from the light for six
-/// views ([`CubeFace::ALL`] order), the one view otherwise.
+/// Which of `views` sees world point `p`: a cascade by its [`Slice`](super::cascades::Slice)
+/// ([`cascade_of`]), a cube face by the direction from the light for six views
+/// ([`CubeFace::ALL`] order), the one view otherwise.
 #[inline(always)]
-pub fn view_of(views: usize, light: &Light, p: Vec3) -> usize {
-    if views == 6 {
-        CubeFace::from_direction(p - light.position).map_or(0, |f| f.0 as usize)
-    } else {
-        0
+pub fn view_of(views: &[impl OnView], light: &Light, p: Vec3) -> usize {
+    match views.first().and_then(|v| v.light_view().slice) {
+        Some(first) => cascade_of(views, &first, p),
+        None if views.len() == 6 => CubeFace::from_direction(p - light.position).map_or(0, |f| f.0 as usize),
+        None => 0,
     }
 }
 
@@ -202,7 +209,7 @@ pub fn view_of(views: usize, light: &Light, p: Vec3) -> usize {
 /// map when [`MapPoint::inside`].
 #[inline(always)]
 pub fn locate(views: &[impl OnView], light: &Light, p: Vec3) -> Option<MapPoint> {
-    locate_on(views, view_of(views.len(), light, p), p)
+    locate_on(views, view_of(views, light, p), p)
 }
 
 /// [`locate`] in a given view `view` (a technique that moves the lookup point, as the
@@ -221,6 +228,10 @@ pub struct LightMaps {
     ids: Vec<Surface<f32>>,
     culled: usize,
     fitted: Option<LightView>,
+    /// Cascades: triangles drawn into each cascade's map.
+    casters: Vec<usize>,
+    /// Milliseconds of each view's pass (its casters and its draw).
+    times: Vec<f64>,
 }
 
 impl LightMaps {
@@ -228,7 +239,21 @@ impl LightMaps {
     /// of the last call are reused where their size allows; the memory the pass adds is
     /// checked against the budget before anything is drawn.
     pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), Error> {
-        let fit = fit(frame, o.size, o.fit == FitTo::Receivers, o.snap);
+        let fit = if let Some(c) = &o.cascades {
+            if frame.light.kind != crate::scene::LightKind::Directional {
+                return Err(Error::option(
+                    "cascades",
+                    c.count,
+                    format!(
+                        "split a directional light's map; the scene's light is {} (shadow-map covers every light)",
+                        frame.light.kind.describe()
+                    ),
+                ));
+            }
+            cascade_fit(frame, o.size, c, o.snap)
+        } else {
+            fit(frame, o.size, o.fit == FitTo::Receivers, o.snap)
+        };
         self.culled = fit.culled;
         self.fitted = fit.fitted;
         let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
@@ -251,7 +276,8 @@ impl LightMaps {
                 ))
             })?;
         }
-        let casters = merged_casters(frame, &fit.casters)?;
+        let mut casters = merged_casters(frame, &fit.casters)?;
+        self.casters = Vec::new();
         let pass = DepthPass {
             size: o.size,
             format: o.format,
@@ -260,7 +286,14 @@ impl LightMaps {
                 factor: o.slope,
             },
         };
-        for view in fit.views {
+        self.times.clear();
+        for (i, view) in fit.views.into_iter().enumerate() {
+            let start = std::time::Instant::now();
+            if let Some(keep) = fit.per_view.get(i) {
+                // Cascades: each draws the casters that can shadow its slice.
+                casters = merged_casters(frame, keep)?;
+                self.casters.push(casters.indices.len() / 3);
+            }
             let reuse = old.pop();
             let map = match layer {
                 Layer::First => pass.render(p, &casters, &view, CullMode::None, None, reuse)?,
@@ -293,6 +326,7 @@ impl LightMaps {
                 }
             };
             self.maps.push((map, view));
+            self.times.push(start.elapsed().as_secs_f64() * 1e3);
         }
         Ok(())
     }
@@ -301,6 +335,11 @@ impl LightMaps {
     #[inline(always)]
     pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
         &self.maps
+    }
+
+    /// The light views of the last pass.
+    pub fn views(&self) -> Vec<LightView> {
+        self.maps.iter().map(|(_, v)| *v).collect()
     }
 
     /// Whether the pass has not run (or found no view).
@@ -337,6 +376,17 @@ impl LightMaps {
         self.culled
     }
 
+    /// Cascades: the caster triangles each cascade's map drew in the last pass (empty
+    /// without cascades).
+    pub fn cascade_casters(&self) -> &[usize] {
+        &self.casters
+    }
+
+    /// Milliseconds each view's pass took in the last pass (its casters and its draw).
+    pub fn view_times(&self) -> &[f64] {
+        &self.times
+    }
+
     /// The fitted view of the last pass (directional lights fitted to receivers).
     pub fn fitted(&self) -> Option<&LightView> {
         self.fitted.as_ref()
@@ -371,6 +421,22 @@ impl LightMaps {
                 data: super::fitted_overview(p, frame, fitted)?,
             });
         }
+        if !self.maps.is_empty() {
+            // Texels per camera pixel: where the map is magnified (above 1) or wasted.
+            v.push(Stage::pixels(
+                frame,
+                "texel_footprint",
+                super::texel_footprint(frame, &self.maps),
+                0.0,
+                4.0,
+            )?);
+        }
+        if self.maps.first().is_some_and(|(_, v)| v.slice.is_some()) {
+            v.push(Stage::Color {
+                name: "cascades".into(),
+                data: cascade_image(frame, &self.maps)?,
+            });
+        }
         for (i, ids) in self.ids.iter().enumerate() {
             let hi = ids.data().iter().copied().fold(1.0f32, f32::max);
             v.push(Stage::Scalar {
@@ -382,6 +448,34 @@ impl LightMaps {
         }
         Ok(v)
     }
+}
+
+/// Which cascade each camera pixel of `frame` reads, one colour per cascade shaded by the
+/// light's angle (RTR fig. 7.20); black where there is no geometry.
+fn cascade_image(frame: &Frame, views: &[(Surface<f32>, LightView)]) -> Result<Surface<Rgba8>, Error> {
+    const PALETTE: [[f32; 3]; 8] = [
+        [230.0, 80.0, 80.0],
+        [80.0, 200.0, 80.0],
+        [80.0, 120.0, 240.0],
+        [230.0, 200.0, 60.0],
+        [200.0, 90.0, 220.0],
+        [60.0, 210.0, 210.0],
+        [240.0, 150.0, 60.0],
+        [170.0, 170.0, 170.0],
+    ];
+    let data = frame
+        .points()
+        .iter()
+        .map(|s| match s {
+            None => [0, 0, 0, 255],
+            Some(s) => {
+                let c = PALETTE[view_of(views, &frame.light, s.position) % 8];
+                let k = 0.35 + 0.65 * s.normal.dot(frame.light.to_light(s.position)).max(0.0);
+                [(c[0] * k) as u8, (c[1] * k) as u8, (c[2] * k) as u8, 255]
+            }
+        })
+        .collect();
+    Ok(Surface::from_vec(frame.width(), frame.height(), data)?)
 }
 
 #[cfg(test)]
@@ -438,6 +532,7 @@ mod tests {
                     matrix: glam::Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, 0.01, 50.0) * view,
                     texel: 2.0 / 64.0,
                     perspective: true,
+                    slice: None,
                 }
             })
             .collect();
@@ -463,6 +558,6 @@ mod tests {
         }
         assert_eq!(n, 40 * 80 * 3);
         // One view: always view 0.
-        assert_eq!(view_of(1, &l, Vec3::new(9.0, -3.0, 2.0)), 0);
+        assert_eq!(view_of(&views[..1], &l, Vec3::new(9.0, -3.0, 2.0)), 0);
     }
 }

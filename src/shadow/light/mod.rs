@@ -17,6 +17,7 @@
 //! - [`LightView::lookup`] / [`project`]: a world point to one view's texture coordinates and
 //!   depth.
 
+pub mod cascades;
 pub mod depth;
 pub mod maps;
 pub mod soft;
@@ -43,6 +44,9 @@ pub struct LightView {
     pub texel: f32,
     /// True for perspective views (texel size grows with distance).
     pub perspective: bool,
+    /// One cascade of a set: the view depths it covers and how points pick it
+    /// ([`cascades::Slice`]); `None` for single views and cube faces.
+    pub slice: Option<cascades::Slice>,
 }
 
 impl LightView {
@@ -141,6 +145,7 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 matrix: Mat4::perspective_rh(angle_deg.to_radians(), 1.0, (far * 1e-4).max(1e-3), far) * view,
                 texel: 2.0 * half / size as f32,
                 perspective: true,
+                slice: None,
             }]
         }
         LightKind::Point | LightKind::Area(_) => cube_views(frame, size),
@@ -173,6 +178,7 @@ pub fn cube_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 matrix: proj * view,
                 texel: 2.0 / size as f32,
                 perspective: true,
+                slice: None,
             }
         })
         .collect()
@@ -224,6 +230,7 @@ pub fn directional_view(frame: &Frame, receivers: &[Vec3], casters: &[Vec3], siz
         matrix: Mat4::orthographic_rh(x0, x1, y0, y1, near, far) * view,
         texel: (x1 - x0).max(y1 - y0) / size as f32,
         perspective: false,
+        slice: None,
     }
 }
 
@@ -238,6 +245,8 @@ pub struct Fit {
     pub culled: usize,
     /// The fitted view when a directional light was fitted to receivers (for overviews).
     pub fitted: Option<LightView>,
+    /// Cascades: per view, which objects it draws (empty: every view draws `casters`).
+    pub per_view: Vec<Vec<bool>>,
 }
 
 /// The views of `frame` at `size` texels: with `to_receivers` and a directional light, fitted
@@ -251,6 +260,7 @@ pub fn fit(frame: &Frame, size: u32, to_receivers: bool, snap: bool) -> Fit {
         casters,
         culled: 0,
         fitted: None,
+        per_view: Vec::new(),
     };
     if !(to_receivers && frame.light.kind == LightKind::Directional) {
         return unfitted(all);
@@ -292,7 +302,43 @@ pub fn fit(frame: &Frame, size: u32, to_receivers: bool, snap: bool) -> Fit {
         culled: keep.iter().filter(|k| !**k).count(),
         casters: keep,
         fitted: Some(view),
+        per_view: Vec::new(),
     }
+}
+
+/// Per camera pixel of `frame`, row-major: the footprint of the shadow-map texel that
+/// [`locate`] finds for the pixel's point in `views`, measured in camera pixels (Lloyd et al.
+/// 2008's perspective aliasing factor, along one axis): the texel's world size over the
+/// pixel's at the point, each stretched onto the surface by its view's slant,
+/// `(texel / cos(light angle)) / (pixel / cos(eye angle))`. Above 1 the map is magnified
+/// (aliasing: one texel over several pixels), below 1 texels are wasted; 1 is ideal. NaN
+/// where there is no geometry or the surface faces away from the light.
+pub fn texel_footprint(frame: &Frame, views: &[impl OnView]) -> Vec<f32> {
+    let cam = &frame.camera;
+    let light = &frame.light;
+    let plane = cascades::depth_plane(frame);
+    // World size of one pixel per unit of view depth.
+    let pixel = 2.0 * math::tan(cam.fov_deg.to_radians() * 0.5) / cam.height.max(1) as f32;
+    frame
+        .points()
+        .iter()
+        .map(|s| {
+            let Some(s) = s else { return f32::NAN };
+            let cos_l = s.face.dot(light.to_light(s.position));
+            if cos_l <= 0.0 || views.is_empty() {
+                return f32::NAN;
+            }
+            let v = views[view_of(views, light, s.position)].light_view();
+            let texel = v.texel_at(light, s.position);
+            let cos_e = s
+                .face
+                .dot((cam.position - s.position).normalize_or_zero())
+                .abs()
+                .max(1e-3);
+            let px = pixel * math::dot4(plane, s.position.extend(1.0)).max(1e-6);
+            texel * cos_e / (px * cos_l.max(1e-3))
+        })
+        .collect()
 }
 
 /// The homogeneous light position: `(p, 1)` for lights at a point, `(-direction, 0)` for
@@ -373,6 +419,7 @@ mod tests {
             matrix: m,
             texel: 0.001,
             perspective: true,
+            slice: None,
         };
         for d in [0.1f32, 1.0, 7.5, 30.0] {
             let (_, z) = v.lookup(eye + dir * d).unwrap();
@@ -384,6 +431,7 @@ mod tests {
                 * Mat4::look_at_rh(eye, eye + dir, up_for(dir)),
             texel: 0.01,
             perspective: false,
+            slice: None,
         };
         let (_, z1) = o.lookup(eye + dir * 3.0).unwrap();
         let (_, z2) = o.lookup(eye + dir * 8.0 + Vec3::X * 0.0).unwrap();

@@ -25,6 +25,7 @@ use crate::frame::Frame;
 use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
+use crate::shadow::light::cascades::{self, Blend};
 use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::options::within;
 use crate::shadow::{Field, Stage};
@@ -185,6 +186,11 @@ impl MapLookup {
         self.maps.maps()
     }
 
+    /// The light views of the last pass.
+    pub fn views(&self) -> Vec<LightView> {
+        self.maps.views()
+    }
+
     /// Texels of the last pass's maps, all views.
     pub fn texels(&self) -> usize {
         self.maps.texels()
@@ -255,7 +261,7 @@ impl MapLookup {
     ) -> Option<usize> {
         let planes = self.planes4(frame, (x, y), n);
         for (l, a) in ats.iter_mut().enumerate().take(n) {
-            match self.prepare_with(frame, x + l, y, &mut NoTrace, planes[l]) {
+            match self.prepare_with(frame, x + l, y, &mut NoTrace, planes[l], None) {
                 Prepared::Done(v, c) => (out[l], *count) = (v, *count + c),
                 Prepared::At(at) => *a = Some(at),
             }
@@ -275,7 +281,7 @@ impl MapLookup {
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
         let mut face = None;
         for s in pts[y * w + x..y * w + x + n].iter().flatten() {
-            let f = light::view_of(self.maps.maps().len(), &frame.light, s.position);
+            let f = light::view_of(self.maps.maps(), &frame.light, s.position);
             if face.is_some_and(|g| g != f) {
                 return [None; 4];
             }
@@ -417,7 +423,50 @@ impl MapLookup {
     /// the id map are [`Prepared::Done`]. The soft techniques of the family filter from here.
     #[inline(always)]
     pub fn prepare(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> Prepared {
-        self.prepare_with(frame, x, y, t, None)
+        self.prepare_with(frame, x, y, t, None, None)
+    }
+
+    /// [`MapLookup::prepare`] in light view `face` whichever view the point picks (the next
+    /// cascade of a blend band).
+    #[inline(always)]
+    pub fn prepare_on(&self, frame: &Frame, x: usize, y: usize, face: usize, t: &mut impl Trace) -> Prepared {
+        self.prepare_with(frame, x, y, t, None, Some(face))
+    }
+
+    /// With cascades: the weight of the next cascade at a prepared lookup in the blend band
+    /// at its cascade's end ([`cascades::next_weight`]; 0 outside it). A dithered blend
+    /// decides per pixel: 0 or 1 by the pixel's 4x4 ordered-dither threshold.
+    #[inline(always)]
+    pub fn next_cascade(&self, at: &At, x: usize, y: usize, t: &mut impl Trace) -> f32 {
+        let views = self.maps.maps();
+        if views[at.face].1.slice.is_none() {
+            return 0.0;
+        }
+        let Some(c) = &self.setup.map.cascades else { return 0.0 };
+        let w = cascades::next_weight(views, at.face, at.pos, at.uv, c.band);
+        let used = match c.blend {
+            Blend::Dither if w > 0.0 => {
+                if w > cascades::dither_threshold(x, y) {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            _ => w,
+        };
+        if w > 0.0 {
+            t.step(|| {
+                Step::new(
+                    "cascade blend",
+                    "in the band at the cascade's end the next cascade is mixed in, against seams",
+                )
+                .num("band", c.band)
+                .text("blend", c.blend.as_str())
+                .num("position across the band", w)
+                .num("weight of the next cascade", used)
+            });
+        }
+        used
     }
 
     /// [`MapLookup::prepare`] with the pixel's receiver plane already solved (`plane`:
@@ -430,6 +479,7 @@ impl MapLookup {
         y: usize,
         t: &mut impl Trace,
         plane: Option<(Option<Vec2>, f32)>,
+        on: Option<usize>,
     ) -> Prepared {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
@@ -438,19 +488,27 @@ impl MapLookup {
         };
         let o = &self.setup;
         let light = &frame.light;
-        let face = light::view_of(self.maps.maps().len(), light, s.position);
+        let face = on.unwrap_or_else(|| light::view_of(self.maps.maps(), light, s.position));
         let (map, view) = &self.maps.maps()[face];
         // Normal offset: move the lookup point along the normal (Holbert 2011).
         let pos = normal_offset(view, light, &s, o.bias.normal);
         t.step(|| {
-            Step::new(
+            let step = Step::new(
                 "light view",
-                "the view that sees the point (one of six cube faces for point lights)",
+                "the view that sees the point (one of six cube faces for point lights, a cascade by view depth or map bounds)",
             )
             .int("view", face)
             .int("views", self.maps.maps().len())
             .flag("perspective", view.perspective)
-            .num("texel size at the point", view.texel_at(light, s.position))
+            .num("texel size at the point", view.texel_at(light, s.position));
+            match view.slice {
+                Some(c) => step
+                    .num("view depth", c.depth(s.position))
+                    .num("cascade from", c.near)
+                    .num("cascade to", c.far)
+                    .text("selected by", if on.is_some() { "blend band" } else if c.by_bounds { "map bounds" } else { "depth" }),
+                None => step,
+            }
         });
         if o.bias.normal > 0.0 {
             t.step(|| {

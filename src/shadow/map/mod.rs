@@ -9,6 +9,7 @@
 //! [`crate::shadow::light`]'s. No technique here holds another.
 
 pub mod bias;
+pub mod cascaded;
 pub mod chs;
 pub mod kernel;
 pub mod lookup;

@@ -201,8 +201,41 @@ impl MapPass {
     pub(crate) fn lookup(&self, frame: &Frame, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
         match self.lookup.prepare(frame, x, y, t) {
             Prepared::Done(v, n) => (v, n),
-            Prepared::At(at) => self.lookup_at(frame, &at, x, y, t),
+            Prepared::At(at) => self.blended(frame, &at, x, y, t),
         }
+    }
+
+    /// [`MapPass::lookup_at`], with cascades mixing in the next cascade across the blend band
+    /// at the end of each ([`MapLookup::next_cascade`]).
+    #[inline(always)]
+    fn blended(&self, frame: &Frame, at: &At, x: usize, y: usize, t: &mut impl Trace) -> (f32, u64) {
+        let w = self.lookup.next_cascade(at, x, y, t);
+        if w == 0.0 {
+            return self.lookup_at(frame, at, x, y, t);
+        }
+        let (a, na) = if w < 1.0 {
+            self.lookup_at(frame, at, x, y, t)
+        } else {
+            (0.0, 0)
+        };
+        let (b, nb) = match self.lookup.prepare_on(frame, x, y, at.face + 1, t) {
+            Prepared::Done(v, n) => (v, n),
+            Prepared::At(next) => self.lookup_at(frame, &next, x, y, t),
+        };
+        let v = if w < 1.0 { a + (b - a) * w } else { b };
+        t.step(|| {
+            let step = Step::new("blended", "this cascade's value and the next's, weighted");
+            let step = if w < 1.0 { step.num("this cascade", a) } else { step };
+            step.num("next cascade", b).num("weight of the next", w).num("value", v)
+        });
+        (v, na + nb)
+    }
+
+    /// Whether a prepared lookup lies in a cascade's blend band (it then takes the one-pixel
+    /// path, [`MapPass::blended`]).
+    #[inline(always)]
+    fn in_band(&self, at: &At, x: usize, y: usize) -> bool {
+        self.lookup.next_cascade(at, x, y, &mut NoTrace) > 0.0
     }
 
     /// The kernel of a wide filter at a prepared lookup (its width from world units at the
@@ -245,10 +278,11 @@ impl MapPass {
         let Some(face) = self.lookup.prepare4(frame, (x, y), n, &mut ats, &mut out, &mut count) else {
             return (out, count);
         };
-        // Pixels on another view (a cube map's edge): one at a time.
+        // Pixels on another view (a cube map's edge, another cascade) or in a cascade's
+        // blend band: one at a time.
         for (l, a) in ats.iter_mut().enumerate() {
-            if let Some(at) = a.filter(|at| at.face != face) {
-                let (v, c) = self.lookup_at(frame, &at, x + l, y, &mut NoTrace);
+            if let Some(at) = a.filter(|at| at.face != face || self.in_band(at, x + l, y)) {
+                let (v, c) = self.blended(frame, &at, x + l, y, &mut NoTrace);
                 (out[l], count) = (v, count + c);
                 *a = None;
             }
@@ -287,6 +321,11 @@ impl MapPass {
                     row[x + l] = out[l];
                     continue;
                 };
+                if self.in_band(&at, x + l, y) {
+                    let (v, c) = self.blended(frame, &at, x + l, y, &mut NoTrace);
+                    (row[x + l], count) = (v, count + c);
+                    continue;
+                }
                 let kernel = self.kernel_at(frame, &at, pattern);
                 if let Some((v, c)) = self.lookup.decide(&at, &kernel) {
                     (row[x + l], count) = (v, count + c);
@@ -322,6 +361,42 @@ impl MapPass {
     }
 }
 
+/// The passes of each cascade's map, for `timings`.
+const CASCADE_PASSES: [&str; 8] = [
+    "cascade 1 pass",
+    "cascade 2 pass",
+    "cascade 3 pass",
+    "cascade 4 pass",
+    "cascade 5 pass",
+    "cascade 6 pass",
+    "cascade 7 pass",
+    "cascade 8 pass",
+];
+
+/// The caster triangles each cascade drew, for `counters`.
+const CASCADE_CASTERS: [&str; 8] = [
+    "cascade 1 casters",
+    "cascade 2 casters",
+    "cascade 3 casters",
+    "cascade 4 casters",
+    "cascade 5 casters",
+    "cascade 6 casters",
+    "cascade 7 casters",
+    "cascade 8 casters",
+];
+
+/// The view depth where each cascade ends, for `counters`.
+const CASCADE_ENDS: [&str; 8] = [
+    "cascade 1 ends at",
+    "cascade 2 ends at",
+    "cascade 3 ends at",
+    "cascade 4 ends at",
+    "cascade 5 ends at",
+    "cascade 6 ends at",
+    "cascade 7 ends at",
+    "cascade 8 ends at",
+];
+
 /// Pixels of a row queued for one four-lane filter ([`ShadowMap::lookup_row`]): how many,
 /// their prepared lookups, kernels and columns.
 #[derive(Copy, Clone, Default)]
@@ -337,7 +412,17 @@ impl Pass for MapPass {
 
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         self.lookup.light_pass(p, frame)?;
-        passes.end("light pass");
+        let maps = self.lookup.light_maps();
+        if maps.maps().first().is_some_and(|(_, v)| v.slice.is_some()) {
+            // Cascades: each cascade's pass on its own line.
+            let times = maps.view_times();
+            for (name, ms) in CASCADE_PASSES.iter().zip(times) {
+                passes.add(name, *ms);
+            }
+            passes.end_after("light pass", times.iter().sum());
+        } else {
+            passes.end("light pass");
+        }
         // Pass 2: one lookup per camera pixel.
         let this = &*self;
         let (out, taps) = match self.opts.filter.pattern() {
@@ -359,15 +444,30 @@ impl Pass for MapPass {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        vec![
+        let mut c = vec![
             ("map texels", self.texels() as f64),
             ("casters culled", self.culled() as f64),
             // Bilinear taps (a hardware 2x2 comparison each; one per classified kernel).
             ("taps", self.taps as f64),
-        ]
+        ];
+        // Cascades: the triangles each drew and where each ends.
+        let maps = self.lookup.light_maps();
+        c.extend(
+            CASCADE_CASTERS
+                .iter()
+                .zip(maps.cascade_casters())
+                .map(|(n, t)| (*n, *t as f64)),
+        );
+        let ends = maps.maps().iter().filter_map(|(_, v)| v.slice.map(|s| s.far));
+        c.extend(CASCADE_ENDS.iter().zip(ends).map(|(n, d)| (*n, d as f64)));
+        c
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         self.lookup.stages(p, frame)
+    }
+
+    fn light_views(&self) -> Vec<LightView> {
+        self.lookup.views()
     }
 }

@@ -574,6 +574,10 @@ impl Pass for SoftShadows {
         ]
     }
 
+    fn light_views(&self) -> Vec<crate::shadow::light::LightView> {
+        self.lookup.views()
+    }
+
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v = self.lookup.stages(p, frame)?;
         if self.lookup.maps().is_empty() || self.width <= 0.0 {

@@ -145,7 +145,7 @@ impl IrregularZBuffer {
                 let mut cur = (usize::MAX, empty);
                 {
                     let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
-                        let f = light::view_of(nb, &light, s.position);
+                        let f = light::view_of(base, &light, s.position);
                         let seen = if faces_light(&light, s) {
                             base[f].lookup(s.position)
                         } else {
@@ -420,6 +420,7 @@ pub(super) fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> (LightVie
         matrix: c * base.matrix,
         texel: base.texel * (hi - lo).max_element(),
         perspective: base.perspective,
+        slice: base.slice,
     };
     let grid = Grid {
         lo,
