@@ -782,4 +782,9 @@ forest_floor csm [band=0] 193c0b86fbe31d98
 forest_floor csm [band=0;filter=poisson;kernel=7] 85bba4f3983bd4f8
 forest_floor csm [filter=poisson;kernel=7] b9936e1e3b01e459
 forest_floor csm [size=2048] 9a0ddbc62ee9c007
+contact vsm [cascades=4] c4a714028e50f59a
+point_casters vsm [cascades=4] 4d6e1c7ab2feff57
+planar vsm [cascades=4] b51ff45b66736c96
+cookie vsm [cascades=4] e46d7371c2456f9a
+long_view vsm [cascades=4] a5dc523ef9892746
 ";

@@ -174,6 +174,10 @@ pub struct Filtering {
     /// Summed-area tables: sums in f64 (exact enough at any map size) or naive f32 sums (to
     /// show what is lost). Default: f64.
     pub sums: SatSums,
+    /// Cascades over the view range ([`crate::shadow::light::cascades`], practical splits
+    /// with lambda 0.5, each prefiltered alone), directional lights only: another light keeps
+    /// one map and says so in `notes`. 0: one map. Default: 0.
+    pub cascades: u32,
 }
 
 impl Default for Filtering {
@@ -188,6 +192,7 @@ impl Default for Filtering {
             prefilter: Prefilter::Gaussian,
             radius: 4,
             sums: SatSums::F64,
+            cascades: 0,
         }
     }
 }
@@ -214,6 +219,13 @@ impl Filtering {
                 "sums",
                 "summed-area tables: f64 sums, or naive f32 sums (loses precision on large maps)",
                 |o: &mut Filtering| &mut o.sums,
+            ),
+            Field::range(
+                "cascades",
+                "cascades over the view range, each prefiltered alone (directional lights; 0: one map)",
+                0,
+                crate::shadow::light::cascades::MAX_CASCADES,
+                |o: &mut Filtering| &mut o.cascades,
             ),
         ]);
         f
@@ -350,6 +362,8 @@ pub struct FilteredPass<M> {
     clamped: u64,
     lookups: u64,
     nonfinite: u64,
+    /// Last run: cascades were asked of a light that is not directional (one map was drawn).
+    uncascaded: bool,
 }
 
 /// One pixel's lookup counts (packed into the per-pixel counter: lookups in the low 32 bits,
@@ -371,6 +385,7 @@ impl<M: Moments> FilteredPass<M> {
             clamped: 0,
             lookups: 0,
             nonfinite: 0,
+            uncascaded: false,
         }
     }
 
@@ -647,7 +662,15 @@ impl<M: Moments> Pass for FilteredPass<M> {
     type Output = Vec<f32>;
 
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
-        self.maps.render(p, frame, &self.opts.map, Layer::First)?;
+        let mut map = self.opts.map.clone();
+        self.uncascaded = self.opts.cascades > 0 && frame.light.kind != crate::scene::LightKind::Directional;
+        if self.opts.cascades > 0 && !self.uncascaded {
+            map.cascades = Some(crate::shadow::light::cascades::Cascades {
+                count: self.opts.cascades,
+                ..Default::default()
+            });
+        }
+        self.maps.render(p, frame, &map, Layer::First)?;
         self.nearest = match self.variable {
             Some(_) => self
                 .maps
@@ -769,6 +792,12 @@ impl<M: Moments> Pass for FilteredPass<M> {
 
     fn notes(&self) -> Vec<String> {
         let mut n = Vec::new();
+        if self.uncascaded {
+            n.push(format!(
+                "cascades={} split a directional light's map: this light's views were drawn whole, without cascades",
+                self.opts.cascades
+            ));
+        }
         if self.clamped > 0 {
             n.push(format!(
                 "{} stored channels overflowed the {} storage (largest {}) and were clamped to it: the exponent is past the storage's limit",

@@ -114,7 +114,12 @@ pub fn info() -> TechniqueInfo {
             &[("prefilter", "box"), ("radius", "2")],
             &[("prefilter", "sat"), ("variable", "true")],
         ],
-        extended: &[&[("prefilter", "mips")], &[("storage", "f16")], &[("radius", "8"), ("size", "1024")]],
+        extended: &[
+            &[("prefilter", "mips")],
+            &[("storage", "f16")],
+            &[("radius", "8"), ("size", "1024")],
+            &[("cascades", "4")],
+        ],
         create: |pairs| Ok(Box::new(Vsm::new(declaration().parse(pairs)?)?)),
         applies: None,
         models: &[],
