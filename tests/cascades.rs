@@ -296,8 +296,14 @@ fn cascades_report_their_passes_counters_and_stages() {
     let counters = t.counters();
     let get = |k: &str| counters.iter().find(|c| c.0 == k).map(|c| c.1);
     assert_eq!(get("map texels"), Some(4.0 * 1024.0 * 1024.0));
-    // The near cascade draws fewer casters than the far one (the far box is beyond it).
-    assert!(get("cascade 1 casters").unwrap() < get("cascade 4 casters").unwrap());
+    // Each cascade draws only what can shadow its slice: the post near the eye in the first,
+    // not in the last (measured 130 and 14 of the scene's triangles).
+    let all: usize = s.objects.iter().map(|o| o.mesh.indices.len() / 3).sum();
+    let (first, last) = (get("cascade 1 casters").unwrap(), get("cascade 4 casters").unwrap());
+    assert!(
+        first > last && first < all as f64 && get("casters culled").unwrap() > 0.0,
+        "{counters:?}"
+    );
     assert!(get("cascade 1 ends at").unwrap() < get("cascade 2 ends at").unwrap());
     let names: Vec<String> = t.stages(&p, &f).unwrap().iter().map(|s| s.name().to_string()).collect();
     assert_eq!(

@@ -762,7 +762,7 @@ long_view csm [filter=pcf2] 0486b0c40624104f
 long_view csm [cascades=8;size=724] d94f2064eddd88f5
 long_view csm [cascades=1;size=2048] 285d4f35d4806a08
 long_view csm [lambda=0.9] 7f3dd9f7d0a6e14d
-long_view csm [select=bounds] 80bd119f326215c5
+long_view csm [select=bounds] 263cf5bf6728a7e8
 long_view csm [band=0] 80bd119f326215c5
 long_view csm [band=0;filter=poisson;kernel=7] 6516d0c0f51082c2
 long_view csm [filter=poisson;kernel=7] d8b3b04708c4280c
@@ -777,7 +777,7 @@ forest_floor csm [filter=pcf2] e2fece387afd510c
 forest_floor csm [cascades=8;size=724] 391927909a207957
 forest_floor csm [cascades=1;size=2048] aca85ec100e92e65
 forest_floor csm [lambda=0.9] 57dd1fcc85ed9956
-forest_floor csm [select=bounds] ba845939739f57fe
+forest_floor csm [select=bounds] f47bbf072ff5d2ab
 forest_floor csm [band=0] 193c0b86fbe31d98
 forest_floor csm [band=0;filter=poisson;kernel=7] 85bba4f3983bd4f8
 forest_floor csm [filter=poisson;kernel=7] b9936e1e3b01e459

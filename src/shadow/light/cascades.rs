@@ -351,11 +351,27 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool) -> Fit {
         if rz0 > rz1 {
             (rz0, rz1) = (slo.z, shi.z);
         }
-        // Casters: objects over the cascade's rectangle and not wholly beyond its receivers
-        // (light space looks down -z: larger z is nearer the light).
+        // Casters: objects whose light-space box meets the slice's outline seen from the light
+        // (the convex hull of its corners, within the cascade's rectangle) and that are not
+        // wholly beyond its receivers (light space looks down -z: larger z is nearer the
+        // light). Shadows fall along the light's axis, so an object outside that outline
+        // shadows nothing of the slice.
+        let hull = convex_hull(&cs.map(|c| {
+            let q = lv.transform_point3(c);
+            Vec2::new(q.x, q.y)
+        }));
         let keep: Vec<bool> = objects
             .iter()
-            .map(|b| b.is_some_and(|(a, b)| a.x <= x1 && b.x >= x0 && a.y <= y1 && b.y >= y0 && b.z >= rz0))
+            .map(|b| {
+                b.is_some_and(|(a, b)| {
+                    a.x <= x1
+                        && b.x >= x0
+                        && a.y <= y1
+                        && b.y >= y0
+                        && b.z >= rz0
+                        && rect_meets_polygon(Vec2::new(a.x, a.y), Vec2::new(b.x, b.y), &hull)
+                })
+            })
             .collect();
         let top = objects
             .iter()
@@ -386,6 +402,56 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool) -> Fit {
         fitted: None,
         per_view,
     }
+}
+
+/// The convex hull of `pts`, counter-clockwise (Andrew's monotone chain); collinear points
+/// dropped.
+pub fn convex_hull(pts: &[Vec2]) -> Vec<Vec2> {
+    let mut p = pts.to_vec();
+    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    p.dedup();
+    if p.len() < 3 {
+        return p;
+    }
+    let cross = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<Vec2> = Vec::with_capacity(2 * p.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        for k in 0..p.len() {
+            let q = if pass == 0 { p[k] } else { p[p.len() - 1 - k] };
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// Whether the axis-aligned rectangle `lo..hi` meets the convex polygon `poly`
+/// (counter-clockwise; separating axes: the rectangle's and the polygon's edge normals). A
+/// polygon of fewer than three points is taken as meeting everything.
+pub fn rect_meets_polygon(lo: Vec2, hi: Vec2, poly: &[Vec2]) -> bool {
+    if poly.len() < 3 {
+        return true;
+    }
+    let (plo, phi) = poly
+        .iter()
+        .fold((Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    if plo.x > hi.x || phi.x < lo.x || plo.y > hi.y || phi.y < lo.y {
+        return false;
+    }
+    let rect = [lo, Vec2::new(hi.x, lo.y), hi, Vec2::new(lo.x, hi.y)];
+    (0..poly.len()).all(|i| {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        // Outward normal of a counter-clockwise edge: the rectangle is outside when every
+        // corner lies beyond the edge.
+        let n = Vec2::new(b.y - a.y, a.x - b.x);
+        rect.iter().any(|c| (*c - a).dot(n) <= 0.0)
+    })
 }
 
 #[cfg(test)]
@@ -424,5 +490,30 @@ mod tests {
             assert_eq!(*v, (i as f32 + 0.5) / 16.0);
         }
         assert_eq!(dither_threshold(5, 6), dither_threshold(1, 2));
+    }
+
+    #[test]
+    fn rectangles_meet_the_hull_of_a_slice() {
+        let pts = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(4.0, 0.0),
+            Vec2::new(2.0, 1.0),
+            Vec2::new(0.0, 4.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(2.0, 0.0),
+        ];
+        let hull = convex_hull(&pts);
+        assert_eq!(
+            hull,
+            vec![Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0), Vec2::new(0.0, 4.0)]
+        );
+        // Inside, over an edge, containing the triangle; beyond the hypotenuse, beside.
+        assert!(rect_meets_polygon(Vec2::new(0.5, 0.5), Vec2::new(1.0, 1.0), &hull));
+        assert!(rect_meets_polygon(Vec2::new(1.5, 1.5), Vec2::new(3.0, 3.0), &hull));
+        assert!(rect_meets_polygon(Vec2::new(-1.0, -1.0), Vec2::new(5.0, 5.0), &hull));
+        assert!(!rect_meets_polygon(Vec2::new(2.5, 2.5), Vec2::new(3.0, 3.0), &hull));
+        assert!(!rect_meets_polygon(Vec2::new(5.0, 0.0), Vec2::new(6.0, 1.0), &hull));
+        // Touching a corner counts.
+        assert!(rect_meets_polygon(Vec2::new(4.0, -1.0), Vec2::new(5.0, 0.0), &hull));
     }
 }

@@ -12,7 +12,7 @@
 //! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
 
 use super::cascades::{cascade_fit, cascade_of, Cascades};
-use super::{fit, merged_casters, DepthPass, LightView};
+use super::{fit, merged_casters, Casters, DepthPass, LightView};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
@@ -276,7 +276,13 @@ impl LightMaps {
                 ))
             })?;
         }
-        let mut casters = merged_casters(frame, &fit.casters)?;
+        // Cascades merge their own casters below (a cascade with the last one's set reuses
+        // its merge).
+        let mut casters = if fit.per_view.is_empty() {
+            merged_casters(frame, &fit.casters)?
+        } else {
+            Casters::default()
+        };
         self.casters = Vec::new();
         let pass = DepthPass {
             size: o.size,
@@ -291,7 +297,9 @@ impl LightMaps {
             let start = std::time::Instant::now();
             if let Some(keep) = fit.per_view.get(i) {
                 // Cascades: each draws the casters that can shadow its slice.
-                casters = merged_casters(frame, keep)?;
+                if i == 0 || fit.per_view[i - 1] != *keep {
+                    casters = merged_casters(frame, keep)?;
+                }
                 self.casters.push(casters.indices.len() / 3);
             }
             let reuse = old.pop();
