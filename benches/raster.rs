@@ -100,6 +100,7 @@ fn techniques(c: &mut Criterion) {
     for (id, name, sets) in [
         ("shadow-volume", "shadow-volume", vec![]),
         ("shadow-map", "shadow-map", vec![]),
+        ("csm", "csm", vec![]),
         ("izb", "izb", vec![]),
         ("izb-4spp", "izb", izb4),
         ("avsm", "avsm", vec![]),
