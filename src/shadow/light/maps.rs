@@ -117,7 +117,7 @@ impl MapOptions {
             ),
             Field::new(
                 "snap",
-                "snap the fitted frustum to whole texels (against shimmering)",
+                "snap the fitted frustum to whole texels (against shimmering); cascades: each fitted to its slice's bounding sphere on whole texels",
                 |m: &mut MapOptions| &mut m.snap,
             ),
         ]
