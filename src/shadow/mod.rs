@@ -282,6 +282,8 @@ pub fn registry() -> Vec<TechniqueInfo> {
         reference::info(),
         map::shadow_map::info(),
         map::cascaded::info(),
+        map::lispsm::info(),
+        map::tsm::info(),
         map::pcss::info(),
         map::chs::info(),
         map::multi_sample::info(),

@@ -384,6 +384,7 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool) -> Fit {
             matrix: Mat4::orthographic_rh(x0, x1, y0, y1, zn, zf) * lv,
             texel: (x1 - x0).max(y1 - y0) / size as f32,
             perspective: false,
+            warped: false,
             slice: Some(Slice {
                 plane,
                 near: splits[i],

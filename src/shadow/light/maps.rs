@@ -12,6 +12,7 @@
 //! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
 
 use super::cascades::{cascade_fit, cascade_of, Cascades};
+use super::warp::{warp_fit, Warp, WarpInfo};
 use super::{fit, merged_casters, Casters, DepthPass, LightView};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -64,6 +65,9 @@ pub struct MapOptions {
     /// Cascades over the view range instead of one map (directional lights; declared by the
     /// techniques that offer them, [`Cascades::fields`]). Default: none.
     pub cascades: Option<Cascades>,
+    /// A perspective warp of a directional light's map ([`Warp`]: LiSPSM, TSM; declared by
+    /// the techniques that are one). Default: none.
+    pub warp: Option<Warp>,
 }
 
 impl Default for MapOptions {
@@ -76,6 +80,7 @@ impl Default for MapOptions {
             fit: FitTo::Scene,
             snap: false,
             cascades: None,
+            warp: None,
         }
     }
 }
@@ -232,6 +237,8 @@ pub struct LightMaps {
     casters: Vec<usize>,
     /// Milliseconds of each view's pass (its casters and its draw).
     times: Vec<f64>,
+    /// The warp of the last pass, if one was asked for.
+    warp: Option<WarpInfo>,
 }
 
 impl LightMaps {
@@ -239,6 +246,7 @@ impl LightMaps {
     /// of the last call are reused where their size allows; the memory the pass adds is
     /// checked against the budget before anything is drawn.
     pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), Error> {
+        self.warp = None;
         let fit = if let Some(c) = &o.cascades {
             if frame.light.kind != crate::scene::LightKind::Directional {
                 return Err(Error::option(
@@ -251,6 +259,17 @@ impl LightMaps {
                 ));
             }
             cascade_fit(frame, o.size, c, o.snap)
+        } else if let Some(w) = &o.warp {
+            if frame.light.kind != crate::scene::LightKind::Directional {
+                return Err(Error::technique(format!(
+                    "{} warps a directional light's map; the scene's light is {} (shadow-map covers every light)",
+                    w.kind.as_str(),
+                    frame.light.kind.describe()
+                )));
+            }
+            let (fit, info) = warp_fit(frame, o.size, w);
+            self.warp = Some(info);
+            fit
         } else {
             fit(frame, o.size, o.fit == FitTo::Receivers, o.snap)
         };
@@ -388,6 +407,11 @@ impl LightMaps {
     /// without cascades).
     pub fn cascade_casters(&self) -> &[usize] {
         &self.casters
+    }
+
+    /// The warp the last pass fitted (its parameters and any fall-back), if it was warped.
+    pub fn warp(&self) -> Option<&WarpInfo> {
+        self.warp.as_ref()
     }
 
     /// Milliseconds each view's pass took in the last pass (its casters and its draw).
@@ -540,6 +564,7 @@ mod tests {
                     matrix: glam::Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, 0.01, 50.0) * view,
                     texel: 2.0 / 64.0,
                     perspective: true,
+                    warped: false,
                     slice: None,
                 }
             })

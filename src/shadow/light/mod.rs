@@ -21,6 +21,7 @@ pub mod cascades;
 pub mod depth;
 pub mod maps;
 pub mod soft;
+pub mod warp;
 
 use crate::frame::Frame;
 use crate::math;
@@ -40,10 +41,15 @@ pub use maps::{
 pub struct LightView {
     /// World to light clip space (depth in [0, 1]).
     pub matrix: Mat4,
-    /// Texel size in world units (perspective views: per unit of distance from the light).
+    /// Texel size in world units (perspective views: per unit of distance from the light;
+    /// warped views: in texture coordinates, `1 / size`).
     pub texel: f32,
     /// True for perspective views (texel size grows with distance).
     pub perspective: bool,
+    /// True for a directional light's warped view ([`warp`]: LiSPSM, TSM): a projective
+    /// matrix whose texel size varies over the map ([`LightView::texel_at`] takes it from the
+    /// matrix) and whose depth is not linear along the light (no [`LightView::distance`]).
+    pub warped: bool,
     /// One cascade of a set: the view depths it covers and how points pick it
     /// ([`cascades::Slice`]); `None` for single views and cube faces.
     pub slice: Option<cascades::Slice>,
@@ -59,7 +65,9 @@ impl LightView {
 
     /// World size of one texel at world point `p` (seen from `light`).
     pub fn texel_at(&self, light: &Light, p: Vec3) -> f32 {
-        if self.perspective {
+        if self.warped {
+            warp::texel_at(&self.matrix, light.direction, p, self.texel)
+        } else if self.perspective {
             self.texel * (p - light.position).length()
         } else {
             self.texel
@@ -68,7 +76,9 @@ impl LightView {
 
     /// Distance along the view's axis of a point at map depth `z` (in [0, 1]): from the eye
     /// for perspective views (the depth unprojected), from a fixed plane for orthographic
-    /// ones (only differences of distances mean something there).
+    /// ones (only differences of distances mean something there). Not for warped views,
+    /// whose depth scale changes over the map: the techniques that unproject depths (PCSS,
+    /// CHS, the filtered maps) take no warp.
     #[inline]
     pub fn distance(&self, z: f32) -> f32 {
         self.depth_to_distance().at(z)
@@ -145,6 +155,7 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 matrix: Mat4::perspective_rh(angle_deg.to_radians(), 1.0, (far * 1e-4).max(1e-3), far) * view,
                 texel: 2.0 * half / size as f32,
                 perspective: true,
+                warped: false,
                 slice: None,
             }]
         }
@@ -178,6 +189,7 @@ pub fn cube_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 matrix: proj * view,
                 texel: 2.0 / size as f32,
                 perspective: true,
+                warped: false,
                 slice: None,
             }
         })
@@ -230,6 +242,7 @@ pub fn directional_view(frame: &Frame, receivers: &[Vec3], casters: &[Vec3], siz
         matrix: Mat4::orthographic_rh(x0, x1, y0, y1, near, far) * view,
         texel: (x1 - x0).max(y1 - y0) / size as f32,
         perspective: false,
+        warped: false,
         slice: None,
     }
 }
@@ -419,6 +432,7 @@ mod tests {
             matrix: m,
             texel: 0.001,
             perspective: true,
+            warped: false,
             slice: None,
         };
         for d in [0.1f32, 1.0, 7.5, 30.0] {
@@ -431,6 +445,7 @@ mod tests {
                 * Mat4::look_at_rh(eye, eye + dir, up_for(dir)),
             texel: 0.01,
             perspective: false,
+            warped: false,
             slice: None,
         };
         let (_, z1) = o.lookup(eye + dir * 3.0).unwrap();

@@ -97,6 +97,7 @@ mod tests {
                 matrix: Mat4::IDENTITY,
                 texel: 0.01,
                 perspective,
+                warped: false,
                 slice: None,
             };
             // A light 0.5 wide, a blocker at 2, a receiver at 6: the penumbra is

@@ -503,6 +503,7 @@ mod tests {
             matrix: glam::Mat4::orthographic_rh(-3.0, 3.0, -3.0, 3.0, 0.5, 20.0),
             texel: 0.01,
             perspective: false,
+            warped: false,
             slice: None,
         };
         let (mut inside, mut blockers) = (0, 0);

@@ -217,7 +217,7 @@ impl MapLookup {
 
     /// `inspect`'s opening step: what the light pass made.
     pub fn pass_step(&self) -> Step {
-        Step::new("maps", "the light pass of the last run")
+        let step = Step::new("maps", "the light pass of the last run")
             .int("views", self.maps.maps().len())
             .int("size", self.setup.map.size)
             .text(
@@ -225,7 +225,21 @@ impl MapLookup {
                 crate::shadow::options::OptionValue::show(&self.setup.map.format),
             )
             .text("layer", self.setup.layer.as_str())
-            .int("casters culled by fitting", self.maps.culled())
+            .int("casters culled by fitting", self.maps.culled());
+        match self.maps.warp() {
+            Some(w) => {
+                let step = step
+                    .text("warp", w.kind.as_str())
+                    .num("angle between view and light (degrees)", w.gamma_deg)
+                    .num("warp n (infinite: none)", w.n)
+                    .num("body depth along the warp axis", w.depth);
+                match &w.fallback {
+                    Some(why) => step.text("fall-back", why.clone()),
+                    None => step,
+                }
+            }
+            None => step,
+        }
     }
 
     /// One comparison at a prepared lookup: the nearest texel's, or with `pcf` the
@@ -500,6 +514,7 @@ impl MapLookup {
             .int("view", face)
             .int("views", self.maps.maps().len())
             .flag("perspective", view.perspective)
+            .flag("warped", view.warped)
             .num("texel size at the point", view.texel_at(light, s.position));
             match view.slice {
                 Some(c) => step

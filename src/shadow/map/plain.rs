@@ -460,7 +460,21 @@ impl Pass for MapPass {
         );
         let ends = maps.maps().iter().filter_map(|(_, v)| v.slice.map(|s| s.far));
         c.extend(CASCADE_ENDS.iter().zip(ends).map(|(n, d)| (*n, d as f64)));
+        // Warps: the warp's n (0 where it fell back to no warp) and the light's angle to the
+        // view.
+        if let Some(w) = maps.warp() {
+            c.push(("warp n (0: none)", if w.n.is_finite() { w.n as f64 } else { 0.0 }));
+            c.push(("warp gamma (degrees)", w.gamma_deg as f64));
+        }
         c
+    }
+
+    fn notes(&self) -> Vec<String> {
+        let maps = self.lookup.light_maps();
+        maps.warp()
+            .and_then(|w| w.fallback.as_ref().map(|why| format!("{}: {why}", w.kind.as_str())))
+            .into_iter()
+            .collect()
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {

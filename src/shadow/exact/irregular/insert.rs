@@ -420,6 +420,7 @@ pub(super) fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> (LightVie
         matrix: c * base.matrix,
         texel: base.texel * (hi - lo).max_element(),
         perspective: base.perspective,
+        warped: base.warped,
         slice: base.slice,
     };
     let grid = Grid {

@@ -1,0 +1,92 @@
+//! Trapezoidal shadow maps (Martin and Tan 2004; RTR 7.4.1): the camera frustum seen from a
+//! directional light is enclosed in a trapezoid whose top lies at the near plane and whose
+//! base lies at the far plane, and the trapezoid is mapped onto the square map by a
+//! perspective transform, so texels are spent near the eye.
+//!
+//! The warp is [`crate::shadow::light::warp`]'s: the trapezoid's centre line is the view
+//! direction projected onto the plane perpendicular to the light through the near plane's
+//! centre, its apex `eta` before the top chosen by the paper's 80 % rule: the focus point
+//! (`focus` of the view range past the near plane) lands on the line `xi = -0.6`, so the
+//! region up to it takes 80 % of the map,
+//! `eta = (lambda delta' + lambda delta' xi) / (lambda - 2 delta' - lambda xi)` (Martin and Tan
+//! 2004, section 4; `lambda` the trapezoid's height, `delta'` the focus point's distance from
+//! the top). Everything else is the plain shadow map's ([`super::plain`]).
+//!
+//! The paper computes the depth it stores in the light's unwarped space, against the
+//! polygon-offset trouble of the warped depth; here the map stores the warped depth, which
+//! is exact within a texel (the divide is the same along a light ray), and the pipeline's
+//! slope-scaled offset follows the warped slopes.
+//!
+//! Known failures: dueling frusta (the light facing the camera: the trapezoid degenerates and
+//! gains nothing over the orthographic map); a focus point beyond the 80 % line of the
+//! trapezoid (a short view range seen from the side) leaves no warp (the map falls back to
+//! the orthographic one and says so in `notes`); shadows crawl as the camera moves.
+//! Directional lights only.
+
+use super::plain::{MapPass, Options as MapPassOptions};
+use super::warped::{build, declaration as warped_declaration, directional, WarpedOptions};
+use crate::shadow::light::warp::{Warp, WarpKind};
+use crate::shadow::light::MapOptions;
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, TechniqueInfo};
+use crate::Error;
+
+/// Options of TSM.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The shadow map's options (map pass, bias, layer, filter), the warp in
+    /// `shadow.map.warp`. Default: one 2048² map, the focus at half the view range; the rest
+    /// as `shadow-map`'s defaults.
+    pub shadow: MapPassOptions,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            shadow: MapPassOptions {
+                map: MapOptions {
+                    warp: Some(Warp {
+                        kind: WarpKind::Tsm,
+                        ..Warp::default()
+                    }),
+                    ..MapOptions::default()
+                },
+                ..MapPassOptions::default()
+            },
+        }
+    }
+}
+
+impl WarpedOptions for Options {
+    fn shadow(&mut self) -> &mut MapPassOptions {
+        &mut self.shadow
+    }
+}
+
+/// The option declaration: the shadow map's (but `fit` and `snap`) and `focus`.
+pub fn declaration() -> Declaration<Options> {
+    warped_declaration("tsm", Warp::tsm_fields())
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "tsm",
+        family: Family::Map,
+        summary: "trapezoidal shadow maps (Martin and Tan 2004): the view's trapezoid from the light mapped onto the map, the focus on the 80 % line; gains nothing when the light faces the camera",
+        options: declaration().infos(),
+        sweep: &[&[], &[("focus", "0.2")], &[("focus", "0.8")], &[("filter", "pcf2")]],
+        extended: &[&[("size", "1024")], &[("focus", "0.05")], &[("filter", "poisson"), ("kernel", "7")]],
+        create: |pairs| Ok(Box::new(tsm(declaration().parse(pairs)?)?)),
+        applies: Some(directional),
+        models: &[],
+    }
+}
+
+/// TSM (see the module docs): the plain map's pass over one warped view, built by [`tsm`].
+pub type Tsm = PassTechnique<MapPass>;
+
+/// TSM with `opts`; an option out of its range is an error.
+pub fn tsm(opts: Options) -> Result<Tsm, Error> {
+    build(declaration(), opts)
+}
