@@ -101,6 +101,8 @@ fn techniques(c: &mut Criterion) {
         ("shadow-volume", "shadow-volume", vec![]),
         ("shadow-map", "shadow-map", vec![]),
         ("csm", "csm", vec![]),
+        ("lispsm", "lispsm", vec![]),
+        ("tsm", "tsm", vec![]),
         ("izb", "izb", vec![]),
         ("izb-4spp", "izb", izb4),
         ("avsm", "avsm", vec![]),

@@ -114,6 +114,8 @@ stained_glass hard d4a9a59bc1803348
 stained_glass area64 d4a9a59bc1803348
 street hard 1d5541b23e424ef5
 street area64 1d5541b23e424ef5
+facing_sun hard 829dbcc4d8e212c5
+facing_sun area64 829dbcc4d8e212c5
 subtexel_path hard 9ad33f8a97ef6835
 subtexel_path area64 9ad33f8a97ef6835
 terrain hard 68fa3bac37446695

@@ -137,7 +137,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
     let forward = depth_plane(frame).truncate().normalize_or_zero();
     let cos_g = forward.dot(d).clamp(-1.0, 1.0);
     let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
-    let gamma_deg = cos_g.acos().to_degrees();
+    let gamma_deg = crate::math::acos(cos_g).to_degrees();
     let mut fallback = None;
     let axis = forward - d * cos_g;
     let z = if sin_g >= MIN_SIN_GAMMA {
