@@ -76,6 +76,8 @@ eye_in_volume hard b9b902d75af454d5
 eye_in_volume area64 b9b902d75af454d5
 facing_light hard 3fc5db1eb6acf625
 facing_light area64 3fc5db1eb6acf625
+facing_sun hard 829dbcc4d8e212c5
+facing_sun area64 829dbcc4d8e212c5
 far_plane hard 3d67203d4715c298
 far_plane area64 3d67203d4715c298
 forest hard e775b7d05552a438
@@ -114,8 +116,6 @@ stained_glass hard d4a9a59bc1803348
 stained_glass area64 d4a9a59bc1803348
 street hard 1d5541b23e424ef5
 street area64 1d5541b23e424ef5
-facing_sun hard 829dbcc4d8e212c5
-facing_sun area64 829dbcc4d8e212c5
 subtexel_path hard 9ad33f8a97ef6835
 subtexel_path area64 9ad33f8a97ef6835
 terrain hard 68fa3bac37446695
