@@ -37,7 +37,11 @@ fn warps_cut_perspective_aliasing_at_equal_texels() {
         let one = result(scene, "shadow-map", &[]);
         for technique in ["lispsm", "tsm"] {
             let w = result(scene, technique, &[]);
-            assert_eq!(counter(&one, "map texels"), counter(&w, "map texels"), "{scene}: equal texels");
+            assert_eq!(
+                counter(&one, "map texels"),
+                counter(&w, "map texels"),
+                "{scene}: equal texels"
+            );
             assert!(
                 w.texel_px_p99 < 0.4 * one.texel_px_p99 && w.texel_px < 0.6 * one.texel_px,
                 "{scene} {technique}: footprint p99 {} vs {}, median {} vs {}",
@@ -101,7 +105,10 @@ fn degenerate_warps_fall_back_and_say_so() {
         let v = t.visibility(&p, &f).unwrap().to_scalar();
         assert!(v.iter().all(|x| x.is_nan() || (0.0..=1.0).contains(x)));
         let notes = t.notes();
-        assert!(notes.iter().any(|n| n.contains("no warp axis")), "{technique}: {notes:?}");
+        assert!(
+            notes.iter().any(|n| n.contains("no warp axis")),
+            "{technique}: {notes:?}"
+        );
         let n = t.counters().iter().find(|(k, _)| *k == "warp n (0: none)").unwrap().1;
         assert_eq!(n, 0.0, "{technique}");
     }
@@ -143,7 +150,10 @@ fn warps_refuse_other_lights_and_bad_options() {
         ("lispsm", "focus", "0.5"),
         ("tsm", "fit", "receivers"),
     ] {
-        let e = shadow::create(technique, &owned(&[(key, value)])).err().unwrap().to_string();
+        let e = shadow::create(technique, &owned(&[(key, value)]))
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains(key), "{technique} {key}={value}: {e}");
     }
 }

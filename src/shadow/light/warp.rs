@@ -150,12 +150,18 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
         let u = up_for(d);
         (u - d * u.dot(d)).normalize()
     };
-    let basis = Basis { x: d.cross(z), y: -d, z };
+    let basis = Basis {
+        x: d.cross(z),
+        y: -d,
+        z,
+    };
     let (lo, hi) = frame.scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
     let scene: Vec<Vec3> = corners(lo, hi).iter().map(|c| basis.of(*c)).collect();
     let (slo, shi) = scene
         .iter()
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), q| (a.min(*q), b.max(*q)));
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), q| {
+            (a.min(*q), b.max(*q))
+        });
     let (near, far) = view_range(frame);
     let frustum = slice_corners(frame, near, far).map(|c| basis.of(c));
     // The body seen from the light: the frustum's outline clipped to the scene's.
@@ -174,7 +180,9 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
     }
     let (blo, bhi) = body
         .iter()
-        .fold((Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)), |(a, b), q| (a.min(*q), b.max(*q)));
+        .fold((Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)), |(a, b), q| {
+            (a.min(*q), b.max(*q))
+        });
     let diameter = (hi - lo).length().max(1e-3);
     let margin = diameter * 1e-3;
     let (z0, z1) = (blo.y - margin, bhi.y + margin);
@@ -204,7 +212,11 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
             }
         }
     };
-    let n = if n.is_finite() && n < lambda * 1e5 { n } else { f32::INFINITY };
+    let n = if n.is_finite() && n < lambda * 1e5 {
+        n
+    } else {
+        f32::INFINITY
+    };
     let matrix = if n.is_finite() {
         perspective_matrix(&basis, &body, Vec3::new(px, 0.0, z0 - n), n, lambda, (y0, y1), margin)
     } else {
@@ -221,7 +233,9 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
                 let (ca, cb) = corners(a, b)
                     .iter()
                     .map(|c| basis.of(*c))
-                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| (p.min(c), q.max(c)));
+                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| {
+                        (p.min(c), q.max(c))
+                    });
                 ca.x <= bhi.x + margin && cb.x >= blo.x - margin && ca.z <= z1 && cb.z >= z0 && cb.y >= y0
             })
         })
@@ -278,7 +292,15 @@ fn orthographic_matrix(b: &Basis, (x0, x1): (f32, f32), (z0, z1): (f32, f32), (y
 /// The warped map: the perspective from `p` (light-space coordinates) down `z` over the
 /// body's near `n` to `n + lambda`, then the orthographic map of its post-perspective box
 /// (`u`: `x / z`, `v`: the perspective depth, depth: `y / z`, Wimmer et al. 2004 fig. 4).
-fn perspective_matrix(b: &Basis, body: &[Vec2], p: Vec3, n: f32, lambda: f32, (y0, y1): (f32, f32), margin: f32) -> Mat4 {
+fn perspective_matrix(
+    b: &Basis,
+    body: &[Vec2],
+    p: Vec3,
+    n: f32,
+    lambda: f32,
+    (y0, y1): (f32, f32),
+    margin: f32,
+) -> Mat4 {
     let f = n + lambda;
     // Post-perspective x over the body (the x / z extremes lie at the outline's vertices).
     let (mut xa, mut xb) = body.iter().fold((f32::MAX, f32::MIN), |(a, c), q| {
@@ -395,10 +417,19 @@ mod tests {
             y: Vec3::Y,
             z: Vec3::X,
         };
-        let body = [Vec2::new(-5.0, 1.0), Vec2::new(5.0, 1.0), Vec2::new(20.0, 30.0), Vec2::new(-20.0, 30.0)];
+        let body = [
+            Vec2::new(-5.0, 1.0),
+            Vec2::new(5.0, 1.0),
+            Vec2::new(20.0, 30.0),
+            Vec2::new(-20.0, 30.0),
+        ];
         let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, -2.0), 3.0, 29.0, (-1.0, 10.0), 0.01);
         let size = 1024.0f32;
-        for p in [Vec3::new(2.0, 0.5, 0.0), Vec3::new(25.0, 3.0, -10.0), Vec3::new(10.0, 0.0, 8.0)] {
+        for p in [
+            Vec3::new(2.0, 0.5, 0.0),
+            Vec3::new(25.0, 3.0, -10.0),
+            Vec3::new(10.0, 0.0, 8.0),
+        ] {
             let t = texel_at(&m, dir, p, 1.0 / size);
             let u = up_for(dir);
             let e1 = dir.cross(u).normalize();
