@@ -10,23 +10,37 @@ use glam::{DVec4, Vec4};
 use rayon::prelude::*;
 
 /// Minimum and maximum of the finite texels accepted by `keep` (e.g. depth < 1 for "covered"),
-/// or `None` if there is none. Used by SDSM and frustum fitting.
+/// or `None` if there is none. Used by SDSM and frustum fitting. Rows in parallel, each on
+/// eight lanes (minima and maxima are exact, so neither the lanes nor the rows' order change
+/// the result).
 pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync) -> Option<(f32, f32)> {
-    let w = s.width() as usize;
-    let rows: Vec<Option<(f32, f32)>> = p.install(|| {
+    let row_min_max = |row: &[f32]| {
+        let (mut lo, mut hi) = ([f32::INFINITY; 8], [f32::NEG_INFINITY; 8]);
+        let mut chunks = row.chunks_exact(8);
+        let take = |l: usize, v: f32, lo: &mut [f32; 8], hi: &mut [f32; 8]| {
+            let ok = v.is_finite() && keep(v);
+            lo[l] = if ok && v < lo[l] { v } else { lo[l] };
+            hi[l] = if ok && v > hi[l] { v } else { hi[l] };
+        };
+        for c in &mut chunks {
+            for (l, &v) in c.iter().enumerate() {
+                take(l, v, &mut lo, &mut hi);
+            }
+        }
+        for &v in chunks.remainder() {
+            take(0, v, &mut lo, &mut hi);
+        }
+        (lo.into_iter().fold(f32::INFINITY, f32::min), hi.into_iter().fold(f32::NEG_INFINITY, f32::max))
+    };
+    let w = (s.width() as usize).max(1);
+    let (lo, hi) = p.install(|| {
         s.data()
             .par_chunks(w)
-            .map(|row| {
-                row.iter()
-                    .filter(|v| v.is_finite() && keep(**v))
-                    .fold(None, |acc: Option<(f32, f32)>, &v| match acc {
-                        None => Some((v, v)),
-                        Some((a, b)) => Some((a.min(v), b.max(v))),
-                    })
-            })
-            .collect()
+            .map(row_min_max)
+            .reduce(|| (f32::INFINITY, f32::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)))
     });
-    rows.into_iter().flatten().reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    // `+ 0.0`: a zero is +0 whatever the order the lanes met -0 and +0 in.
+    (lo <= hi).then_some((lo + 0.0, hi + 0.0))
 }
 
 /// The least of `start` and the texels of `s` (NaN texels ignored, as [`f32::min`] does), with
@@ -152,6 +166,75 @@ pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) 
     for h in parts {
         for (o, v) in out.iter_mut().zip(h) {
             *o += v;
+        }
+    }
+    Ok(out)
+}
+
+/// A histogram of `map` of the texels of `s`, four at a time (a depth linearised on the
+/// fly, say: `map` takes and gives four lanes, so its divide is one SIMD divide): the finite
+/// mapped values in `[lo, hi)` over `bins` equal bins, the bin
+/// `floor((v - lo) * (bins / (hi - lo)))` in `f32` (clamped to the last). Bands of rows in
+/// parallel, each counting into four interleaved sub-histograms (so that runs of equal bins
+/// do not wait on one counter), summed in band order. Errors as [`histogram`].
+pub fn histogram_of(
+    p: &Pipeline,
+    s: &Surface<f32>,
+    bins: usize,
+    lo: f32,
+    hi: f32,
+    map: impl Fn(Vec4) -> Vec4 + Sync,
+) -> Result<Vec<u64>, PipelineError> {
+    if bins == 0 || bins > 1 << 24 || hi <= lo || !lo.is_finite() || !hi.is_finite() {
+        return Err(PipelineError::BadArgument(format!(
+            "histogram of {bins} bins over [{lo}, {hi}) is invalid"
+        )));
+    }
+    let w = s.width() as usize;
+    let (lo4, hi4) = (Vec4::splat(lo), Vec4::splat(hi));
+    let scale = Vec4::splat(bins as f32 / (hi - lo));
+    let last = Vec4::splat((bins - 1) as f32);
+    // Four sub-histograms, each with a slot at `bins` for values not counted.
+    let stride = bins + 1;
+    let count = move |h: &mut [u32], v: Vec4| {
+        // Lanes outside [lo, hi) (NaN too) go to the discard slot.
+        let ok = v.cmpge(lo4) & v.cmplt(hi4);
+        let t = Vec4::select(ok, ((v - lo4) * scale).min(last), Vec4::splat(bins as f32));
+        // Every lane is now in [0, bins]: a truncating integer conversion of four lanes.
+        let i = t.as_ivec4();
+        h[i.x as usize] += 1;
+        h[stride + i.y as usize] += 1;
+        h[2 * stride + i.z as usize] += 1;
+        h[3 * stride + i.w as usize] += 1;
+    };
+    let parts: Vec<Vec<u32>> = p.install(|| {
+        s.data()
+            .par_chunks((w * 16).max(1))
+            .map(|rows| {
+                let mut h = vec![0u32; stride * 4];
+                let mut chunks = rows.chunks_exact(4);
+                for c in &mut chunks {
+                    count(&mut h, map(Vec4::from_slice(c)));
+                }
+                // The last texels in the first lanes; the unused lanes are NaN, not counted.
+                let r = chunks.remainder();
+                if !r.is_empty() {
+                    let mut t = [f32::NAN; 4];
+                    t[..r.len()].copy_from_slice(r);
+                    let v = map(Vec4::from_array(t));
+                    let keep = Vec4::select(glam::BVec4A::from_array([true, r.len() > 1, r.len() > 2, false]), v, Vec4::NAN);
+                    count(&mut h, keep);
+                }
+                (0..bins)
+                    .map(|i| h[i] + h[stride + i] + h[2 * stride + i] + h[3 * stride + i])
+                    .collect()
+            })
+            .collect()
+    });
+    let mut out = vec![0u64; bins];
+    for h in parts {
+        for (o, v) in out.iter_mut().zip(h) {
+            *o += v as u64;
         }
     }
     Ok(out)

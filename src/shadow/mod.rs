@@ -282,6 +282,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         reference::info(),
         map::shadow_map::info(),
         map::cascaded::info(),
+        map::sdsm::info(),
         map::lispsm::info(),
         map::tsm::info(),
         map::pcss::info(),

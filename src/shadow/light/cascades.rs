@@ -18,6 +18,7 @@
 //! - Blending ([`next_weight`]): in a band at the end of each cascade the lookup mixes in the
 //!   next one, linearly or by an ordered dither (one lookup per pixel), against seams.
 
+use super::sdsm::{DepthSamples, Partition};
 use super::{corners, up_for, Fit, LightView, OnView};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -79,6 +80,12 @@ pub struct Cascades {
     pub band: f32,
     /// How the band mixes. Default: linear.
     pub blend: Blend,
+    /// Where the range and splits come from: the camera's planes, or the depths it sees
+    /// (SDSM, [`super::sdsm`]). Default: view.
+    pub partition: Partition,
+    /// SDSM: frames between the depth reduction and its use (0: this frame's depths; 1: the
+    /// previous frame's, as engines that read the reduction back late). Default: 0.
+    pub latency: u32,
 }
 
 impl Default for Cascades {
@@ -90,6 +97,8 @@ impl Default for Cascades {
             select: Select::Depth,
             band: 0.1,
             blend: Blend::Linear,
+            partition: Partition::View,
+            latency: 0,
         }
     }
 }
@@ -134,6 +143,25 @@ impl Cascades {
                 "blend",
                 "blend across the band: linear (two lookups) or dither (one, by a 4x4 ordered dither)",
                 |c: &mut Cascades| &mut c.blend,
+            ),
+        ]
+    }
+
+    /// SDSM's fields (`partition`, `latency`), for the techniques that reduce the camera's
+    /// depths.
+    pub fn sdsm_fields() -> Vec<Field<Cascades>> {
+        vec![
+            Field::new(
+                "partition",
+                "range and splits from: view (camera planes), minmax (the depths seen) or histogram (each cascade fitted to where samples are)",
+                |c: &mut Cascades| &mut c.partition,
+            ),
+            Field::range(
+                "latency",
+                "frames between the depth reduction and its use (0: this frame's; 1: the previous frame's)",
+                0,
+                1,
+                |c: &mut Cascades| &mut c.latency,
             ),
         ]
     }
@@ -286,7 +314,10 @@ pub fn slice_corners(frame: &Frame, d0: f32, d1: f32) -> [Vec3; 8] {
 
 /// The views of `count` cascades of `frame`'s directional light at `size` texels
 /// ([`Cascades`]; stable fitting with `snap`), with per-cascade casters.
-pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool) -> Fit {
+/// With `samples` (SDSM, [`Cascades::partition`] other than view) the range is the depths
+/// the camera sees, and with a histogram each cascade is fitted to the occupied part of its
+/// slice.
+pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool, samples: Option<&DepthSamples>) -> Fit {
     let light = &frame.light;
     let (lo, hi) = frame.scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
     let diameter = (hi - lo).length().max(1e-3);
@@ -306,14 +337,28 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool) -> Fit {
         .iter()
         .map(|o| o.mesh.bounds().map(|(a, b)| boxed(&corners(a, b))))
         .collect();
-    let (near, far) = view_range(frame);
+    let samples = samples.filter(|_| c.partition != Partition::View);
+    let (near, far) = match samples {
+        // The depths seen, within the camera's planes (a margin of a thousandth for the
+        // rounding of the reduction).
+        Some(s) => {
+            let cam = &frame.camera;
+            let near = (s.near * 0.999).max(cam.near).min(cam.far);
+            (near, (s.far * 1.001).min(cam.far).max(near * 1.001))
+        }
+        None => view_range(frame),
+    };
     let splits = split_distances(near, far, c.count, c.split, c.lambda);
     let plane = depth_plane(frame);
     let margin = diameter * 1e-3;
     let mut views = Vec::with_capacity(c.count as usize);
     let mut per_view = Vec::with_capacity(c.count as usize);
     for i in 0..c.count as usize {
-        let cs = slice_corners(frame, splits[i], splits[i + 1]);
+        // The slice's corners; with a histogram, of the part of it where samples are.
+        let (d0, d1) = samples
+            .and_then(|s| s.occupied(splits[i], splits[i + 1]))
+            .unwrap_or((splits[i], splits[i + 1]));
+        let cs = slice_corners(frame, d0, d1);
         let (clo, chi) = boxed(&cs);
         // Receivers: the slice within the scene's depth range from the light.
         let (mut rz0, mut rz1) = (clo.z.max(slo.z), chi.z.min(shi.z));

@@ -12,6 +12,7 @@
 //! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
 
 use super::cascades::{cascade_fit, cascade_of, Cascades};
+use super::sdsm::{self, DepthSamples, Partition};
 use super::warp::{warp_fit, Warp, WarpInfo};
 use super::{fit, merged_casters, Casters, DepthPass, LightView};
 use crate::choice_enum;
@@ -239,6 +240,10 @@ pub struct LightMaps {
     times: Vec<f64>,
     /// The warp of the last pass, if one was asked for.
     warp: Option<WarpInfo>,
+    /// SDSM: the depth samples of the last frame reduced (the next pass's with latency 1).
+    last_samples: Option<DepthSamples>,
+    /// SDSM: the samples the last pass's cascades used, and the reduction's milliseconds.
+    samples: Option<(DepthSamples, f64)>,
 }
 
 impl LightMaps {
@@ -247,6 +252,7 @@ impl LightMaps {
     /// checked against the budget before anything is drawn.
     pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), Error> {
         self.warp = None;
+        self.samples = None;
         let fit = if let Some(c) = &o.cascades {
             if frame.light.kind != crate::scene::LightKind::Directional {
                 return Err(Error::option(
@@ -258,7 +264,22 @@ impl LightMaps {
                     ),
                 ));
             }
-            cascade_fit(frame, o.size, c, o.snap)
+            if c.partition == Partition::View {
+                cascade_fit(frame, o.size, c, o.snap, None)
+            } else {
+                // SDSM: reduce this frame's depths; use them, or with latency the last frame's.
+                let start = std::time::Instant::now();
+                let now = sdsm::reduce(p, frame, c.partition == Partition::Histogram)?;
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                let used = match c.latency {
+                    0 => now.clone(),
+                    _ => self.last_samples.take().or_else(|| now.clone()),
+                };
+                self.last_samples = now;
+                let fit = cascade_fit(frame, o.size, c, o.snap, used.as_ref());
+                self.samples = used.map(|u| (u, ms));
+                fit
+            }
         } else if let Some(w) = &o.warp {
             if frame.light.kind != crate::scene::LightKind::Directional {
                 return Err(Error::technique(format!(
@@ -407,6 +428,12 @@ impl LightMaps {
     /// without cascades).
     pub fn cascade_casters(&self) -> &[usize] {
         &self.casters
+    }
+
+    /// SDSM: the depth samples the last pass's cascades used (this frame's, or the previous
+    /// one's with latency) and the milliseconds this frame's reduction took.
+    pub fn depth_samples(&self) -> Option<&(DepthSamples, f64)> {
+        self.samples.as_ref()
     }
 
     /// The warp the last pass fitted (its parameters and any fall-back), if it was warped.

@@ -20,6 +20,7 @@
 pub mod cascades;
 pub mod depth;
 pub mod maps;
+pub mod sdsm;
 pub mod soft;
 pub mod warp;
 

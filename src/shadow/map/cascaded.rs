@@ -21,13 +21,13 @@
 //! lights only: cascades split a map along the view, and a spot or point light's map is
 //! already perspective (a scene with another light is an error that says so).
 
-use super::plain::{beyond_ranges, declaration as plain_declaration, MapPass, Options as MapPassOptions};
-use crate::scene::{LightKind, Scene};
+use super::plain::{self, HoldsMapPass, MapPass, Options as MapPassOptions};
+use super::warped::directional;
 use crate::shadow::light::cascades::Cascades;
 use crate::shadow::light::MapOptions;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, TechniqueInfo};
+use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// Options of the cascaded shadow map.
@@ -58,25 +58,38 @@ impl Default for Options {
     }
 }
 
-/// The option declaration: the shadow map's (but `fit`: cascades fit to their slices) and the
-/// cascades'.
-pub fn declaration() -> Declaration<Options> {
-    let mut fields = within(
-        plain_declaration().fields.into_iter().filter(|f| f.key != "fit"),
-        |o: &mut Options| &mut o.shadow,
-    );
-    fields.extend(within(Cascades::fields(), |o: &mut Options| {
-        o.shadow.map.cascades.get_or_insert_with(Cascades::default)
-    }));
-    Declaration {
-        technique: "csm",
-        fields,
+impl HoldsMapPass for Options {
+    fn shadow(&mut self) -> &mut MapPassOptions {
+        &mut self.shadow
     }
 }
 
-/// Whether `scene`'s light is directional (the only kind cascades split).
-fn directional(scene: &Scene) -> bool {
-    scene.lights.first().is_some_and(|l| l.kind == LightKind::Directional)
+/// The cascades inside `o`'s map pass.
+fn cascades_of<O: HoldsMapPass>(o: &mut O) -> &mut Cascades {
+    o.shadow().map.cascades.get_or_insert_with(Cascades::default)
+}
+
+/// A cascaded technique's declaration: `shadow-map`'s fields but `fit` (cascades fit to their
+/// slices), the cascades' ([`Cascades::fields`]) and `extra` ones.
+pub fn cascaded_declaration<O: HoldsMapPass>(technique: &'static str, extra: Vec<Field<Cascades>>) -> Declaration<O> {
+    let mut fields = plain::fields_within::<O>(&["fit"]);
+    fields.extend(within(Cascades::fields().into_iter().chain(extra), cascades_of::<O>));
+    Declaration { technique, fields }
+}
+
+/// The cascaded technique `d.technique` with `opts`: an option out of its range is an error,
+/// and so are options without cascades.
+pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTechnique<MapPass>, Error> {
+    if opts.shadow().map.cascades.is_none() {
+        return Err(d.error("cascades", "none", "must be set (1 to 8)"));
+    }
+    plain::build(&d, opts)
+}
+
+/// The option declaration: the shadow map's (but `fit`: cascades fit to their slices) and the
+/// cascades'.
+pub fn declaration() -> Declaration<Options> {
+    cascaded_declaration("csm", Vec::new())
 }
 
 /// Registry entry.
@@ -119,13 +132,5 @@ pub type Csm = PassTechnique<MapPass>;
 /// A cascaded shadow map with `opts`; an option out of its range is an error, and so are
 /// options without cascades.
 pub fn csm(opts: Options) -> Result<Csm, Error> {
-    let d = declaration();
-    d.check(&opts)?;
-    if opts.shadow.map.cascades.is_none() {
-        return Err(d.error("cascades", "none", "must be set (1 to 8)"));
-    }
-    if let Some((key, value, message)) = beyond_ranges(&opts.shadow) {
-        return Err(d.error(key, &value, message));
-    }
-    Ok(PassTechnique::with("csm", MapPass::new(opts.shadow)))
+    build(declaration(), opts)
 }

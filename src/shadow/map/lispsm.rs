@@ -17,7 +17,8 @@
 //! `notes`). Directional lights only (a scene with another light is an error that says so).
 
 use super::plain::{MapPass, Options as MapPassOptions};
-use super::warped::{build, declaration as warped_declaration, directional, WarpedOptions};
+use super::plain::HoldsMapPass;
+use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::light::MapOptions;
 use crate::shadow::pass::PassTechnique;
@@ -50,7 +51,7 @@ impl Default for Options {
     }
 }
 
-impl WarpedOptions for Options {
+impl HoldsMapPass for Options {
     fn shadow(&mut self) -> &mut MapPassOptions {
         &mut self.shadow
     }

@@ -226,6 +226,14 @@ impl MapLookup {
             )
             .text("layer", self.setup.layer.as_str())
             .int("casters culled by fitting", self.maps.culled());
+        let step = match self.maps.depth_samples() {
+            Some((d, _)) => step
+                .num("sdsm: least view depth seen", d.near)
+                .num("sdsm: greatest view depth seen", d.far)
+                .int("sdsm: depths of frame", d.frame)
+                .int("sdsm: histogram bins", d.histogram.len()),
+            None => step,
+        };
         match self.maps.warp() {
             Some(w) => {
                 let step = step

@@ -103,6 +103,33 @@ impl Default for Options {
     }
 }
 
+/// Options of a technique that is the plain map's pass with its own light views (cascades,
+/// warps): they hold the plain map's options.
+pub trait HoldsMapPass: Clone + Default + 'static {
+    /// The shadow map's options.
+    fn shadow(&mut self) -> &mut Options;
+}
+
+/// `shadow-map`'s fields but `without`, as fields of `O` (which holds them at
+/// [`HoldsMapPass::shadow`]).
+pub fn fields_within<O: HoldsMapPass>(without: &[&str]) -> Vec<Field<O>> {
+    crate::shadow::options::within(
+        declaration().fields.into_iter().filter(|f| !without.contains(&f.key)),
+        O::shadow,
+    )
+}
+
+/// The technique `d.technique` that is the plain map's pass with `opts`: an option out of its
+/// range is an error.
+pub fn build<O: HoldsMapPass>(d: &Declaration<O>, mut opts: O) -> Result<crate::shadow::pass::PassTechnique<MapPass>, Error> {
+    d.check(&opts)?;
+    let shadow = opts.shadow().clone();
+    if let Some((key, value, message)) = beyond_ranges(&shadow) {
+        return Err(d.error(key, &value, message));
+    }
+    Ok(crate::shadow::pass::PassTechnique::with(d.technique, MapPass::new(shadow)))
+}
+
 /// The option declaration (`--set`, `penumbra list`, the constructor's check).
 pub fn declaration() -> Declaration<Options> {
     let mut fields = lookup_fields(
@@ -414,12 +441,16 @@ impl Pass for MapPass {
         self.lookup.light_pass(p, frame)?;
         let maps = self.lookup.light_maps();
         if maps.maps().first().is_some_and(|(_, v)| v.slice.is_some()) {
-            // Cascades: each cascade's pass on its own line.
+            // Cascades: SDSM's reduction and each cascade's pass on its own line.
             let times = maps.view_times();
+            let reduce = maps.depth_samples().map_or(0.0, |(_, ms)| *ms);
+            if maps.depth_samples().is_some() {
+                passes.add("depth reduction", reduce);
+            }
             for (name, ms) in CASCADE_PASSES.iter().zip(times) {
                 passes.add(name, *ms);
             }
-            passes.end_after("light pass", times.iter().sum());
+            passes.end_after("light pass", reduce + times.iter().sum::<f64>());
         } else {
             passes.end("light pass");
         }
@@ -460,6 +491,12 @@ impl Pass for MapPass {
         );
         let ends = maps.maps().iter().filter_map(|(_, v)| v.slice.map(|s| s.far));
         c.extend(CASCADE_ENDS.iter().zip(ends).map(|(n, d)| (*n, d as f64)));
+        // SDSM: the range the cascades split and the frame its depths came from.
+        if let Some((d, _)) = maps.depth_samples() {
+            c.push(("sdsm near", d.near as f64));
+            c.push(("sdsm far", d.far as f64));
+            c.push(("sdsm depths of frame", d.frame as f64));
+        }
         // Warps: the warp's n (0 where it fell back to no warp) and the light's angle to the
         // view.
         if let Some(w) = maps.warp() {

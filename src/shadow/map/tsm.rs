@@ -24,7 +24,8 @@
 //! Directional lights only.
 
 use super::plain::{MapPass, Options as MapPassOptions};
-use super::warped::{build, declaration as warped_declaration, directional, WarpedOptions};
+use super::plain::HoldsMapPass;
+use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::light::MapOptions;
 use crate::shadow::pass::PassTechnique;
@@ -57,7 +58,7 @@ impl Default for Options {
     }
 }
 
-impl WarpedOptions for Options {
+impl HoldsMapPass for Options {
     fn shadow(&mut self) -> &mut MapPassOptions {
         &mut self.shadow
     }

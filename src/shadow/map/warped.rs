@@ -3,7 +3,7 @@
 //! `fit` and `snap` (a warp fits the camera's view) plus the warp's own, and they are the
 //! plain map's pass over the one warped view ([`crate::shadow::light::warp`]).
 
-use super::plain::{beyond_ranges, declaration as plain_declaration, MapPass, Options as MapPassOptions};
+use super::plain::{self, HoldsMapPass, MapPass};
 use crate::scene::{LightKind, Scene};
 use crate::shadow::light::warp::Warp;
 use crate::shadow::options::within;
@@ -11,46 +11,29 @@ use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Field};
 use crate::Error;
 
-/// Options of a warped technique: the plain map's, which hold the warp.
-pub trait WarpedOptions: Clone + Default + 'static {
-    /// The shadow map's options (the warp in `map.warp`).
-    fn shadow(&mut self) -> &mut MapPassOptions;
-}
-
 /// The warp inside `o`'s map pass.
-fn warp_of<O: WarpedOptions>(o: &mut O) -> &mut Warp {
+fn warp_of<O: HoldsMapPass>(o: &mut O) -> &mut Warp {
     o.shadow().map.warp.get_or_insert_with(Warp::default)
 }
 
 /// A warped technique's declaration: `shadow-map`'s fields but `fit` and `snap`, and the
 /// warp's `fields`.
-pub fn declaration<O: WarpedOptions>(technique: &'static str, fields: Vec<Field<Warp>>) -> Declaration<O> {
-    let mut all = within(
-        plain_declaration()
-            .fields
-            .into_iter()
-            .filter(|f| f.key != "fit" && f.key != "snap"),
-        O::shadow,
-    );
+pub fn declaration<O: HoldsMapPass>(technique: &'static str, fields: Vec<Field<Warp>>) -> Declaration<O> {
+    let mut all = plain::fields_within::<O>(&["fit", "snap"]);
     all.extend(within(fields, warp_of::<O>));
     Declaration { technique, fields: all }
 }
 
-/// Whether `scene`'s light is directional (the only kind the warps take).
+/// Whether `scene`'s light is directional (the only kind warps and cascades take).
 pub fn directional(scene: &Scene) -> bool {
     scene.lights.first().is_some_and(|l| l.kind == LightKind::Directional)
 }
 
 /// The warped technique `d.technique` with `opts`: an option out of its range is an error,
 /// and so are options without a warp.
-pub fn build<O: WarpedOptions>(d: Declaration<O>, mut opts: O) -> Result<PassTechnique<MapPass>, Error> {
-    d.check(&opts)?;
-    let shadow = opts.shadow().clone();
-    if shadow.map.warp.is_none() {
+pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTechnique<MapPass>, Error> {
+    if opts.shadow().map.warp.is_none() {
         return Err(d.error("warp", "none", "must be set"));
     }
-    if let Some((key, value, message)) = beyond_ranges(&shadow) {
-        return Err(d.error(key, &value, message));
-    }
-    Ok(PassTechnique::with(d.technique, MapPass::new(shadow)))
+    plain::build(&d, opts)
 }
