@@ -556,6 +556,46 @@ mod tests {
     use super::*;
 
     #[test]
+    fn min_max_and_histogram_of_equal_their_plain_loops() {
+        // Odd widths (lane remainders), NaN, infinities, -0 and values the filter rejects.
+        let mut x = 12345u32;
+        let mut next = || {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (x >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for (w, h) in [(13u32, 7u32), (64, 3), (1, 9), (3, 1)] {
+            let mut data: Vec<f32> = (0..w * h).map(|_| next() * 1.2).collect();
+            data[0] = f32::NAN;
+            if data.len() > 3 {
+                data[1] = f32::INFINITY;
+                data[2] = -0.0;
+            }
+            let s = Surface::from_vec(w, h, data.clone()).unwrap();
+            let kept: Vec<f32> = data.iter().copied().filter(|v| v.is_finite() && *v < 1.0).collect();
+            let want = kept
+                .iter()
+                .fold(None, |a: Option<(f32, f32)>, &v| Some(a.map_or((v, v), |(l, h)| (l.min(v), h.max(v)))));
+            for threads in [1, 2, 4] {
+                let p = Pipeline::new(threads).unwrap();
+                let got = min_max(&p, &s, |v| v < 1.0);
+                assert_eq!(got.map(|(a, b)| (a + 0.0, b + 0.0)), want.map(|(a, b)| (a + 0.0, b + 0.0)));
+                let hist = histogram_of(&p, &s, 10, 0.1, 0.9, |v| v).unwrap();
+                let mut plain = vec![0u64; 10];
+                for &v in &data {
+                    if v >= 0.1 && v < 0.9 {
+                        plain[(((v - 0.1) * (10.0 / 0.8f32)).min(9.0)) as usize] += 1;
+                    }
+                }
+                assert_eq!(hist, plain, "{w}x{h}, {threads} threads");
+            }
+        }
+        let p = Pipeline::new(2).unwrap();
+        let empty = Surface::from_vec(2, 1, vec![f32::NAN, 2.0]).unwrap();
+        assert_eq!(min_max(&p, &empty, |v| v < 1.0), None);
+        assert!(histogram_of(&p, &empty, 0, 0.0, 1.0, |v| v).is_err());
+    }
+
+    #[test]
     fn sat_box_equals_direct_sum() {
         let p = Pipeline::new(2).unwrap();
         let data: Vec<Vec4> = (0..35).map(|i| Vec4::splat(i as f32)).collect();

@@ -105,3 +105,36 @@ pub fn reduce(p: &Pipeline, frame: &Frame, histogram: bool) -> Result<Option<Dep
         frame: frame.index,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn occupied_keeps_the_bins_with_samples() {
+        // Samples at 2-3 m and 40-50 m of a 2..100 m range: a slice over the gap shrinks to
+        // the samples' bins, a slice without samples has none.
+        let (near, far) = (2.0f32, 100.0f32);
+        let w = (far.next_up() - near) / BINS as f32;
+        let mut histogram = vec![0u64; BINS];
+        for d in [2.0f32, 2.5, 3.0, 40.0, 45.0, 50.0] {
+            histogram[((d - near) / w) as usize] += 1;
+        }
+        let s = DepthSamples {
+            near,
+            far,
+            histogram,
+            frame: 0,
+        };
+        let (a, b) = s.occupied(2.0, 30.0).unwrap();
+        assert!(a == 2.0 && (3.0..3.0 + w).contains(&b), "{a} {b}");
+        let (a, b) = s.occupied(10.0, 60.0).unwrap();
+        assert!((40.0 - w..=40.0).contains(&a) && (50.0..=50.0 + w).contains(&b), "{a} {b}");
+        assert_eq!(s.occupied(5.0, 35.0), None);
+        let none = DepthSamples {
+            histogram: Vec::new(),
+            ..s
+        };
+        assert_eq!(none.occupied(2.0, 30.0), None);
+    }
+}
