@@ -100,6 +100,8 @@ orbit hard 91068e51b4879a35
 orbit area64 91068e51b4879a35
 overlap hard 40ce94697231f145
 overlap area64 d92925fe968154a3
+pan_to_sky hard 86a97125a1ea4b25
+pan_to_sky area64 86a97125a1ea4b25
 pergola hard a65dcb4069fc4315
 pergola area64 8aa247bb46d42115
 planar hard 2273997bb7ea0cf5
