@@ -101,6 +101,7 @@ fn techniques(c: &mut Criterion) {
         ("shadow-volume", "shadow-volume", vec![]),
         ("shadow-map", "shadow-map", vec![]),
         ("csm", "csm", vec![]),
+        ("sdsm", "sdsm", vec![]),
         ("lispsm", "lispsm", vec![]),
         ("tsm", "tsm", vec![]),
         ("izb", "izb", vec![]),

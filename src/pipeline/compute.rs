@@ -30,14 +30,17 @@ pub fn min_max(p: &Pipeline, s: &Surface<f32>, keep: impl Fn(f32) -> bool + Sync
         for &v in chunks.remainder() {
             take(0, v, &mut lo, &mut hi);
         }
-        (lo.into_iter().fold(f32::INFINITY, f32::min), hi.into_iter().fold(f32::NEG_INFINITY, f32::max))
+        (
+            lo.into_iter().fold(f32::INFINITY, f32::min),
+            hi.into_iter().fold(f32::NEG_INFINITY, f32::max),
+        )
     };
     let w = (s.width() as usize).max(1);
     let (lo, hi) = p.install(|| {
-        s.data()
-            .par_chunks(w)
-            .map(row_min_max)
-            .reduce(|| (f32::INFINITY, f32::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        s.data().par_chunks(w).map(row_min_max).reduce(
+            || (f32::INFINITY, f32::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        )
     });
     // `+ 0.0`: a zero is +0 whatever the order the lanes met -0 and +0 in.
     (lo <= hi).then_some((lo + 0.0, hi + 0.0))
@@ -222,7 +225,11 @@ pub fn histogram_of(
                     let mut t = [f32::NAN; 4];
                     t[..r.len()].copy_from_slice(r);
                     let v = map(Vec4::from_array(t));
-                    let keep = Vec4::select(glam::BVec4A::from_array([true, r.len() > 1, r.len() > 2, false]), v, Vec4::NAN);
+                    let keep = Vec4::select(
+                        glam::BVec4A::from_array([true, r.len() > 1, r.len() > 2, false]),
+                        v,
+                        Vec4::NAN,
+                    );
                     count(&mut h, keep);
                 }
                 (0..bins)
@@ -572,17 +579,20 @@ mod tests {
             }
             let s = Surface::from_vec(w, h, data.clone()).unwrap();
             let kept: Vec<f32> = data.iter().copied().filter(|v| v.is_finite() && *v < 1.0).collect();
-            let want = kept
-                .iter()
-                .fold(None, |a: Option<(f32, f32)>, &v| Some(a.map_or((v, v), |(l, h)| (l.min(v), h.max(v)))));
+            let want = kept.iter().fold(None, |a: Option<(f32, f32)>, &v| {
+                Some(a.map_or((v, v), |(l, h)| (l.min(v), h.max(v))))
+            });
             for threads in [1, 2, 4] {
                 let p = Pipeline::new(threads).unwrap();
                 let got = min_max(&p, &s, |v| v < 1.0);
-                assert_eq!(got.map(|(a, b)| (a + 0.0, b + 0.0)), want.map(|(a, b)| (a + 0.0, b + 0.0)));
+                assert_eq!(
+                    got.map(|(a, b)| (a + 0.0, b + 0.0)),
+                    want.map(|(a, b)| (a + 0.0, b + 0.0))
+                );
                 let hist = histogram_of(&p, &s, 10, 0.1, 0.9, |v| v).unwrap();
                 let mut plain = vec![0u64; 10];
                 for &v in &data {
-                    if v >= 0.1 && v < 0.9 {
+                    if (0.1..0.9).contains(&v) {
                         plain[(((v - 0.1) * (10.0 / 0.8f32)).min(9.0)) as usize] += 1;
                     }
                 }

@@ -1,4 +1,4 @@
-//! Sample distribution shadow maps' light side (Lauritzen, Salvi and Lefohn 2011; RTR 7.4.2):
+//! Sample distribution shadow maps' light side (Lauritzen, Salvi and Lefohn 2011; RTR 7.4.1):
 //! the cascades' range and splits set from the depths the camera actually sees instead of
 //! its near and far planes.
 //!
@@ -129,7 +129,10 @@ mod tests {
         let (a, b) = s.occupied(2.0, 30.0).unwrap();
         assert!(a == 2.0 && (3.0..3.0 + w).contains(&b), "{a} {b}");
         let (a, b) = s.occupied(10.0, 60.0).unwrap();
-        assert!((40.0 - w..=40.0).contains(&a) && (50.0..=50.0 + w).contains(&b), "{a} {b}");
+        assert!(
+            (40.0 - w..=40.0).contains(&a) && (50.0..=50.0 + w).contains(&b),
+            "{a} {b}"
+        );
         assert_eq!(s.occupied(5.0, 35.0), None);
         let none = DepthSamples {
             histogram: Vec::new(),

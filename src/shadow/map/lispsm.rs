@@ -16,8 +16,8 @@
 //! warp axis (the map falls back to the orthographic map of the view and says so in
 //! `notes`). Directional lights only (a scene with another light is an error that says so).
 
-use super::plain::{MapPass, Options as MapPassOptions};
 use super::plain::HoldsMapPass;
+use super::plain::{MapPass, Options as MapPassOptions};
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::light::MapOptions;

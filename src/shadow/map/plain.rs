@@ -121,13 +121,19 @@ pub fn fields_within<O: HoldsMapPass>(without: &[&str]) -> Vec<Field<O>> {
 
 /// The technique `d.technique` that is the plain map's pass with `opts`: an option out of its
 /// range is an error.
-pub fn build<O: HoldsMapPass>(d: &Declaration<O>, mut opts: O) -> Result<crate::shadow::pass::PassTechnique<MapPass>, Error> {
+pub fn build<O: HoldsMapPass>(
+    d: &Declaration<O>,
+    mut opts: O,
+) -> Result<crate::shadow::pass::PassTechnique<MapPass>, Error> {
     d.check(&opts)?;
     let shadow = opts.shadow().clone();
     if let Some((key, value, message)) = beyond_ranges(&shadow) {
         return Err(d.error(key, &value, message));
     }
-    Ok(crate::shadow::pass::PassTechnique::with(d.technique, MapPass::new(shadow)))
+    Ok(crate::shadow::pass::PassTechnique::with(
+        d.technique,
+        MapPass::new(shadow),
+    ))
 }
 
 /// The option declaration (`--set`, `penumbra list`, the constructor's check).

@@ -1,4 +1,4 @@
-//! Sample distribution shadow maps (Lauritzen, Salvi and Lefohn 2011; RTR 7.4.2): cascaded
+//! Sample distribution shadow maps (Lauritzen, Salvi and Lefohn 2011; RTR 7.4.1): cascaded
 //! shadow maps whose range and splits come from the depths the camera sees, found by a
 //! parallel reduction of the depth buffer each frame, instead of from its near and far planes.
 //!

@@ -23,8 +23,8 @@
 //! the orthographic one and says so in `notes`); shadows crawl as the camera moves.
 //! Directional lights only.
 
-use super::plain::{MapPass, Options as MapPassOptions};
 use super::plain::HoldsMapPass;
+use super::plain::{MapPass, Options as MapPassOptions};
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::light::MapOptions;
