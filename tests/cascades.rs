@@ -1,29 +1,17 @@
 //! Cascaded shadow maps: perspective aliasing against one map of the same texels, every point
-//! inside the cascade that sees it, stable fitting, seams and their blend band, bad input.
+//! inside the cascade that sees it, stable fitting, seams and their blend band, bad input;
+//! SDSM (cascades over the depths seen): its tight range and its latency failure.
 
 mod common;
 use penumbra::frame::{self, Frame};
 use penumbra::pipeline::Pipeline;
-use penumbra::run::{self, RunResult};
+use penumbra::run::RunResult;
 use penumbra::scene::file::load;
 use penumbra::shadow;
 use penumbra::shadow::light::{self, LightView};
 use std::path::Path;
 
-fn owned(sets: &[(&str, &str)]) -> Vec<(String, String)> {
-    sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
-}
-
-/// `technique` with `sets` on fixture `scene` against its reference (every path frame).
-fn result(scene: &str, technique: &str, sets: &[(&str, &str)]) -> RunResult {
-    let p = Pipeline::new(2).unwrap();
-    let path = format!("fixtures/scenes/{scene}.toml");
-    let s = load(Path::new(&path)).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    run::render(&p, &s, &text, technique, &owned(sets), 0, None)
-        .unwrap()
-        .result
-}
+use common::{fixture_result as result, owned};
 
 /// The perspective-aliasing failure: one 2048² map fitted to the scene against four 1024²
 /// cascades (the same texels) on the long views. Measured (2026-12-06): long_view wrong

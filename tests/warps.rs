@@ -1,27 +1,15 @@
 //! Perspective warps (LiSPSM, TSM): perspective aliasing against one map of the same texels,
 //! dueling frusta, the fall-back where the warp degenerates, `n_scale`, bad input.
 
+mod common;
 use penumbra::frame;
 use penumbra::pipeline::Pipeline;
-use penumbra::run::{self, RunResult};
+use penumbra::run::RunResult;
 use penumbra::scene::file::{load, parse};
 use penumbra::shadow;
 use std::path::Path;
 
-fn owned(sets: &[(&str, &str)]) -> Vec<(String, String)> {
-    sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
-}
-
-/// `technique` with `sets` on fixture `scene` against its reference.
-fn result(scene: &str, technique: &str, sets: &[(&str, &str)]) -> RunResult {
-    let p = Pipeline::new(2).unwrap();
-    let path = format!("fixtures/scenes/{scene}.toml");
-    let s = load(Path::new(&path)).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    run::render(&p, &s, &text, technique, &owned(sets), 0, None)
-        .unwrap()
-        .result
-}
+use common::{fixture_result as result, owned};
 
 fn counter(r: &RunResult, key: &str) -> f64 {
     r.counters.iter().find(|(k, _)| k == key).map(|c| c.1).unwrap()

@@ -156,3 +156,20 @@ pub fn base64(bytes: &[u8]) -> String {
     }
     s
 }
+
+/// `key=value` pairs as the technique constructors take them.
+pub fn owned(sets: &[(&str, &str)]) -> Vec<(String, String)> {
+    sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+}
+
+/// `technique` with `sets` on fixture `scene` against its reference (every path frame), on 2
+/// threads.
+pub fn fixture_result(scene: &str, technique: &str, sets: &[(&str, &str)]) -> penumbra::run::RunResult {
+    let p = penumbra::pipeline::Pipeline::new(2).unwrap();
+    let path = format!("fixtures/scenes/{scene}.toml");
+    let s = penumbra::scene::file::load(std::path::Path::new(&path)).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    penumbra::run::render(&p, &s, &text, technique, &owned(sets), 0, None)
+        .unwrap()
+        .result
+}
