@@ -141,6 +141,12 @@ fn facts(scene: &Scene, frame: Option<&Frame>) -> Vec<String> {
             names(&thin)
         )
     });
+    if !scene.light_path.is_empty() {
+        facts.push(format!(
+            "light: a path of {} keyframes (flicker is measured along the path)",
+            scene.light_path.len()
+        ));
+    }
     facts.push(if scene.camera_path.is_empty() {
         "camera: still".into()
     } else {

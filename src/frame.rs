@@ -240,7 +240,7 @@ pub const FRAME_BYTES_PER_PIXEL: u64 = 140;
 /// Builds the frame of camera-path index `index` (0 and no path: the scene camera) for light
 /// `light`.
 pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> Result<Frame<'a>, Error> {
-    let l = *scene.lights.get(light).ok_or_else(|| {
+    let l = scene.light_at(light, index).ok_or_else(|| {
         Error::input(format!(
             "scene '{}' has no light #{light} (it has {})",
             scene.name,

@@ -43,6 +43,8 @@ pub fn reference_key(scene_text: &str, frame: &Frame, light: usize, opts: &Refer
     // Materials and lights (a glTF scene's come from the glTF file, not the scene text).
     h = fnv1a(h, format!("{:?}", frame.scene.materials).as_bytes());
     h = fnv1a(h, format!("{:?}", frame.scene.lights).as_bytes());
+    // The frame's own light: a light path moves it from frame to frame under one G-buffer.
+    h = fnv1a(h, format!("{:?}", frame.light).as_bytes());
     h = fnv1a(
         h,
         format!(
@@ -291,7 +293,7 @@ impl<'a> Prepared<'a> {
         cache: Option<&'a dyn ReferenceCache>,
         progress: Progress,
     ) -> Result<Prepared<'a>, Error> {
-        let count = scene.camera_path.len().max(1);
+        let count = scene.frame_count();
         let pixels = scene.camera.width as u64 * scene.camera.height as u64 * count as u64;
         let keep = pixels <= KEPT_FRAME_PIXELS;
         let mut frames = Vec::with_capacity(count);

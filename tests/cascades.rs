@@ -59,7 +59,7 @@ fn cascades_cut_perspective_aliasing_at_equal_texels() {
 fn with_cascades(scene: &str, sets: &[(&str, &str)], check: impl Fn(&Frame, &[f32], &[LightView], usize)) {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
-    let frames = s.camera_path.len().max(1);
+    let frames = s.frame_count();
     let mut t = shadow::create("csm", &owned(sets)).unwrap();
     for i in 0..frames {
         let f = frame::frame(&p, &s, 0, i).unwrap();
@@ -352,7 +352,7 @@ fn wrong_per_frame(scene: &str, technique: &str, sets: &[(&str, &str)]) -> Vec<f
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let reference = penumbra::reference::Reference::new(&s);
     let mut t = shadow::create(technique, &owned(sets)).unwrap();
-    (0..s.camera_path.len().max(1))
+    (0..s.frame_count())
         .map(|i| {
             let f = frame::frame(&p, &s, 0, i).unwrap();
             let v = t.visibility(&p, &f).unwrap().to_scalar();

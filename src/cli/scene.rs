@@ -47,8 +47,8 @@ pub fn render(
     let p = pipeline(threads)?;
     let dir_cache = cache(out);
     // Along a camera path, a progress bar (hidden when stderr is not a terminal).
-    let bar = (s.camera_path.len() > 1).then(|| {
-        let b = indicatif::ProgressBar::new(s.camera_path.len() as u64);
+    let bar = (s.frame_count() > 1).then(|| {
+        let b = indicatif::ProgressBar::new(s.frame_count() as u64);
         b.set_style(
             indicatif::ProgressStyle::with_template("[{bar:30}] {pos}/{len} frames {elapsed} {msg}")
                 .expect("a valid template")
@@ -113,8 +113,8 @@ pub fn render(
             t.rmse, t.wrong_pct, t.pixels
         );
     }
-    if !s.camera_path.is_empty() {
-        println!("flicker   {:.5} over {} frames", r.result.flicker, s.camera_path.len());
+    if s.frame_count() > 1 {
+        println!("flicker   {:.5} over {} frames", r.result.flicker, s.frame_count());
     }
     if r.reference_rays > 0 {
         println!(

@@ -26,6 +26,9 @@
 //! [[camera_path]]         # optional keyframes
 //! position = [4, 3, 6]
 //! target = [0, 0.5, 0]
+//!
+//! [[light_path]]          # optional keyframes of the light: direction (directional), or
+//! direction = [-0.4, -1, -0.3]   # position and optionally direction (the others)
 //! ```
 
 use super::mesh;
@@ -177,6 +180,8 @@ struct RawScene {
     objects: Vec<Spanned<RawObject>>,
     #[serde(default)]
     camera_path: Vec<Spanned<RawKey>>,
+    #[serde(default)]
+    light_path: Vec<Spanned<RawLightKey>>,
 }
 
 #[derive(Clone, Deserialize)]
@@ -289,6 +294,15 @@ struct RawKey {
     position: [f32; 3],
     #[serde(deserialize_with = "exact")]
     target: [f32; 3],
+}
+
+#[derive(Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLightKey {
+    #[serde(default, deserialize_with = "exact_opt")]
+    direction: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact_opt")]
+    position: Option<[f32; 3]>,
 }
 
 /// Where in which file: builds error messages.
@@ -911,6 +925,75 @@ impl Ctx<'_> {
     }
 }
 
+impl Ctx<'_> {
+    /// The `[[light_path]]` keyframes of `light` (the scene's first): a directional light's
+    /// take a `direction` and no `position`; the others a `position` and, optionally, a
+    /// `direction` (their own otherwise). A light path as long as the camera path, if both.
+    fn light_path(&self, raw: &RawScene, light: &Light, camera_frames: usize) -> Result<Vec<Light>, Error> {
+        if let Some(k) = raw.light_path.get(MAX_KEYFRAMES) {
+            return self.err(
+                k.span(),
+                &format!("[[light_path]] #{}", MAX_KEYFRAMES + 1),
+                "direction",
+                format!(
+                    "a light path has at most {MAX_KEYFRAMES} keyframes (this one has {})",
+                    raw.light_path.len()
+                ),
+            );
+        }
+        if camera_frames > 0 && !raw.light_path.is_empty() && raw.light_path.len() != camera_frames {
+            let k = &raw.light_path[0];
+            return self.err(
+                k.span(),
+                "[[light_path]] #1",
+                "direction",
+                format!(
+                    "the light path has {} keyframes and the camera path {camera_frames}: both paths step through the same frames",
+                    raw.light_path.len()
+                ),
+            );
+        }
+        let directional = light.kind == LightKind::Directional;
+        let mut path = Vec::new();
+        for (i, k) in raw.light_path.iter().enumerate() {
+            let (s, k) = (k.span(), k.get_ref());
+            let what = format!("[[light_path]] #{}", i + 1);
+            let direction = match k.direction {
+                Some(d) => match finite3(d).and_then(unit3) {
+                    Some(d) => d,
+                    None => return self.err(s, &what, "direction", "zero or not finite"),
+                },
+                None if directional => {
+                    return self.err(s, &what, "direction", "missing (a directional light's keyframe is its direction)")
+                }
+                None => light.direction,
+            };
+            let position = match (k.position, directional) {
+                (Some(_), true) => {
+                    return self.err(
+                        s,
+                        &what,
+                        "position",
+                        "a directional light has no position (its keyframes give direction)",
+                    )
+                }
+                (Some(p), false) => point3(p).or_else(|e| self.err(s.clone(), &what, "position", e))?,
+                (None, false) => {
+                    return self.err(s, &what, "position", "missing (a positional light's keyframe is its position)")
+                }
+                // As the [[light]]'s: far out along the direction from where it was.
+                (None, true) => light.position + light.direction * 100.0 - direction * 100.0,
+            };
+            path.push(Light {
+                position,
+                direction,
+                ..*light
+            });
+        }
+        Ok(path)
+    }
+}
+
 /// The key whose value starts at or contains `offset` (`translate` in `translate = [0, "x"]`):
 /// the nearest `key =` at or before it on its line.
 fn key_before(text: &str, offset: usize) -> Option<String> {
@@ -1112,6 +1195,7 @@ fn build(ctx: &Ctx, raw: RawScene, description: String) -> Result<Scene, Error> 
         return Err(Error::scene(path, "the scene has no [[object]]"));
     }
     let camera_path = ctx.camera_path(&raw, &camera)?;
+    let light_path = ctx.light_path(&raw, &lights[0], camera_path.len())?;
     let name = path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
@@ -1123,6 +1207,7 @@ fn build(ctx: &Ctx, raw: RawScene, description: String) -> Result<Scene, Error> 
         camera,
         lights,
         camera_path,
+        light_path,
         notes,
     })
 }
@@ -1340,6 +1425,41 @@ translate = [0, 0.5, 0]
             .collect();
         let e = err(&format!("{OK}\n{many}"));
         assert!(e.contains("at most 1000 keyframes"), "{e}");
+    }
+
+    #[test]
+    fn light_paths_move_the_first_light_and_are_checked() {
+        let with = |k: &str| format!("{OK}\n{k}\n");
+        // OK's light is directional: its keyframes are directions, one per frame.
+        let s = parse(
+            &with("[[light_path]]\ndirection = [0, -1, 0]\n[[light_path]]\ndirection = [1, -1, 0]"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        assert_eq!(s.frame_count(), 2);
+        assert_eq!(s.light_at(0, 0).unwrap().direction, Vec3::NEG_Y);
+        assert!((s.light_at(0, 1).unwrap().direction - Vec3::new(1.0, -1.0, 0.0).normalize()).length() < 1e-6);
+        assert_eq!(s.light_at(0, 5).unwrap(), s.lights[0], "past the path: the scene's light");
+        let e = err(&with("[[light_path]]\nposition = [0, 5, 0]"));
+        assert!(e.contains("[[light_path]] #1, field `position`") && e.contains("no position"), "{e}");
+        let e = err(&with("[[light_path]]\ndirection = [0, 0, 0]"));
+        assert!(e.contains("field `direction`: zero or not finite"), "{e}");
+        let e = err(&with("[[light_path]]\ndirection = [0, -1, 0]\nspeed = 2"));
+        assert!(e.contains("speed"), "{e}");
+        // A camera path and a light path step through the same frames.
+        let e = err(&with(
+            "[[camera_path]]\nposition = [4, 3, 6]\ntarget = [0, 0, 0]\n[[light_path]]\ndirection = [0, -1, 0]\n[[light_path]]\ndirection = [0, -1, 1]",
+        ));
+        assert!(e.contains("2 keyframes and the camera path 1"), "{e}");
+        // A point light's keyframes are positions.
+        let point = OK.replacen("type = \"directional\"", "type = \"point\"\nposition = [0, 4, 0]", 1);
+        let point = point.replacen("direction = [", "# direction = [", 1);
+        let e = err(&format!("{point}\n[[light_path]]\ndirection = [0, -1, 0]"));
+        assert!(e.contains("field `position`: missing"), "{e}");
+        let s = parse(&format!("{point}\n[[light_path]]\nposition = [1, 4, 0]"), Path::new("t.toml")).unwrap();
+        assert_eq!(s.light_at(0, 0).unwrap().position, Vec3::new(1.0, 4.0, 0.0));
+        let e = err(&format!("{point}\n[[light_path]]\nposition = [1e38, 4, 0]"));
+        assert!(e.contains("field `position`") && e.contains("beyond"), "{e}");
     }
 
     #[test]

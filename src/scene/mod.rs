@@ -334,6 +334,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Camera path for stability tests (empty: a still camera).
     pub camera_path: Vec<Keyframe>,
+    /// The first light at each frame of a light path (a moving sun, say; empty: a still
+    /// light). When both paths are given they have as many frames.
+    pub light_path: Vec<Light>,
     /// What loading chose on the user's behalf (which of a glTF file's lights is used), for
     /// the CLI to print.
     pub notes: Vec<String>,
@@ -381,6 +384,21 @@ impl Scene {
     /// Total triangle count.
     pub fn triangles(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangles()).sum()
+    }
+
+    /// Frames of the scene's paths: the camera path's or the light path's keyframes, 1 for
+    /// a still scene.
+    pub fn frame_count(&self) -> usize {
+        self.camera_path.len().max(self.light_path.len()).max(1)
+    }
+
+    /// Light `light` at frame `i`: the light path's keyframe for the first light, the scene's
+    /// light otherwise; `None` when the scene has no such light.
+    pub fn light_at(&self, light: usize, i: usize) -> Option<Light> {
+        match (light, self.light_path.get(i)) {
+            (0, Some(l)) => Some(*l),
+            _ => self.lights.get(light).copied(),
+        }
     }
 
     /// The camera at frame `i` of the path (the scene camera when there is no path).

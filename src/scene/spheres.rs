@@ -135,6 +135,7 @@ pub fn spheres_as_scene(t: usize) -> crate::scene::Scene {
             intensity: 1.0,
         }],
         camera_path: vec![],
+        light_path: vec![],
         notes: Vec::new(),
     }
 }
