@@ -92,6 +92,8 @@ layers hard 18ee2b4e570516d4
 layers area64 18ee2b4e570516d4
 long_view hard e478e3196b10c3e8
 long_view area64 e478e3196b10c3e8
+moving_sun hard 9ad33f8a97ef6835
+moving_sun area64 9ad33f8a97ef6835
 near_plane hard 5a23e25645c78675
 near_plane area64 5a23e25645c78675
 offscreen hard bf8760d8b6588735

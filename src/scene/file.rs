@@ -958,28 +958,38 @@ impl Ctx<'_> {
         for (i, k) in raw.light_path.iter().enumerate() {
             let (s, k) = (k.span(), k.get_ref());
             let what = format!("[[light_path]] #{}", i + 1);
+            if directional && k.position.is_some() {
+                return self.err(
+                    s,
+                    &what,
+                    "position",
+                    "a directional light has no position (its keyframes give direction)",
+                );
+            }
             let direction = match k.direction {
                 Some(d) => match finite3(d).and_then(unit3) {
                     Some(d) => d,
                     None => return self.err(s, &what, "direction", "zero or not finite"),
                 },
                 None if directional => {
-                    return self.err(s, &what, "direction", "missing (a directional light's keyframe is its direction)")
+                    return self.err(
+                        s,
+                        &what,
+                        "direction",
+                        "missing (a directional light's keyframe is its direction)",
+                    )
                 }
                 None => light.direction,
             };
             let position = match (k.position, directional) {
-                (Some(_), true) => {
+                (Some(p), _) => point3(p).or_else(|e| self.err(s.clone(), &what, "position", e))?,
+                (None, false) => {
                     return self.err(
                         s,
                         &what,
                         "position",
-                        "a directional light has no position (its keyframes give direction)",
+                        "missing (a positional light's keyframe is its position)",
                     )
-                }
-                (Some(p), false) => point3(p).or_else(|e| self.err(s.clone(), &what, "position", e))?,
-                (None, false) => {
-                    return self.err(s, &what, "position", "missing (a positional light's keyframe is its position)")
                 }
                 // As the [[light]]'s: far out along the direction from where it was.
                 (None, true) => light.position + light.direction * 100.0 - direction * 100.0,
@@ -1439,9 +1449,16 @@ translate = [0, 0.5, 0]
         assert_eq!(s.frame_count(), 2);
         assert_eq!(s.light_at(0, 0).unwrap().direction, Vec3::NEG_Y);
         assert!((s.light_at(0, 1).unwrap().direction - Vec3::new(1.0, -1.0, 0.0).normalize()).length() < 1e-6);
-        assert_eq!(s.light_at(0, 5).unwrap(), s.lights[0], "past the path: the scene's light");
+        assert_eq!(
+            s.light_at(0, 5).unwrap(),
+            s.lights[0],
+            "past the path: the scene's light"
+        );
         let e = err(&with("[[light_path]]\nposition = [0, 5, 0]"));
-        assert!(e.contains("[[light_path]] #1, field `position`") && e.contains("no position"), "{e}");
+        assert!(
+            e.contains("[[light_path]] #1, field `position`") && e.contains("no position"),
+            "{e}"
+        );
         let e = err(&with("[[light_path]]\ndirection = [0, 0, 0]"));
         assert!(e.contains("field `direction`: zero or not finite"), "{e}");
         let e = err(&with("[[light_path]]\ndirection = [0, -1, 0]\nspeed = 2"));
@@ -1456,7 +1473,11 @@ translate = [0, 0.5, 0]
         let point = point.replacen("direction = [", "# direction = [", 1);
         let e = err(&format!("{point}\n[[light_path]]\ndirection = [0, -1, 0]"));
         assert!(e.contains("field `position`: missing"), "{e}");
-        let s = parse(&format!("{point}\n[[light_path]]\nposition = [1, 4, 0]"), Path::new("t.toml")).unwrap();
+        let s = parse(
+            &format!("{point}\n[[light_path]]\nposition = [1, 4, 0]"),
+            Path::new("t.toml"),
+        )
+        .unwrap();
         assert_eq!(s.light_at(0, 0).unwrap().position, Vec3::new(1.0, 4.0, 0.0));
         let e = err(&format!("{point}\n[[light_path]]\nposition = [1e38, 4, 0]"));
         assert!(e.contains("field `position`") && e.contains("beyond"), "{e}");
