@@ -87,6 +87,26 @@ impl Default for MapOptions {
 }
 
 impl MapOptions {
+    /// The default map pass with cascades `c` at `size` texels a cascade.
+    pub fn cascaded(size: u32, c: Cascades) -> MapOptions {
+        MapOptions {
+            size,
+            cascades: Some(c),
+            ..MapOptions::default()
+        }
+    }
+
+    /// The default map pass warped by `kind` (with the warp's default parameters).
+    pub fn warped(kind: super::warp::WarpKind) -> MapOptions {
+        MapOptions {
+            warp: Some(Warp {
+                kind,
+                ..Warp::default()
+            }),
+            ..MapOptions::default()
+        }
+    }
+
     /// The declaration of the map pass's fields (size, format, polygon offset, fitting,
     /// snapping); a technique's options that hold a `MapOptions` declare them with
     /// [`crate::shadow::options::within`].

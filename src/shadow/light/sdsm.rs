@@ -6,7 +6,7 @@
 //!   value ([`compute::min_max`]), linearised to view depths (`d = f n / (f - z (f - n))`),
 //!   and, for [`Partition::Histogram`], a histogram of the linear view depths over that range
 //!   ([`compute::histogram_of`], [`BINS`] bins).
-//! - [`Partition::MinMax`]: the splits (uniform, log or practical) over the tight range
+//! - [`Partition::Minmax`]: the splits (uniform, log or practical) over the tight range
 //!   instead of the camera's planes: the paper's "log" partitioning on tight bounds.
 //! - [`Partition::Histogram`]: the same splits, and each cascade fitted to the part of its
 //!   slice where samples are: its depth range tightened to the first and last occupied bins

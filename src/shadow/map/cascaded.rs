@@ -46,14 +46,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            shadow: MapPassOptions {
-                map: MapOptions {
-                    size: 1024,
-                    cascades: Some(Cascades::default()),
-                    ..MapOptions::default()
-                },
-                ..MapPassOptions::default()
-            },
+            shadow: MapPassOptions::with_map(MapOptions::cascaded(1024, Cascades::default())),
         }
     }
 }

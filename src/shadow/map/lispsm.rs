@@ -37,16 +37,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            shadow: MapPassOptions {
-                map: MapOptions {
-                    warp: Some(Warp {
-                        kind: WarpKind::Lispsm,
-                        ..Warp::default()
-                    }),
-                    ..MapOptions::default()
-                },
-                ..MapPassOptions::default()
-            },
+            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Lispsm)),
         }
     }
 }

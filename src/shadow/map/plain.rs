@@ -103,6 +103,17 @@ impl Default for Options {
     }
 }
 
+impl Options {
+    /// `shadow-map`'s defaults with the map pass `map` (the techniques that draw their own
+    /// light views: cascades, warps).
+    pub fn with_map(map: MapOptions) -> Options {
+        Options {
+            map,
+            ..Options::default()
+        }
+    }
+}
+
 /// Options of a technique that is the plain map's pass with its own light views (cascades,
 /// warps): they hold the plain map's options.
 pub trait HoldsMapPass: Clone + Default + 'static {

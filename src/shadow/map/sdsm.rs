@@ -38,18 +38,14 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            shadow: MapPassOptions {
-                map: MapOptions {
-                    size: 1024,
-                    cascades: Some(Cascades {
-                        split: Split::Log,
-                        partition: Partition::Histogram,
-                        ..Cascades::default()
-                    }),
-                    ..MapOptions::default()
+            shadow: MapPassOptions::with_map(MapOptions::cascaded(
+                1024,
+                Cascades {
+                    split: Split::Log,
+                    partition: Partition::Histogram,
+                    ..Cascades::default()
                 },
-                ..MapPassOptions::default()
-            },
+            )),
         }
     }
 }

@@ -44,16 +44,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            shadow: MapPassOptions {
-                map: MapOptions {
-                    warp: Some(Warp {
-                        kind: WarpKind::Tsm,
-                        ..Warp::default()
-                    }),
-                    ..MapOptions::default()
-                },
-                ..MapPassOptions::default()
-            },
+            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Tsm)),
         }
     }
 }
