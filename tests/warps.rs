@@ -175,3 +175,23 @@ fn shimmering_under_a_moving_sun() {
         assert!(f > 5e-5, "{t}: {f}");
     }
 }
+
+/// A light path moves the light under one G-buffer: the reference cache keys a frame by its
+/// own light (the same frame lit by another light has another key), not only by the scene's
+/// lights and the frame's index.
+#[test]
+fn a_reference_is_keyed_by_its_frames_light() {
+    let p = Pipeline::new(2).unwrap();
+    let path = "fixtures/scenes/moving_sun.toml";
+    let s = load(Path::new(path)).unwrap();
+    let text = std::fs::read_to_string(path).unwrap();
+    let opts = penumbra::reference::ReferenceOptions::default();
+    let (f0, f1) = (frame::frame(&p, &s, 0, 0).unwrap(), frame::frame(&p, &s, 0, 1).unwrap());
+    assert_eq!(f0.gbuffer.depth.data(), f1.gbuffer.depth.data(), "a still camera");
+    assert_ne!(f0.light, f1.light);
+    let relit = f0.with_light(f1.light);
+    assert_ne!(
+        penumbra::run::reference_key(&text, &f0, 0, &opts),
+        penumbra::run::reference_key(&text, &relit, 0, &opts)
+    );
+}
