@@ -141,37 +141,9 @@ pub fn min_max_chains(p: &Pipeline, base: &Surface<f32>) -> (MipChain<f32>, MipC
 }
 
 /// Histogram of the finite texels in `[lo, hi)` over `bins` equal bins (values outside are not
-/// counted). Errors on zero bins or an empty range.
+/// counted): [`histogram_of`] of the texels themselves. Errors on zero bins or an empty range.
 pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) -> Result<Vec<u64>, PipelineError> {
-    if bins == 0 || bins > 1 << 24 || hi <= lo || !lo.is_finite() || !hi.is_finite() {
-        return Err(PipelineError::BadArgument(format!(
-            "histogram of {bins} bins over [{lo}, {hi}) is invalid"
-        )));
-    }
-    let w = s.width() as usize;
-    let scale = bins as f64 / (hi as f64 - lo as f64);
-    let parts: Vec<Vec<u64>> = p.install(|| {
-        s.data()
-            .par_chunks(w * 16)
-            .map(|rows| {
-                let mut h = vec![0u64; bins];
-                for &v in rows {
-                    if v.is_finite() && v >= lo && v < hi {
-                        let b = (((v as f64 - lo as f64) * scale) as usize).min(bins - 1);
-                        h[b] += 1;
-                    }
-                }
-                h
-            })
-            .collect()
-    });
-    let mut out = vec![0u64; bins];
-    for h in parts {
-        for (o, v) in out.iter_mut().zip(h) {
-            *o += v;
-        }
-    }
-    Ok(out)
+    histogram_of(p, s, bins, lo, hi, |v| v)
 }
 
 /// A histogram of `map` of the texels of `s`, four at a time (a depth linearised on the
@@ -179,7 +151,8 @@ pub fn histogram(p: &Pipeline, s: &Surface<f32>, bins: usize, lo: f32, hi: f32) 
 /// mapped values in `[lo, hi)` over `bins` equal bins, the bin
 /// `floor((v - lo) * (bins / (hi - lo)))` in `f32` (clamped to the last). Bands of rows in
 /// parallel, each counting into four interleaved sub-histograms (so that runs of equal bins
-/// do not wait on one counter), summed in band order. Errors as [`histogram`].
+/// do not wait on one counter), summed in band order. Errors on zero bins or an empty or
+/// non-finite range.
 pub fn histogram_of(
     p: &Pipeline,
     s: &Surface<f32>,
