@@ -104,6 +104,7 @@ fn techniques(c: &mut Criterion) {
         ("sdsm", "sdsm", vec![]),
         ("lispsm", "lispsm", vec![]),
         ("tsm", "tsm", vec![]),
+        ("psm", "psm", vec![]),
         ("izb", "izb", vec![]),
         ("izb-4spp", "izb", izb4),
         ("avsm", "avsm", vec![]),

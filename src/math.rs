@@ -54,6 +54,12 @@ pub fn acos(x: f32) -> f32 {
     libm::acosf(x)
 }
 
+/// Arc tangent, in radians.
+#[inline]
+pub fn atan(x: f32) -> f32 {
+    libm::atanf(x)
+}
+
 /// `e^x`.
 #[inline]
 pub fn exp(x: f32) -> f32 {

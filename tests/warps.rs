@@ -1,6 +1,7 @@
-//! Perspective warps (LiSPSM, TSM): perspective aliasing against one map of the same texels,
-//! dueling frusta, the fall-back where the warp degenerates, `n_scale`, bad input; shimmering
-//! under a moving sun for the plain map, the warps and the cascades.
+//! Perspective warps (LiSPSM, TSM, PSM): perspective aliasing against one map of the same
+//! texels, dueling frusta, the fall-back where the warp degenerates, `n_scale`, PSM's casters
+//! behind the eye and its inverted and orthographic lights, bad input; shimmering under a
+//! moving sun for the plain map, the warps and the cascades.
 
 mod common;
 use penumbra::frame;
@@ -17,14 +18,15 @@ fn counter(r: &RunResult, key: &str) -> f64 {
 }
 
 /// The perspective-aliasing failure and its fix: one 2048² map fitted to the scene against
-/// LiSPSM's and TSM's 2048² warped maps on the long views. Measured (2026-12-06): long_view
-/// footprint p99 7.0 px against 1.1 (LiSPSM) and 1.5 (TSM), wrong 0.054 % against 0.013 %
-/// and 0.020 %; street 6.3 px against 1.6 and 2.0, 0.326 % against 0.167 % and 0.188 %.
+/// LiSPSM's, TSM's and PSM's 2048² warped maps on the long views. Measured (2026-12-06):
+/// long_view footprint p99 7.0 px against 1.1 (LiSPSM), 1.5 (TSM) and 1.4 (PSM), wrong
+/// 0.054 % against 0.013 %, 0.020 % and 0.034 %; street 6.3 px against 1.6, 2.0 and 1.0,
+/// 0.326 % against 0.167 %, 0.188 % and 0.121 %.
 #[test]
 fn warps_cut_perspective_aliasing_at_equal_texels() {
     for scene in ["long_view", "street"] {
         let one = result(scene, "shadow-map", &[]);
-        for technique in ["lispsm", "tsm"] {
+        for technique in ["lispsm", "tsm", "psm"] {
             let w = result(scene, technique, &[]);
             assert_eq!(
                 counter(&one, "map texels"),
@@ -88,7 +90,7 @@ fn degenerate_warps_fall_back_and_say_so() {
         .replace("direction = [0.3, -0.577, -0.76]", "direction = [-0.5, -0.3, -88]");
     let s = parse(&text, Path::new("street_along.toml")).unwrap();
     let p = Pipeline::new(2).unwrap();
-    for technique in ["lispsm", "tsm"] {
+    for technique in ["lispsm", "tsm", "psm"] {
         let mut t = shadow::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
@@ -125,7 +127,7 @@ fn degenerate_warps_fall_back_and_say_so() {
 fn warps_refuse_other_lights_and_bad_options() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/facing_light.toml")).unwrap();
-    for technique in ["lispsm", "tsm"] {
+    for technique in ["lispsm", "tsm", "psm"] {
         let mut t = shadow::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let e = t.visibility(&p, &f).unwrap_err().to_string();
@@ -138,6 +140,8 @@ fn warps_refuse_other_lights_and_bad_options() {
         ("tsm", "focus", "-0.5"),
         ("lispsm", "focus", "0.5"),
         ("tsm", "fit", "receivers"),
+        ("psm", "shift", "maybe"),
+        ("psm", "n_scale", "2"),
     ] {
         let e = shadow::create(technique, &owned(&[(key, value)]))
             .err()
@@ -170,9 +174,93 @@ fn shimmering_under_a_moving_sun() {
     let csm = flicker("csm", &[]);
     let stable = flicker("csm", &[("snap", "true")]);
     assert!(stable < 0.7 * csm && stable > 1e-5, "csm {csm}, stable {stable}");
-    for t in ["lispsm", "tsm", "sdsm"] {
+    for t in ["lispsm", "tsm", "psm", "sdsm"] {
         let f = flicker(t, &[]);
         assert!(f > 5e-5, "{t}: {f}");
+    }
+}
+
+/// PSM's caster behind the eye (`behind_eye`: a 25 m tower 8 m behind the camera under a low
+/// sun from behind). Without the virtual camera moved back the tower lies behind the eye
+/// plane, is clipped, and its shadow across the view is lost; with Kozlov's shift it is
+/// right. The light is behind the viewer, so the map is inverted (depths reversed): without
+/// that every shadow would be wrong. The shift's price: a farther near plane, a weaker warp.
+/// Measured (2026-12-06): wrong 6.53 % without the shift, 0.021 % with it (the 2048² map
+/// fitted to the scene: 0.083 %); footprint median 0.18 px without, 0.59 px with.
+#[test]
+fn psm_loses_casters_behind_the_eye_without_the_shift() {
+    let with = result("behind_eye", "psm", &[]);
+    let without = result("behind_eye", "psm", &[("shift", "false")]);
+    let one = result("behind_eye", "shadow-map", &[]);
+    assert!(
+        without.errors.wrong_pct > 5.0,
+        "without: {} %",
+        without.errors.wrong_pct
+    );
+    assert!(with.errors.wrong_pct < 0.05, "with: {} %", with.errors.wrong_pct);
+    assert!(with.errors.wrong_pct < one.errors.wrong_pct);
+    assert_eq!(counter(&with, "psm inverted light"), 1.0);
+    assert_eq!(counter(&with, "psm casters behind the eye"), 0.0);
+    assert!(counter(&without, "psm casters behind the eye") >= 1.0);
+    assert_eq!(counter(&without, "psm shift"), 0.0);
+    // The tower's far side is 9.5 m behind the eye: the shift puts it at half the new near
+    // distance (the ground behind the eye, which cannot shadow the view, moves nothing).
+    let shift = counter(&with, "psm shift");
+    let near = counter(&with, "psm near");
+    assert!((shift - (near + 19.0)).abs() < 1.5, "shift {shift}, near {near}");
+    assert!(
+        with.texel_px > 2.0 * without.texel_px,
+        "the price: footprint median {} with the shift, {} without",
+        with.texel_px,
+        without.texel_px
+    );
+}
+
+/// PSM's light kinds in post-perspective space: across the view (the light perpendicular to
+/// the view direction) it stays directional and the map is orthographic there; ahead of the
+/// viewer a point light; near the view axis (within the field of view) one frustum cannot
+/// hold the body and the map falls back and says so. Measured (2026-12-06) on `street` so
+/// lit: 0.054 %, 0.069 % and 0.119 % wrong.
+#[test]
+fn psm_lights_across_ahead_and_along_the_view() {
+    let p = Pipeline::new(2).unwrap();
+    let text = std::fs::read_to_string("fixtures/scenes/street.toml").unwrap();
+    // The camera looks from (0.5, 1.7, 88) at (0, 1.4, 0).
+    for (direction, what) in [
+        // Across: perpendicular to the view direction.
+        ("[-88, -10, 0.5]", "across"),
+        // Ahead: the sun low in front, off the screen to the right.
+        ("[-0.9, -0.3, 0.4]", "ahead"),
+        // Ahead, 27 degrees up: inside the field of view, too near the axis for one frustum.
+        ("[0.0, -0.5, 1]", "along"),
+    ] {
+        let changed = text.replace("direction = [0.3, -0.577, -0.76]", &format!("direction = {direction}"));
+        let s = parse(&changed, Path::new("street_psm.toml")).unwrap();
+        let f = frame::frame(&p, &s, 0, 0).unwrap();
+        let mut t = shadow::create("psm", &[]).unwrap();
+        t.visibility(&p, &f).unwrap();
+        let wrong = penumbra::run::render(&p, &s, &changed, "psm", &[], 0, None)
+            .unwrap()
+            .result
+            .errors
+            .wrong_pct;
+        let steps = t.inspect(&f, 240, 200);
+        let flag = |key: &str| {
+            steps
+                .iter()
+                .flat_map(|s| &s.values)
+                .find(|v| v.0.contains(key))
+                .map(|v| &v.1)
+                == Some(&shadow::Value::Bool(true))
+        };
+        let notes = t.notes();
+        match what {
+            "across" => assert!(flag("across the view") && !flag("behind the viewer")),
+            "ahead" => assert!(!flag("across the view") && !flag("behind the viewer")),
+            _ => assert!(notes.iter().any(|n| n.contains("one frustum")), "{notes:?}"),
+        }
+        assert!(wrong < 0.2, "{what}: {wrong} % wrong");
+        eprintln!("{what}: {wrong} % wrong, notes {notes:?}");
     }
 }
 

@@ -285,6 +285,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         map::sdsm::info(),
         map::lispsm::info(),
         map::tsm::info(),
+        map::psm::info(),
         map::pcss::info(),
         map::chs::info(),
         map::multi_sample::info(),

@@ -308,7 +308,17 @@ impl LightMaps {
                     frame.light.kind.describe()
                 )));
             }
-            let (fit, info) = warp_fit(frame, o.size, w);
+            // PSM covers the depths seen: this frame's reduction.
+            let start = std::time::Instant::now();
+            let seen = match w.kind {
+                super::warp::WarpKind::Psm => sdsm::reduce(p, frame, false)?,
+                _ => None,
+            };
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            let (fit, mut info) = warp_fit(frame, o.size, w, seen.as_ref());
+            if let Some(psm) = &mut info.psm {
+                psm.reduce_ms = ms;
+            }
             self.warp = Some(info);
             fit
         } else {

@@ -1,6 +1,7 @@
 //! Perspective warping of a directional light's map (RTR 7.4.1, fig. 7.15): a perspective
-//! transform in light space that spends more texels near the eye, shared by LiSPSM (Wimmer
-//! et al. 2004) and TSM (Martin and Tan 2004).
+//! transform that spends more texels near the eye, shared by LiSPSM (Wimmer et al. 2004),
+//! TSM (Martin and Tan 2004) and PSM (Stamminger and Drettakis 2002; see
+//! [Perspective shadow maps](#perspective-shadow-maps) below).
 //!
 //! Light space: `y` points to the light, `z` along the view direction projected onto the
 //! plane perpendicular to the light (the warp axis), `x = light direction × z`. A
@@ -28,8 +29,33 @@
 //! where the parameterization degenerates: the light along the view direction (no warp
 //! axis), a focus region already past the 80 % line, or a camera frustum that misses the
 //! scene (the map then covers the scene).
+//!
+//! # Perspective shadow maps
+//! PSM renders the map in the camera's post-perspective space (Stamminger and Drettakis 2002,
+//! section 3): after the camera's projection `C` the view frustum is the unit cube, and the
+//! directional light, the point at infinity `(-d, 0)`, becomes the point `l = C (-d, 0)`. With
+//! `l.w > 0` (the light ahead of the viewer) it is a point light at `L = l.xyz / l.w`, on the
+//! plane that the camera's infinity maps to; with `l.w < 0` (the light behind the viewer) the
+//! rays towards it cross the camera's eye plane and come back from the far side, so seen from
+//! `L` an occluder lies *beyond* what it shadows: the light is inverted and the stored depth
+//! reversed (section 4); with `l.w = 0` (the light across the view) it stays directional and
+//! the map is orthographic along `-l.xyz`. The map is the perspective from `L` fitted to the
+//! view's body in that space (the frustum between the nearest and farthest depths seen, by
+//! the depth reduction: a distant near plane is what keeps `L` away from the body), and one
+//! matrix `M_light C` takes a world point to it, so the lookup is the plain map's.
+//!
+//! Casters behind the eye have `w < 0` in that space: they are clipped, and their shadows
+//! lost. Kozlov's fix (GPU Gems, ch. 14) moves the virtual camera back along the view by
+//! `shift` until every caster that can shadow the view lies at least half the new near
+//! distance in front of it (`shift = max(0, z_n - 2 z_min)`, `z_min` the casters' least view
+//! depth), the near and far planes moved with it. Its price: a farther near plane weakens
+//! the warp (the ratio `far / near` falls), so the texels near the eye grow. Where the light's
+//! position in that space comes too close to the body for one frustum (the light within
+//! about the view's field of view of the view direction or its opposite: Stamminger and
+//! Drettakis then use a cube map), the map falls back to the orthographic one and says so.
 
 use super::cascades::{convex_hull, depth_plane, slice_corners, view_range};
+use super::sdsm::DepthSamples;
 use super::{corners, up_for, Fit, LightView};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -43,6 +69,9 @@ choice_enum! {
         Lispsm = "lispsm",
         /// Trapezoidal shadow maps (Martin and Tan 2004), the 80 % rule.
         Tsm = "tsm",
+        /// Perspective shadow maps (Stamminger and Drettakis 2002): the map of the camera's
+        /// post-perspective space.
+        Psm = "psm",
     }
 }
 
@@ -52,6 +81,11 @@ pub const TSM_XI: f32 = -0.6;
 /// Below this sine of the angle between view and light directions the warp axis is
 /// undefined and the map falls back to the orthographic one (about 0.57 degrees).
 pub const MIN_SIN_GAMMA: f32 = 0.01;
+
+/// PSM: the widest half-angle (its tangent) of the light's frustum in post-perspective space
+/// before the map falls back (about 72 degrees: past it a single map's texels stretch
+/// too unevenly, and at 90 it cannot hold the body).
+pub const PSM_MAX_TAN: f32 = 3.0;
 
 /// Settings of a warp.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +98,9 @@ pub struct Warp {
     /// TSM: the focus point's distance past the near plane, as a fraction of the view range;
     /// the region up to it takes 80 % of the map. Default: 0.5.
     pub focus: f32,
+    /// PSM: move the virtual camera back until the casters behind the eye are in front of it
+    /// (Kozlov's fix). Default: true.
+    pub shift: bool,
 }
 
 impl Default for Warp {
@@ -72,6 +109,7 @@ impl Default for Warp {
             kind: WarpKind::Lispsm,
             n_scale: 1.0,
             focus: 0.5,
+            shift: true,
         }
     }
 }
@@ -98,6 +136,15 @@ impl Warp {
             |w: &mut Warp| &mut w.focus,
         )]
     }
+
+    /// PSM's field (`shift`).
+    pub fn psm_fields() -> Vec<Field<Warp>> {
+        vec![Field::new(
+            "shift",
+            "PSM: move the virtual camera back so casters behind the eye are in front of it (Kozlov); false: their shadows are lost",
+            |w: &mut Warp| &mut w.shift,
+        )]
+    }
 }
 
 /// What the last warp fitted: its parameters, for `counters`, `inspect` and `notes`.
@@ -113,6 +160,27 @@ pub struct WarpInfo {
     pub depth: f32,
     /// Why the map fell back to the orthographic one, if it did.
     pub fallback: Option<String>,
+    /// PSM: its post-perspective space (also where it fell back: the range and shift).
+    pub psm: Option<PsmInfo>,
+}
+
+/// What PSM fitted in the camera's post-perspective space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PsmInfo {
+    /// Least view depth the map covers (the nearest depth seen).
+    pub near: f32,
+    /// Greatest view depth the map covers.
+    pub far: f32,
+    /// How far the virtual camera moved back along the view (world units; 0: not moved).
+    pub shift: f32,
+    /// The light behind the viewer: beyond the plane at infinity, depths reversed.
+    pub inverted: bool,
+    /// The light across the view: directional in that space too, the map orthographic.
+    pub parallel: bool,
+    /// Casters that reach behind the virtual camera's eye plane (clipped: their shadows lost).
+    pub behind: usize,
+    /// Milliseconds of the depth reduction that found the range.
+    pub reduce_ms: f64,
 }
 
 /// The light space of a warp: unit axes `x`, `y` (to the light) and `z` (the warp axis).
@@ -130,8 +198,9 @@ impl Basis {
 }
 
 /// A warped view of `frame`'s directional light at `size` texels ([`Warp`]; see the module
-/// docs), with the casters that can shadow the body.
-pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
+/// docs), with the casters that can shadow the body. PSM covers the view depths of
+/// `samples` (the depth reduction's) where given.
+pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSamples>) -> (Fit, WarpInfo) {
     let light = &frame.light;
     let d = light.direction.normalize_or_zero();
     let forward = depth_plane(frame).truncate().normalize_or_zero();
@@ -190,7 +259,25 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
     // Casters up to the scene's top; receivers down to the body's bottom.
     let (y0, y1) = (y0.min(shi.y) - margin, shi.y + margin);
     let eye = basis.of(frame.camera.position);
-    let (n, px) = if fallback.is_some() {
+    // Casters: objects whose light-space box meets the body's rectangle and reaches above its
+    // bottom (shadows fall along y).
+    let mut keep: Vec<bool> = frame
+        .scene
+        .objects
+        .iter()
+        .map(|o| {
+            o.mesh.bounds().is_some_and(|(a, b)| {
+                let (ca, cb) = corners(a, b)
+                    .iter()
+                    .map(|c| basis.of(*c))
+                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| {
+                        (p.min(c), q.max(c))
+                    });
+                ca.x <= bhi.x + margin && cb.x >= blo.x - margin && ca.z <= z1 && cb.z >= z0 && cb.y >= y0
+            })
+        })
+        .collect();
+    let (n, px) = if fallback.is_some() || w.kind == WarpKind::Psm {
         (f32::INFINITY, eye.x)
     } else {
         match w.kind {
@@ -210,6 +297,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
                     ((lambda * dp + lambda * dp * TSM_XI) / den, top.x)
                 }
             }
+            WarpKind::Psm => unreachable!("PSM has no light-space n"),
         }
     };
     let n = if n.is_finite() && n < lambda * 1e5 {
@@ -217,29 +305,30 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
     } else {
         f32::INFINITY
     };
-    let matrix = if n.is_finite() {
-        perspective_matrix(&basis, &body, Vec3::new(px, 0.0, z0 - n), n, lambda, (y0, y1), margin)
+    let orthographic = || orthographic_matrix(&basis, (blo.x - margin, bhi.x + margin), (z0, z1), (y0, y1));
+    let mut psm = None;
+    let (matrix, n) = if w.kind == WarpKind::Psm {
+        // The depths seen (padded by a hundredth), else the view range.
+        let range = samples.map_or((near, far), |s| (s.near * 0.99, s.far * 1.01));
+        let fit = psm_matrix(frame, w, range, &basis);
+        keep = fit.casters;
+        psm = Some(fit.info);
+        match (fallback.is_none(), fit.matrix) {
+            (true, Ok((m, n))) => (m, n),
+            (_, Err(why)) if fallback.is_none() => {
+                fallback = Some(why);
+                (orthographic(), f32::INFINITY)
+            }
+            _ => (orthographic(), f32::INFINITY),
+        }
+    } else if n.is_finite() {
+        (
+            perspective_matrix(&basis, &body, Vec3::new(px, 0.0, z0 - n), n, lambda, (y0, y1), margin),
+            n,
+        )
     } else {
-        orthographic_matrix(&basis, (blo.x - margin, bhi.x + margin), (z0, z1), (y0, y1))
+        (orthographic(), n)
     };
-    // Casters: objects whose light-space box meets the body's rectangle and reaches above its
-    // bottom (shadows fall along y).
-    let keep: Vec<bool> = frame
-        .scene
-        .objects
-        .iter()
-        .map(|o| {
-            o.mesh.bounds().is_some_and(|(a, b)| {
-                let (ca, cb) = corners(a, b)
-                    .iter()
-                    .map(|c| basis.of(*c))
-                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| {
-                        (p.min(c), q.max(c))
-                    });
-                ca.x <= bhi.x + margin && cb.x >= blo.x - margin && ca.z <= z1 && cb.z >= z0 && cb.y >= y0
-            })
-        })
-        .collect();
     let view = LightView {
         matrix,
         texel: 1.0 / size as f32,
@@ -260,8 +349,297 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp) -> (Fit, WarpInfo) {
         n,
         depth: lambda,
         fallback,
+        psm,
     };
     (fit, info)
+}
+
+/// PSM's matrix, or why it cannot be fitted, and what it found.
+struct PsmFit {
+    /// World to map, and the virtual near distance (the warp's `n`).
+    matrix: Result<(Mat4, f32), String>,
+    info: PsmInfo,
+    /// Per object: whether part of it can shadow the view.
+    casters: Vec<bool>,
+}
+
+/// A linear form on homogeneous points `h`: `e . (h.xyz - origin h.w)`.
+fn form(e: Vec3, origin: Vec3) -> Vec4 {
+    e.extend(-e.dot(origin))
+}
+
+/// The vertices of the convex body `frustum ∩ box`, for the frustum slice with corners `f`
+/// ([`slice_corners`] order: bit 0 x, bit 1 y, bit 2 depth) and the box `lo .. hi`: the
+/// corners of each inside the other and where the edges of each cross the faces of the
+/// other.
+pub fn frustum_box(f: &[Vec3; 8], lo: Vec3, hi: Vec3) -> Vec<Vec3> {
+    let centre = f.iter().copied().sum::<Vec3>() / 8.0;
+    let eps = (hi - lo).length().max(1e-3) * 1e-5;
+    // The frustum's faces as planes (normal, offset), inside where n . p <= o.
+    let planes: Vec<(Vec3, f32)> = [[0, 2, 4], [1, 3, 5], [0, 1, 4], [2, 3, 6], [0, 1, 2], [4, 5, 6]]
+        .iter()
+        .map(|[a, b, c]| {
+            let n = (f[*b] - f[*a]).cross(f[*c] - f[*a]).normalize_or_zero();
+            let n = if n.dot(centre - f[*a]) > 0.0 { -n } else { n };
+            (n, n.dot(f[*a]))
+        })
+        .collect();
+    let in_frustum = |p: Vec3| planes.iter().all(|(n, o)| n.dot(p) <= o + eps);
+    let in_box = |p: Vec3| p.cmpge(lo - eps).all() && p.cmple(hi + eps).all();
+    let boxed = corners(lo, hi);
+    // Edges: corner pairs differing in one bit.
+    let edges = |c: &[Vec3; 8]| {
+        (0..8usize)
+            .flat_map(|i| {
+                [1usize, 2, 4]
+                    .into_iter()
+                    .filter(move |b| i & b == 0)
+                    .map(move |b| (i, i | b))
+            })
+            .map(|(i, j)| (c[i], c[j]))
+            .collect::<Vec<_>>()
+    };
+    let mut out: Vec<Vec3> = f.iter().copied().filter(|p| in_box(*p)).collect();
+    out.extend(boxed.iter().copied().filter(|p| in_frustum(*p)));
+    for (a, b) in edges(f) {
+        for k in 0..3 {
+            for bound in [lo[k], hi[k]] {
+                let t = (bound - a[k]) / (b[k] - a[k]);
+                let p = a + (b - a) * t;
+                if (0.0..=1.0).contains(&t) && in_box(p) {
+                    out.push(p);
+                }
+            }
+        }
+    }
+    for (a, b) in edges(&boxed) {
+        for (n, o) in &planes {
+            let t = (o - n.dot(a)) / n.dot(b - a);
+            let p = a + (b - a) * t;
+            if (0.0..=1.0).contains(&t) && in_frustum(p) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// The sides of the prism over the convex polygon `hull` of light-space `(x, z)`
+/// (counter-clockwise, grown by `margin`) above `y0`: planes `(n, o)`, inside where
+/// `n . p + o >= 0`.
+fn prism_sides(hull: &[Vec2], margin: f32, y0: f32) -> Vec<(Vec3, f32)> {
+    let mut sides: Vec<(Vec3, f32)> = (0..hull.len())
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+            let n = (b - a).perp().normalize_or_zero();
+            (Vec3::new(n.x, 0.0, n.y), margin - n.dot(a))
+        })
+        .collect();
+    sides.push((Vec3::Y, -y0));
+    sides
+}
+
+/// The part of triangle `tri` inside the planes `sides` (Sutherland-Hodgman).
+fn clip_to_prism(tri: [Vec3; 3], sides: &[(Vec3, f32)]) -> Vec<Vec3> {
+    let mut out = tri.to_vec();
+    for (n, o) in sides {
+        if out.is_empty() {
+            break;
+        }
+        let d = |q: Vec3| n.dot(q) + o;
+        let input = std::mem::take(&mut out);
+        for i in 0..input.len() {
+            let (a, c) = (input[i], input[(i + 1) % input.len()]);
+            let (da, dc) = (d(a), d(c));
+            if da >= 0.0 {
+                out.push(a);
+            }
+            if (da >= 0.0) != (dc >= 0.0) {
+                out.push(a + (c - a) * (da / (da - dc)));
+            }
+        }
+    }
+    out
+}
+
+/// The PSM map (see the module docs) of view depths `near .. far`, in the light space
+/// `basis`. Its receivers: the view frustum between those depths, clipped to the scene's
+/// box. Its casters: each triangle's part above the receivers' bottom (towards the light)
+/// and inside their outline seen from the light, so a ground plane behind the eye whose
+/// shadows cannot reach the view moves nothing.
+fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -> PsmFit {
+    let cam = &frame.camera;
+    let view = cam.view();
+    let depth = |p: Vec3| -view.transform_point3(p).z;
+    let (lo, hi) = frame.scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+    let mut body = frustum_box(&slice_corners(frame, near, far), lo, hi);
+    if body.len() < 4 {
+        body = slice_corners(frame, near, far).to_vec();
+    }
+    let lit: Vec<Vec3> = body.iter().map(|p| basis.of(*p)).collect();
+    // The body's bottom (its least height towards the light).
+    let bottom = lit.iter().map(|q| q.y).fold(f32::MAX, f32::min);
+    let margin = (hi - lo).length().max(1e-3) * 1e-3;
+    let hull = convex_hull(&lit.iter().map(|q| Vec2::new(q.x, q.z)).collect::<Vec<_>>());
+    let to_world = |q: Vec3| basis.x * q.x + basis.y * q.y + basis.z * q.z;
+    // Each object's part that can shadow the body, in world space: a box wholly inside the
+    // prism over the body's outline (above its bottom) or wholly outside one of its sides
+    // decides for the object; otherwise each triangle is clipped.
+    let floor = bottom - margin;
+    let sides = prism_sides(&hull, margin, floor);
+    let outside = |q: &[Vec3]| sides.iter().any(|(n, o)| q.iter().all(|p| n.dot(*p) + o < 0.0));
+    let inside = |q: &[Vec3]| sides.iter().all(|(n, o)| q.iter().all(|p| n.dot(*p) + o >= 0.0));
+    let parts: Vec<Vec<Vec3>> = frame
+        .scene
+        .objects
+        .iter()
+        .map(|o| {
+            let m = &o.mesh;
+            let Some((a, b)) = m.bounds() else {
+                return Vec::new();
+            };
+            let boxed = corners(a, b).map(|c| basis.of(c));
+            if outside(&boxed) {
+                return Vec::new();
+            }
+            if inside(&boxed) {
+                return corners(a, b).to_vec();
+            }
+            let mut part = Vec::new();
+            for t in m.indices.chunks_exact(3) {
+                let tri = [0, 1, 2].map(|k| basis.of(m.positions[t[k] as usize]));
+                if outside(&tri) {
+                    continue;
+                }
+                if inside(&tri) {
+                    part.extend(tri.map(to_world));
+                } else {
+                    part.extend(clip_to_prism(tri, &sides).into_iter().map(to_world));
+                }
+            }
+            part
+        })
+        .collect();
+    let z_min = parts.iter().flatten().map(|p| depth(*p)).fold(f32::MAX, f32::min);
+    // Kozlov's shift: the nearest caster at least half the virtual near distance in front.
+    let shift = if w.shift { (near - 2.0 * z_min).max(0.0) } else { 0.0 };
+    let (vn, vf) = (near + shift, far + shift);
+    let aspect = cam.width as f32 / cam.height.max(1) as f32;
+    let c = Mat4::perspective_rh_gl(cam.fov_deg.to_radians(), aspect, vn, vf)
+        * Mat4::from_translation(Vec3::new(0.0, 0.0, -shift))
+        * view;
+    // Post-perspective positions of points in front of the virtual eye.
+    let pps = |p: Vec3| {
+        let h = c * p.extend(1.0);
+        (h.w > vn * 1e-4).then(|| h.truncate() / h.w)
+    };
+    let casters: Vec<bool> = parts.iter().map(|p| !p.is_empty()).collect();
+    let behind = parts.iter().filter(|p| p.iter().any(|q| pps(*q).is_none())).count();
+    let receivers: Vec<Vec3> = body.iter().filter_map(|p| pps(*p)).collect();
+    let occluders: Vec<Vec3> = parts.iter().flatten().filter_map(|p| pps(*p)).collect();
+    let l = c * (-frame.light.direction.normalize_or_zero()).extend(0.0);
+    let centre = receivers.iter().copied().sum::<Vec3>() / receivers.len().max(1) as f32;
+    let radius = receivers.iter().map(|r| (*r - centre).length()).fold(0.0, f32::max);
+    let lxyz = l.truncate();
+    let parallel = l.w.abs() * 1e3 * radius <= lxyz.length();
+    let info = PsmInfo {
+        near,
+        far,
+        shift,
+        inverted: !parallel && l.w < 0.0,
+        parallel,
+        behind,
+        reduce_ms: 0.0,
+    };
+    if receivers.len() < 4 || !radius.is_finite() || radius <= 0.0 || lxyz.length() == 0.0 {
+        return PsmFit {
+            matrix: Err("the view's body has no extent in post-perspective space".into()),
+            info,
+            casters,
+        };
+    }
+    // Rows on the virtual camera's homogeneous clip coordinates.
+    let rows = if parallel {
+        // Directional there too: orthographic along the light's travel, -l.xyz.
+        let t = -lxyz.normalize();
+        let e1 = t.cross(up_for(t)).normalize();
+        let e2 = t.cross(e1);
+        let range = |e: Vec3, pts: &mut dyn Iterator<Item = &Vec3>| {
+            pts.fold((f32::MAX, f32::MIN), |(a, b), p| (a.min(e.dot(*p)), b.max(e.dot(*p))))
+        };
+        let (u0, u1) = range(e1, &mut receivers.iter());
+        let (v0, v1) = range(e2, &mut receivers.iter());
+        let (d0, d1) = range(t, &mut receivers.iter().chain(&occluders));
+        let pad = radius * 1e-3;
+        let axis = |e: Vec3, a: f32, b: f32| {
+            let (a, b) = (a - pad, b + pad);
+            form(e, Vec3::ZERO) * (2.0 / (b - a)) - Vec4::W * ((a + b) / (b - a))
+        };
+        let (d0, d1) = (d0 - pad, d1 + pad);
+        [
+            axis(e1, u0, u1),
+            axis(e2, v0, v1),
+            (form(t, Vec3::ZERO) - Vec4::W * d0) / (d1 - d0),
+            Vec4::W,
+        ]
+    } else {
+        let at = lxyz / l.w;
+        let a = (centre - at).normalize();
+        let s = |p: &Vec3| a.dot(*p - at);
+        let s_min = receivers.iter().map(s).fold(f32::MAX, f32::min);
+        let e1 = a.cross(up_for(a)).normalize();
+        let e2 = a.cross(e1);
+        let (mut ua, mut ub, mut va, mut vb) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+        for r in &receivers {
+            let q = *r - at;
+            let (u, v) = (e1.dot(q) / s(r), e2.dot(q) / s(r));
+            (ua, ub, va, vb) = (ua.min(u), ub.max(u), va.min(v), vb.max(v));
+        }
+        let widest = [ua, ub, va, vb].iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        if s_min <= radius * 1e-3 || widest > PSM_MAX_TAN {
+            let angle = crate::math::atan(widest).to_degrees();
+            return PsmFit {
+                matrix: Err(format!(
+                    "the light lies {} the view so near its axis that one frustum in post-perspective space would span {:.0} degrees: the orthographic map of the view",
+                    if l.w < 0.0 { "behind" } else { "ahead of" },
+                    if s_min <= radius * 1e-3 { 180.0 } else { 2.0 * angle }
+                )),
+                info,
+                casters,
+            };
+        }
+        // Depths from the light: receivers, and casters on the side shadows come from
+        // (nearer the light; farther from it when inverted).
+        let mut s0 = s_min;
+        let mut s1 = receivers.iter().map(s).fold(0.0, f32::max);
+        for o in &occluders {
+            let d = s(o);
+            if d > 0.0 {
+                (s0, s1) = (s0.min(d), s1.max(d));
+            }
+        }
+        s0 = s0.max(s_min * 0.05);
+        let (s0, s1) = (s0 * (1.0 - 1e-3), s1 * (1.0 + 1e-3));
+        let pad_u = (ub - ua) * 1e-3;
+        let pad_v = (vb - va) * 1e-3;
+        let (ua, ub, va, vb) = (ua - pad_u, ub + pad_u, va - pad_v, vb + pad_v);
+        let fa = form(a, at);
+        // depth = A + B / s over [s0, s1] to [0, 1]; inverted: 1 - that.
+        let (big_a, big_b) = (s1 / (s1 - s0), -s0 * s1 / (s1 - s0));
+        let z = fa * big_a + Vec4::W * big_b;
+        [
+            form(e1, at) * (2.0 / (ub - ua)) - fa * ((ua + ub) / (ub - ua)),
+            form(e2, at) * (2.0 / (vb - va)) - fa * ((va + vb) / (vb - va)),
+            if l.w < 0.0 { fa - z } else { z },
+            fa,
+        ]
+    };
+    let m = Mat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose() * c;
+    PsmFit {
+        matrix: Ok((m, vn)),
+        info,
+        casters,
+    }
 }
 
 /// World to light space relative to `origin` (rows: the basis' axes).
@@ -439,6 +817,45 @@ mod tests {
             let area = (a.x * c.y - a.y * c.x).abs();
             assert!((area - 1.0).abs() < 0.02, "{p}: {area} texels");
         }
+    }
+
+    #[test]
+    fn frustum_box_is_the_intersections_corners() {
+        // A box-shaped "frustum" over [0, 2]³ and the box [1, 3]³: their common part is
+        // [1, 2]³, whose eight corners are among the vertices, all inside both.
+        let f: [Vec3; 8] = corners(Vec3::ZERO, Vec3::splat(2.0));
+        let v = frustum_box(&f, Vec3::ONE, Vec3::splat(3.0));
+        for c in corners(Vec3::ONE, Vec3::splat(2.0)) {
+            assert!(v.iter().any(|p| (*p - c).length() < 1e-5), "{c} missing from {v:?}");
+        }
+        assert!(v
+            .iter()
+            .all(|p| p.cmpge(Vec3::splat(1.0 - 1e-4)).all() && p.cmple(Vec3::splat(2.0 + 1e-4)).all()));
+        // A box far away: nothing.
+        assert!(frustum_box(&f, Vec3::splat(5.0), Vec3::splat(6.0)).is_empty());
+        // A box holding the frustum: its corners.
+        let all = frustum_box(&f, Vec3::splat(-1.0), Vec3::splat(3.0));
+        assert!(f.iter().all(|c| all.contains(c)));
+    }
+
+    #[test]
+    fn clipping_a_triangle_to_the_prism_keeps_the_inside() {
+        let square = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ];
+        let tri = [
+            Vec3::new(-1.0, 1.0, 0.5),
+            Vec3::new(2.0, 1.0, 0.5),
+            Vec3::new(0.5, -1.0, 0.5),
+        ];
+        let c = clip_to_prism(tri, &prism_sides(&square, 0.0, 0.0));
+        assert!(!c.is_empty());
+        assert!(c.iter().all(|p| p.x >= -1e-6 && p.x <= 1.0 + 1e-6 && p.y >= -1e-6));
+        // Entirely below the floor: nothing.
+        assert!(clip_to_prism(tri, &prism_sides(&square, 0.0, 2.0)).is_empty());
     }
 
     #[test]

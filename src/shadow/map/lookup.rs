@@ -241,6 +241,16 @@ impl MapLookup {
                     .num("angle between view and light (degrees)", w.gamma_deg)
                     .num("warp n (infinite: none)", w.n)
                     .num("body depth along the warp axis", w.depth);
+                let step = match &w.psm {
+                    Some(psm) => step
+                        .num("psm: nearest view depth seen", psm.near)
+                        .num("psm: farthest view depth seen", psm.far)
+                        .num("psm: virtual camera moved back", psm.shift)
+                        .flag("psm: light behind the viewer (inverted, depths reversed)", psm.inverted)
+                        .flag("psm: light across the view (orthographic)", psm.parallel)
+                        .int("psm: casters reaching behind the virtual eye (clipped)", psm.behind),
+                    None => step,
+                };
                 match &w.fallback {
                     Some(why) => step.text("fall-back", why.clone()),
                     None => step,

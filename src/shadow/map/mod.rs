@@ -18,6 +18,7 @@ pub mod multi_sample;
 pub mod pcss;
 pub mod plain;
 pub mod planes;
+pub mod psm;
 pub mod sdsm;
 pub mod shadow_map;
 pub mod soft;

@@ -468,6 +468,10 @@ impl Pass for MapPass {
                 passes.add(name, *ms);
             }
             passes.end_after("light pass", reduce + times.iter().sum::<f64>());
+        } else if let Some(psm) = maps.warp().and_then(|w| w.psm.as_ref()) {
+            // PSM: the reduction that found the depths seen, then the map.
+            passes.add("depth reduction", psm.reduce_ms);
+            passes.end_after("light pass", psm.reduce_ms);
         } else {
             passes.end("light pass");
         }
@@ -519,6 +523,12 @@ impl Pass for MapPass {
         if let Some(w) = maps.warp() {
             c.push(("warp n (0: none)", if w.n.is_finite() { w.n as f64 } else { 0.0 }));
             c.push(("warp gamma (degrees)", w.gamma_deg as f64));
+            if let Some(psm) = &w.psm {
+                c.push(("psm near", psm.near as f64));
+                c.push(("psm shift", psm.shift as f64));
+                c.push(("psm inverted light", psm.inverted as u8 as f64));
+                c.push(("psm casters behind the eye", psm.behind as f64));
+            }
         }
         c
     }

@@ -1,0 +1,86 @@
+//! Perspective shadow maps (Stamminger and Drettakis 2002; RTR 7.4.1): the shadow map of a
+//! directional light rendered in the camera's post-perspective space, where the view
+//! frustum is the unit cube and the near part of the view is large, so the map spends its
+//! texels where the camera sees detail.
+//!
+//! The fit is [`crate::shadow::light::warp`]'s (its module docs, "Perspective shadow maps"):
+//! the light becomes the point `C (-d, 0)` of that space (section 3), a point light ahead of
+//! the viewer, an inverted one (depths reversed) behind it, a directional one across the view
+//! (section 4); the map is the perspective from it fitted to the view between the nearest
+//! and farthest depths the camera sees (a depth reduction, as the paper's near-plane push),
+//! and one matrix takes world points to it, so the pass, bias, filters and lookup are the
+//! plain shadow map's ([`super::plain`]).
+//!
+//! Casters behind the eye lie behind the camera's eye plane, where the projection wraps
+//! around: they are clipped and their shadows lost. `shift=true` (default) moves the virtual
+//! camera back until they are in front of it (Kozlov, GPU Gems ch. 14); its price is a
+//! weaker warp (the near plane moves away with it), measured in the docs.
+//!
+//! Known failures: the light near the view axis, ahead or behind (its post-perspective
+//! position comes too close to the body for one frustum: the map falls back to the
+//! orthographic one and says so in `notes`; the paper uses a cube map there); with
+//! `shift=false`, a caster behind the eye casts no shadow; a long view range with a near
+//! receiver warps so strongly that the far half gets few texels; the map changes with the
+//! camera, so edges crawl as it moves; the stored depth is post-perspective, so the bias
+//! varies across the map. Directional lights only.
+
+use super::plain::HoldsMapPass;
+use super::plain::{MapPass, Options as MapPassOptions};
+use super::warped::{build, declaration as warped_declaration, directional};
+use crate::shadow::light::warp::{Warp, WarpKind};
+use crate::shadow::light::MapOptions;
+use crate::shadow::pass::PassTechnique;
+use crate::shadow::{Declaration, Family, TechniqueInfo};
+use crate::Error;
+
+/// Options of PSM.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// The shadow map's options (map pass, bias, layer, filter), the warp in
+    /// `shadow.map.warp`. Default: one 2048² map, the virtual camera moved back past the
+    /// casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults.
+    pub shadow: MapPassOptions,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Psm)),
+        }
+    }
+}
+
+impl HoldsMapPass for Options {
+    fn shadow(&mut self) -> &mut MapPassOptions {
+        &mut self.shadow
+    }
+}
+
+/// The option declaration: the shadow map's (but `fit` and `snap`) and `shift`.
+pub fn declaration() -> Declaration<Options> {
+    warped_declaration("psm", Warp::psm_fields())
+}
+
+/// Registry entry.
+pub fn info() -> TechniqueInfo {
+    TechniqueInfo {
+        name: "psm",
+        family: Family::Map,
+        summary: "perspective shadow maps (Stamminger and Drettakis 2002): the map in the camera's post-perspective space; casters behind the eye need the virtual camera moved back (shift); falls back near the view axis",
+        options: declaration().infos(),
+        sweep: &[&[], &[("shift", "false")], &[("filter", "pcf2")]],
+        extended: &[&[("size", "1024")], &[("filter", "poisson"), ("kernel", "7")]],
+        create: |pairs| Ok(Box::new(psm(declaration().parse(pairs)?)?)),
+        applies: Some(directional),
+        models: &[],
+    }
+}
+
+/// PSM (see the module docs): the plain map's pass over one post-perspective view, built by
+/// [`psm`].
+pub type Psm = PassTechnique<MapPass>;
+
+/// PSM with `opts`; an option out of its range is an error.
+pub fn psm(opts: Options) -> Result<Psm, Error> {
+    build(declaration(), opts)
+}
