@@ -64,6 +64,8 @@ fn reference_outputs_match_their_golden_hashes() {
 }
 
 const GOLDEN: &str = "
+behind_eye hard 7cc34d1ebfe197a5
+behind_eye area64 7cc34d1ebfe197a5
 big_light hard 5bce5fa3e2cb2db5
 big_light area64 6629d44df2e9bf60
 contact hard 2fd73c8de3d90925

@@ -862,4 +862,19 @@ forest_floor sdsm [cascades=2;size=1448] 5f13dcbb69cce2b5
 forest_floor sdsm [partition=view] 38eaeca106b49fc6
 forest_floor sdsm [snap=true] 54db4b71065bc658
 forest_floor sdsm [blend=dither] f7c8e1bb7db62aa5
+cookie psm [] 1f7d5469a0cc8e45
+cookie psm [shift=false] 1f7d5469a0cc8e45
+cookie psm [filter=pcf2] 58e50ae9352643b0
+cookie psm [size=1024] df73d63cb982ed08
+cookie psm [filter=poisson;kernel=7] 63f293cdceceafaa
+long_view psm [] a7bb0ad4787120d5
+long_view psm [shift=false] a7bb0ad4787120d5
+long_view psm [filter=pcf2] 67abd9810da8c980
+long_view psm [size=1024] 0b7db01b0dd27fd8
+long_view psm [filter=poisson;kernel=7] 40b7a2eadcf8875a
+forest_floor psm [] bac452ac3c604708
+forest_floor psm [shift=false] bac452ac3c604708
+forest_floor psm [filter=pcf2] c797d1b7fad34831
+forest_floor psm [size=1024] 3a4f3b249b0136a8
+forest_floor psm [filter=poisson;kernel=7] d2468f4d16a319e2
 ";
