@@ -295,5 +295,33 @@ fn filtered(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, spheres, random, techniques, volumetric, soft, screen, filtered);
+/// The spheres frame's light pass (100k triangles, a 2048² map): the standard raster mode
+/// against draws at sample tables (pixel centres; rows on a logarithm, LogPSM's table).
+fn samples(c: &mut Criterion) {
+    use penumbra::pipeline::samples::SampleGrid;
+    let p = Pipeline::new(threads()).unwrap();
+    let mut g = c.benchmark_group(format!("samples_{}t", p.threads()));
+    g.sample_size(10);
+    let mesh = spheres_scene(100_000);
+    let setup = frame_setup(&mesh, 1920, 1080);
+    let mut targets = FrameTargets::new(2048, 1920, 1080).unwrap();
+    g.bench_function("standard", |b| {
+        b.iter(|| render_frame(&p, &mesh, &setup, FrameMode::Depth, &mut targets).unwrap())
+    });
+    let mut depth = Surface::new(2048, 2048, 1.0f32).unwrap();
+    let uniform = SampleGrid::uniform(2048, 2048).unwrap();
+    g.bench_function("uniform_table", |b| {
+        b.iter(|| depth_pass_at(&p, &mesh, &setup, &uniform, &mut depth).unwrap())
+    });
+    let rows: Vec<f64> = (0..2048)
+        .map(|j| 2048.0 * ((1.0f64 + 255.0).powf((j as f64 + 0.5) / 2048.0) - 1.0) / 255.0)
+        .collect();
+    let log = SampleGrid::rows(2048, &rows).unwrap();
+    g.bench_function("log_rows", |b| {
+        b.iter(|| depth_pass_at(&p, &mesh, &setup, &log, &mut depth).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, spheres, random, techniques, volumetric, soft, screen, filtered, samples);
 criterion_main!(benches);

@@ -621,6 +621,32 @@ pub fn export_raster(
     export_workload(dir, &floats, indices, &meta)
 }
 
+/// The spheres frame's light pass drawn at the samples of `grid` (the map `depth`, of the
+/// grid's size): the same vertices, state and polygon offset as [`render_frame`]'s first
+/// pass, for comparing the sample-position raster mode with the standard one.
+pub fn depth_pass_at(
+    p: &Pipeline,
+    mesh: &BenchMesh,
+    setup: &FrameSetup,
+    grid: &crate::pipeline::samples::SampleGrid,
+    depth: &mut Surface<f32>,
+) -> Result<DrawStats, PipelineError> {
+    use rayon::prelude::*;
+    let state = RenderState {
+        offset: frame_polygon_offset(FrameMode::Depth),
+        ..Default::default()
+    };
+    let vp = setup.light_vp;
+    let positions: Vec<Vec4> = p.install(|| {
+        mesh.vertices
+            .par_iter()
+            .with_min_len(1024)
+            .map(|v| vp * v.pos.extend(1.0))
+            .collect()
+    });
+    p.draw_depth_at(depth, Some(1.0), &state, &positions, &mesh.indices, grid)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -45,6 +45,7 @@ pub mod lists;
 pub mod ordered;
 pub mod raster;
 pub mod sampler;
+pub mod samples;
 pub mod setup;
 pub mod state;
 pub mod surface;

@@ -1,0 +1,403 @@
+//! Rasterization at non-uniform sample positions (`pipeline::samples`): watertight over
+//! random meshes and random monotone tables, conservative modes exact against independent
+//! tests of each sample's cell, depth on the plane at the warped positions, the same output
+//! for 1, 2 and 4 threads, bad tables refused.
+
+use glam::Vec4;
+use penumbra::bench::SplitMix;
+use penumbra::pipeline::samples::SampleGrid;
+use penumbra::pipeline::*;
+use proptest::prelude::*;
+
+/// Target size: a power of two, so fixed-point window coordinates survive the trip through
+/// NDC exactly.
+const W: u32 = 256;
+const H: u32 = 256;
+
+/// A window position in 1/256 pixels to clip space (w = 1).
+fn clip(x: i64, y: i64, z: f32) -> Vec4 {
+    Vec4::new(
+        x as f32 / (128.0 * W as f32) - 1.0,
+        1.0 - y as f32 / (128.0 * H as f32),
+        z,
+        1.0,
+    )
+}
+
+/// A strictly increasing table of `n` fixed-point positions in `[0, n * 256]` (random
+/// spacing, some runs dense, some sparse), and the same in pixels.
+fn table(rng: &mut SplitMix, n: usize) -> (Vec<i64>, Vec<f64>) {
+    let mut set = std::collections::BTreeSet::new();
+    let dense = (rng.next_u64() % (n as u64 * 256)) as i64;
+    while set.len() < n {
+        let v = if rng.next_u64().is_multiple_of(3) {
+            // A dense cluster: the warped axis crowds samples.
+            (dense + (rng.next_u64() % 2048) as i64).min(n as i64 * 256)
+        } else {
+            (rng.next_u64() % (n as u64 * 256 + 1)) as i64
+        };
+        set.insert(v);
+    }
+    let fixed: Vec<i64> = set.into_iter().collect();
+    let px = fixed.iter().map(|v| *v as f64 / 256.0).collect();
+    (fixed, px)
+}
+
+fn pipeline(threads: usize) -> Pipeline {
+    Pipeline::new(threads).unwrap()
+}
+
+/// Per-sample coverage counts of window-space triangles at the grid's samples.
+fn counts(p: &Pipeline, tris: &[[(i64, i64); 3]], mode: RasterMode, grid: &SampleGrid) -> Vec<u32> {
+    let verts: Vec<Vec4> = tris.iter().flatten().map(|&(x, y)| clip(x, y, 0.5)).collect();
+    let idx: Vec<u32> = (0..verts.len() as u32).collect();
+    let state = RenderState {
+        raster: mode,
+        ..Default::default()
+    };
+    p.coverage_at(&state, &verts, &idx, grid).unwrap()
+}
+
+/// Exact orientation of (b - a) x (c - a), in i128.
+fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i128 {
+    (b.0 - a.0) as i128 * (c.1 - a.1) as i128 - (b.1 - a.1) as i128 * (c.0 - a.0) as i128
+}
+
+/// The cells of a fixed-point table (midpoints between samples, the ends mirrored and kept
+/// in `[0, end]`), computed here independently of the pipeline.
+fn cells(t: &[i64], end: i64) -> Vec<(i64, i64)> {
+    let n = t.len();
+    (0..n)
+        .map(|i| {
+            let lo = if i > 0 {
+                t[i - 1] + (t[i] - t[i - 1]) / 2
+            } else if n > 1 {
+                (2 * t[0] - (t[0] + (t[1] - t[0]) / 2)).max(0)
+            } else {
+                (t[0] - 128).max(0)
+            };
+            let hi = if i + 1 < n {
+                t[i] + (t[i + 1] - t[i]) / 2
+            } else if n > 1 {
+                (2 * t[i] - (t[i - 1] + (t[i] - t[i - 1]) / 2)).min(end)
+            } else {
+                (t[i] + 128).min(end)
+            };
+            (lo, hi)
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// A jittered grid of quads (two triangles each, either diagonal) covers every sample
+    /// strictly inside it exactly once and nothing outside, for random monotone tables on
+    /// both axes.
+    #[test]
+    fn grids_are_watertight_at_any_samples(nx in 1usize..9, ny in 1usize..9, seed in any::<u64>(), x0 in 0i64..3000, y0 in 0i64..3000) {
+        let mut rng = SplitMix(seed);
+        let (xs, xpx) = table(&mut rng, W as usize);
+        let (ys, ypx) = table(&mut rng, H as usize);
+        let grid = SampleGrid::new(&xpx, &ypx).unwrap();
+        let (x1, y1) = (W as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64, H as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64);
+        let mut g = vec![vec![(0i64, 0i64); nx + 1]; ny + 1];
+        for (j, row) in g.iter_mut().enumerate() {
+            for (i, v) in row.iter_mut().enumerate() {
+                let mut x = x0 + (x1 - x0) * i as i64 / nx as i64;
+                let mut y = y0 + (y1 - y0) * j as i64 / ny as i64;
+                if i > 0 && i < nx { x += (rng.next_u64() % 1024) as i64 - 512; }
+                if j > 0 && j < ny { y += (rng.next_u64() % 1024) as i64 - 512; }
+                *v = (x, y);
+            }
+        }
+        let mut tris = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let (a, b, c, d) = (g[j][i], g[j][i + 1], g[j + 1][i + 1], g[j + 1][i]);
+                if rng.next_u64() & 1 == 0 {
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                } else {
+                    tris.push([a, b, d]);
+                    tris.push([b, c, d]);
+                }
+            }
+        }
+        let threads = 1 + (seed % 4) as usize;
+        let n = counts(&pipeline(threads), &tris, RasterMode::Standard, &grid);
+        for (j, &sy) in ys.iter().enumerate() {
+            for (i, &sx) in xs.iter().enumerate() {
+                let c = n[j * W as usize + i];
+                prop_assert!(c <= 1, "sample ({}, {}) covered {} times", i, j, c);
+                if sx > x0 && sx < x1 && sy > y0 && sy < y1 {
+                    prop_assert_eq!(c, 1, "sample ({}, {}) at ({}, {}) inside the grid", i, j, sx, sy);
+                }
+                if sx < x0 || sx > x1 || sy < y0 || sy > y1 {
+                    prop_assert_eq!(c, 0, "sample ({}, {}) outside the grid", i, j);
+                }
+            }
+        }
+    }
+
+    /// Meshes whose vertices lie on samples, so shared edges (the grid's lines and its
+    /// diagonals) pass through samples: the fill rule gives each such sample to exactly one
+    /// triangle (a test that random positions, which seldom land on an edge, cannot make).
+    #[test]
+    fn edges_through_samples_cover_them_once(nx in 1usize..7, ny in 1usize..7, seed in any::<u64>()) {
+        let mut rng = SplitMix(seed);
+        let (xs, xpx) = table(&mut rng, W as usize);
+        let (ys, ypx) = table(&mut rng, H as usize);
+        let grid = SampleGrid::new(&xpx, &ypx).unwrap();
+        // Grid lines at distinct sample indices.
+        let pick = |rng: &mut SplitMix, n: usize, k: usize| {
+            let mut v: Vec<usize> = Vec::new();
+            while v.len() < k + 1 {
+                let i = (rng.next_u64() % n as u64) as usize;
+                if !v.contains(&i) { v.push(i); }
+            }
+            v.sort();
+            v
+        };
+        let (ci, cj) = (pick(&mut rng, W as usize, nx), pick(&mut rng, H as usize, ny));
+        let mut tris = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let v = |a: usize, b: usize| (xs[ci[a]], ys[cj[b]]);
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                if rng.next_u64() & 1 == 0 {
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                } else {
+                    tris.push([a, b, d]);
+                    tris.push([b, c, d]);
+                }
+            }
+        }
+        let n = counts(&pipeline(2), &tris, RasterMode::Standard, &grid);
+        let (i0, i1, j0, j1) = (ci[0], ci[nx], cj[0], cj[ny]);
+        for j in 0..H as usize {
+            for i in 0..W as usize {
+                let c = n[j * W as usize + i];
+                prop_assert!(c <= 1, "sample ({}, {}) covered {} times", i, j, c);
+                // Inside the outer rectangle (its left and top sides included, by the rule).
+                let inside = i >= i0 && i < i1 && j >= j0 && j < j1;
+                prop_assert_eq!(c == 1, inside, "sample ({}, {})", i, j);
+            }
+        }
+    }
+
+    /// A fan of triangles around a centre (with slivers) never covers a sample twice and
+    /// covers every sample strictly inside one of its triangles or on a spoke, with the rows
+    /// warped and the columns at pixel centres (LogPSM's case) or both warped.
+    #[test]
+    fn fans_are_watertight_at_any_samples(n in 3usize..40, cx in 0i64..65536, cy in 0i64..65536, seed in any::<u64>(), both in any::<bool>()) {
+        let mut rng = SplitMix(seed);
+        let (ys, ypx) = table(&mut rng, H as usize);
+        let (xs, grid) = if both {
+            let (xs, xpx) = table(&mut rng, W as usize);
+            (xs, SampleGrid::new(&xpx, &ypx).unwrap())
+        } else {
+            ((0..W as i64).map(|i| i * 256 + 128).collect(), SampleGrid::rows(W, &ypx).unwrap())
+        };
+        let steps: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * rng.next_f32() as f64).collect();
+        let total: f64 = steps.iter().sum();
+        let start = rng.next_f32() as f64 * std::f64::consts::TAU;
+        let angles: Vec<f64> = (0..n).map(|i| start + steps[..i].iter().sum::<f64>() / total * std::f64::consts::TAU).collect();
+        let rim: Vec<(i64, i64)> = angles.iter().map(|a| {
+            let r = 2000.0 + rng.next_f32() as f64 * 60000.0;
+            (cx + (r * a.cos()) as i64, cy + (r * a.sin()) as i64)
+        }).collect();
+        let c = (cx, cy);
+        let tris: Vec<[(i64, i64); 3]> = (0..n).map(|i| [c, rim[i], rim[(i + 1) % n]])
+            .filter(|t| orient(t[0], t[1], t[2]) != 0).collect();
+        let counts = counts(&pipeline(2), &tris, RasterMode::Standard, &grid);
+        for (j, &sy) in ys.iter().enumerate() {
+            for (i, &sx) in xs.iter().enumerate() {
+                let p = (sx, sy);
+                let v = counts[j * W as usize + i];
+                prop_assert!(v <= 1, "sample ({}, {}) covered {} times", i, j, v);
+                let strictly = tris.iter().any(|t| {
+                    let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
+                    d.iter().all(|&x| x > 0) || d.iter().all(|&x| x < 0)
+                });
+                let on_spoke = rim.iter().any(|&r| {
+                    orient(c, r, p) == 0 && p != c && p != r
+                        && p.0 >= c.0.min(r.0) && p.0 <= c.0.max(r.0) && p.1 >= c.1.min(r.1) && p.1 <= c.1.max(r.1)
+                });
+                if strictly || on_spoke {
+                    prop_assert_eq!(v, 1, "sample ({}, {}) must be covered once", i, j);
+                }
+            }
+        }
+    }
+
+    /// Conservative modes at warped samples: overestimate covers exactly the samples whose
+    /// closed cell meets the closed triangle (separating axes: the cell's box and the
+    /// triangle's three edge normals), underestimate exactly those whose cell lies inside it;
+    /// underestimate within standard within overestimate.
+    #[test]
+    fn conservative_modes_are_exact_at_any_samples(c in (0i64..65536, 0i64..65536), d in proptest::array::uniform3((-9000i64..9000, -9000i64..9000)), seed in any::<u64>()) {
+        let t = [(c.0 + d[0].0, c.1 + d[0].1), (c.0 + d[1].0, c.1 + d[1].1), (c.0 + d[2].0, c.1 + d[2].1)];
+        let area = orient(t[0], t[1], t[2]);
+        prop_assume!(area != 0);
+        // Counter-clockwise in window space (y down) for the orientation tests below.
+        let t = if area > 0 { t } else { [t[0], t[2], t[1]] };
+        let mut rng = SplitMix(seed);
+        let (xs, xpx) = table(&mut rng, W as usize);
+        let (ys, ypx) = table(&mut rng, H as usize);
+        let grid = SampleGrid::new(&xpx, &ypx).unwrap();
+        let p = pipeline(2);
+        let over = counts(&p, &[t], RasterMode::Overestimate, &grid);
+        let under = counts(&p, &[t], RasterMode::Underestimate, &grid);
+        let standard = counts(&p, &[t], RasterMode::Standard, &grid);
+        let (xc, yc) = (cells(&xs, W as i64 * 256), cells(&ys, H as i64 * 256));
+        let (bx0, bx1) = (t.iter().map(|v| v.0).min().unwrap(), t.iter().map(|v| v.0).max().unwrap());
+        let (by0, by1) = (t.iter().map(|v| v.1).min().unwrap(), t.iter().map(|v| v.1).max().unwrap());
+        for (j, &(y0, y1)) in yc.iter().enumerate() {
+            for (i, &(x0, x1)) in xc.iter().enumerate() {
+                let k = j * W as usize + i;
+                let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)];
+                let edges = [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
+                let touches = x1 >= bx0 && x0 <= bx1 && y1 >= by0 && y0 <= by1
+                    && edges.iter().all(|(a, b)| corners.iter().any(|q| orient(*a, *b, *q) >= 0));
+                let inside = edges.iter().all(|(a, b)| corners.iter().all(|q| orient(*a, *b, *q) >= 0));
+                prop_assert_eq!(over[k] == 1, touches, "overestimate at sample ({}, {})", i, j);
+                prop_assert_eq!(under[k] == 1, inside, "underestimate at sample ({}, {})", i, j);
+                prop_assert!(under[k] <= standard[k] && standard[k] <= over[k]);
+            }
+        }
+    }
+}
+
+/// Random triangles in front of a warped grid.
+fn scene(seed: u64, n: usize) -> (Vec<Vec4>, Vec<u32>) {
+    let mut rng = SplitMix(seed);
+    let mut v = Vec::new();
+    for _ in 0..n {
+        let (cx, cy, z) = (rng.next_f32() * 2.2 - 1.1, rng.next_f32() * 2.2 - 1.1, rng.next_f32());
+        let s = 0.02 + 0.3 * rng.next_f32();
+        for _ in 0..3 {
+            v.push(Vec4::new(
+                cx + s * (rng.next_f32() - 0.5),
+                cy + s * (rng.next_f32() - 0.5),
+                (z + 0.1 * (rng.next_f32() - 0.5)).clamp(0.0, 1.0),
+                1.0,
+            ));
+        }
+    }
+    let idx = (0..v.len() as u32).collect();
+    (v, idx)
+}
+
+/// The same depths and counters for 1, 2 and 4 threads, in every raster mode, and across
+/// runs.
+#[test]
+fn draws_at_samples_are_identical_for_1_2_4_threads() {
+    let mut rng = SplitMix(7);
+    let (_, ypx) = table(&mut rng, 300);
+    let grid = SampleGrid::rows(200, &ypx).unwrap();
+    let (v, idx) = scene(11, 3000);
+    for raster in [
+        RasterMode::Standard,
+        RasterMode::Overestimate,
+        RasterMode::Underestimate,
+    ] {
+        let state = RenderState {
+            raster,
+            offset: PolygonOffset {
+                factor: 1.1,
+                units: 4.0,
+            },
+            ..Default::default()
+        };
+        let run = |threads: usize| {
+            let mut d = Surface::new(200, 300, 1.0f32).unwrap();
+            let s = pipeline(threads)
+                .draw_depth_at(&mut d, Some(1.0), &state, &v, &idx, &grid)
+                .unwrap();
+            (d.data().to_vec(), s)
+        };
+        let one = run(1);
+        assert!(one.1.fragments_passed > 10_000, "{:?}", one.1);
+        for threads in [2, 4, 2] {
+            let other = run(threads);
+            assert!(one.0 == other.0 && one.1 == other.1, "{raster:?}, {threads} threads");
+        }
+    }
+}
+
+/// A sample's depth is the triangle's plane at the sample's own position: a plane tilted in
+/// x and y, drawn at a logarithmic row table, matches the plane evaluated at each sample.
+#[test]
+fn depth_is_the_plane_at_the_warped_sample() {
+    let (w, h) = (64u32, 128u32);
+    // Rows crowded near the top, as a logarithmic warp of one axis would.
+    let ys: Vec<f64> = (0..h)
+        .map(|j| h as f64 * ((1.0 + 63.0f64).powf((j as f64 + 0.5) / h as f64) - 1.0) / 63.0)
+        .collect();
+    let grid = SampleGrid::rows(w, &ys).unwrap();
+    // z = 0.5 + 0.2 x_ndc + 0.1 y_ndc over the whole viewport (two triangles).
+    let z = |x: f32, y: f32| 0.5 + 0.2 * x + 0.1 * y;
+    let corner = |x: f32, y: f32| Vec4::new(x, y, z(x, y), 1.0);
+    let v = [
+        corner(-1.0, -1.0),
+        corner(1.0, -1.0),
+        corner(1.0, 1.0),
+        corner(-1.0, 1.0),
+    ];
+    let idx = [0, 1, 2, 0, 2, 3];
+    let mut d = Surface::new(w, h, 1.0f32).unwrap();
+    let state = RenderState::default();
+    let s = pipeline(2)
+        .draw_depth_at(&mut d, Some(1.0), &state, &v, &idx, &grid)
+        .unwrap();
+    assert_eq!(s.fragments_passed, (w * h) as u64, "every sample once");
+    for j in 0..h as usize {
+        for i in 0..w as usize {
+            let (xn, yn) = (grid.x(i) / w as f64 * 2.0 - 1.0, 1.0 - grid.y(j) / h as f64 * 2.0);
+            let want = z(xn as f32, yn as f32);
+            let got = d.at(i as u32, j as u32);
+            assert!((got - want).abs() < 2e-6, "({i}, {j}): {got} against {want}");
+        }
+    }
+}
+
+/// Bad tables and mismatched targets are errors that say what was wrong.
+#[test]
+fn bad_tables_are_refused() {
+    for (xs, ys, what) in [
+        (vec![0.5, 0.5], vec![0.5], "x[1]"),
+        (vec![0.5], vec![f64::NAN], "y[0]"),
+        (vec![0.5, 3.0], vec![0.5], "x[1]"),
+        (vec![], vec![0.5], "x"),
+    ] {
+        let e = SampleGrid::new(&xs, &ys).unwrap_err();
+        assert!(format!("{e:?}").contains(what), "{e:?}");
+    }
+    let grid = SampleGrid::uniform(8, 8).unwrap();
+    let mut d = Surface::new(8, 9, 1.0f32).unwrap();
+    let e = pipeline(1)
+        .draw_depth_at(
+            &mut d,
+            None,
+            &RenderState::default(),
+            &[Vec4::ONE; 3],
+            &[0, 1, 2],
+            &grid,
+        )
+        .unwrap_err();
+    assert!(matches!(e, PipelineError::SizeMismatch { .. }), "{e:?}");
+    let mut d = Surface::new(8, 8, 1.0f32).unwrap();
+    let e = pipeline(1)
+        .draw_depth_at(
+            &mut d,
+            None,
+            &RenderState::default(),
+            &[Vec4::ONE; 3],
+            &[0, 1, 5],
+            &grid,
+        )
+        .unwrap_err();
+    assert!(matches!(e, PipelineError::IndexOutOfRange { .. }), "{e:?}");
+}
