@@ -1,8 +1,8 @@
 //! Rasterization at non-uniform sample positions: the sample of column `i` and row `j` of the
 //! target lies at window position `(xs[i], ys[j])` (fixed point, [`super::fixed::Fx8`]), two
-//! monotone tables the draw supplies, instead of the pixel centre `(i + 1/2, j + 1/2)`. A logarithmic shadow
-//! map (Lloyd et al. 2008) is a draw whose rows follow a logarithm: GPUs cannot rasterize it,
-//! this can.
+//! monotone tables the draw supplies, instead of the pixel centre `(i + 1/2, j + 1/2)`. A
+//! logarithmic shadow map (Lloyd et al. 2008) is a draw whose rows follow a logarithm: GPUs
+//! cannot rasterize it, this can.
 //!
 //! Exactness: the edge functions are set up as for every draw ([`super::setup`]), and each is
 //! evaluated at the warped sample positions in exact integer arithmetic,
