@@ -1,6 +1,8 @@
 //! Pipeline invariants: watertightness, conservative coverage against exact tests, fragment
 //! lists, stencil counting, clipping and depth clamp, blending, bad input, determinism.
 
+mod common;
+use common::{fan, fan_covers, jittered_grid, orient};
 use glam::{Vec3, Vec4};
 use penumbra::bench::SplitMix;
 use penumbra::pipeline::*;
@@ -13,12 +15,7 @@ const H: u32 = 256;
 
 /// A window position in 1/256 pixels to clip space (w = 1).
 fn clip(x: i64, y: i64, z: f32) -> Vec4 {
-    Vec4::new(
-        x as f32 / (128.0 * W as f32) - 1.0,
-        1.0 - y as f32 / (128.0 * H as f32),
-        z,
-        1.0,
-    )
+    common::window_to_clip(x, y, z, (W, H))
 }
 
 /// Draws window-space triangles (fixed-point vertices) with additive blending into a count
@@ -53,11 +50,6 @@ fn coverage(p: &Pipeline, tris: &[[(i64, i64); 3]], mode: RasterMode) -> (Surfac
         )
         .unwrap();
     (count, stats)
-}
-
-/// Exact orientation of (b - a) x (c - a), in i128.
-fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i128 {
-    (b.0 - a.0) as i128 * (c.1 - a.1) as i128 - (b.1 - a.1) as i128 * (c.0 - a.0) as i128
 }
 
 /// Point inside the closed triangle (either winding).
@@ -148,30 +140,7 @@ proptest! {
     fn grids_are_watertight(nx in 1usize..9, ny in 1usize..9, seed in any::<u64>(), x0 in 0i64..3000, y0 in 0i64..3000) {
         let mut rng = SplitMix(seed);
         let (x1, y1) = (W as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64, H as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64);
-        let mut grid = vec![vec![(0i64, 0i64); nx + 1]; ny + 1];
-        for (j, row) in grid.iter_mut().enumerate() {
-            for (i, v) in row.iter_mut().enumerate() {
-                let mut x = x0 + (x1 - x0) * i as i64 / nx as i64;
-                let mut y = y0 + (y1 - y0) * j as i64 / ny as i64;
-                // Jitter interior vertices only, so the union stays the rectangle.
-                if i > 0 && i < nx { x += (rng.next_u64() % 1024) as i64 - 512; }
-                if j > 0 && j < ny { y += (rng.next_u64() % 1024) as i64 - 512; }
-                *v = (x, y);
-            }
-        }
-        let mut tris = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                let (a, b, c, d) = (grid[j][i], grid[j][i + 1], grid[j + 1][i + 1], grid[j + 1][i]);
-                if rng.next_u64() & 1 == 0 {
-                    tris.push([a, b, c]);
-                    tris.push([a, c, d]);
-                } else {
-                    tris.push([a, b, d]);
-                    tris.push([b, c, d]);
-                }
-            }
-        }
+        let tris = jittered_grid(&mut rng, nx, ny, (x0, y0), (x1, y1));
         let (count, _) = coverage(&pipeline(2), &tris, RasterMode::Standard);
         for py in 0..H as i64 {
             for px in 0..W as i64 {
@@ -191,36 +160,15 @@ proptest! {
     #[test]
     fn fans_are_watertight(n in 3usize..40, cx in 0i64..65536, cy in 0i64..65536, seed in any::<u64>()) {
         let mut rng = SplitMix(seed);
-        // Angular steps in [1, 1.9], scaled to a full turn: every gap is below pi, so the fan's
-        // triangles never overlap.
-        let steps: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * rng.next_f32() as f64).collect();
-        let total: f64 = steps.iter().sum();
-        let start = rng.next_f32() as f64 * std::f64::consts::TAU;
-        let angles: Vec<f64> = (0..n).map(|i| start + steps[..i].iter().sum::<f64>() / total * std::f64::consts::TAU).collect();
-        let rim: Vec<(i64, i64)> = angles.iter().map(|a| {
-            let r = 2000.0 + rng.next_f32() as f64 * 60000.0;
-            (cx + (r * a.cos()) as i64, cy + (r * a.sin()) as i64)
-        }).collect();
         let c = (cx, cy);
-        let tris: Vec<[(i64, i64); 3]> = (0..n).map(|i| [c, rim[i], rim[(i + 1) % n]])
-            .filter(|t| orient(t[0], t[1], t[2]) != 0).collect();
+        let (tris, rim) = fan(&mut rng, n, c);
         let (count, _) = coverage(&pipeline(2), &tris, RasterMode::Standard);
         for py in 0..H as i64 {
             for px in 0..W as i64 {
                 let p = center(px, py);
                 let v = count.at(px as u32, py as u32);
                 prop_assert!(v <= 1.0, "pixel ({}, {}) covered {} times", px, py, v);
-                let strictly = tris.iter().any(|t| {
-                    let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
-                    d.iter().all(|&x| x > 0) || d.iter().all(|&x| x < 0)
-                });
-                // On a spoke (an edge shared by two triangles), strictly between the centre
-                // and the rim vertex.
-                let on_spoke = rim.iter().any(|&r| {
-                    orient(c, r, p) == 0 && p != c && p != r
-                        && p.0 >= c.0.min(r.0) && p.0 <= c.0.max(r.0) && p.1 >= c.1.min(r.1) && p.1 <= c.1.max(r.1)
-                });
-                if strictly || on_spoke {
+                if fan_covers(&tris, &rim, c, p) {
                     prop_assert_eq!(v, 1.0, "pixel ({}, {}) must be covered once", px, py);
                 }
             }

@@ -3,6 +3,8 @@
 //! tests of each sample's cell, depth on the plane at the warped positions, the same output
 //! for 1, 2 and 4 threads, bad tables refused.
 
+mod common;
+use common::{fan, fan_covers, jittered_grid, orient, quads};
 use glam::Vec4;
 use penumbra::bench::SplitMix;
 use penumbra::pipeline::samples::SampleGrid;
@@ -16,12 +18,7 @@ const H: u32 = 256;
 
 /// A window position in 1/256 pixels to clip space (w = 1).
 fn clip(x: i64, y: i64, z: f32) -> Vec4 {
-    Vec4::new(
-        x as f32 / (128.0 * W as f32) - 1.0,
-        1.0 - y as f32 / (128.0 * H as f32),
-        z,
-        1.0,
-    )
+    common::window_to_clip(x, y, z, (W, H))
 }
 
 /// A strictly increasing table of `n` fixed-point positions in `[0, n * 256]` (random
@@ -56,11 +53,6 @@ fn counts(p: &Pipeline, tris: &[[(i64, i64); 3]], mode: RasterMode, grid: &Sampl
         ..Default::default()
     };
     p.coverage_at(&state, &verts, &idx, grid).unwrap()
-}
-
-/// Exact orientation of (b - a) x (c - a), in i128.
-fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i128 {
-    (b.0 - a.0) as i128 * (c.1 - a.1) as i128 - (b.1 - a.1) as i128 * (c.0 - a.0) as i128
 }
 
 /// The cells of a fixed-point table (midpoints between samples, the ends mirrored and kept
@@ -101,29 +93,7 @@ proptest! {
         let (ys, ypx) = table(&mut rng, H as usize);
         let grid = SampleGrid::new(&xpx, &ypx).unwrap();
         let (x1, y1) = (W as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64, H as i64 * 256 - 1 - (rng.next_u64() % 3000) as i64);
-        let mut g = vec![vec![(0i64, 0i64); nx + 1]; ny + 1];
-        for (j, row) in g.iter_mut().enumerate() {
-            for (i, v) in row.iter_mut().enumerate() {
-                let mut x = x0 + (x1 - x0) * i as i64 / nx as i64;
-                let mut y = y0 + (y1 - y0) * j as i64 / ny as i64;
-                if i > 0 && i < nx { x += (rng.next_u64() % 1024) as i64 - 512; }
-                if j > 0 && j < ny { y += (rng.next_u64() % 1024) as i64 - 512; }
-                *v = (x, y);
-            }
-        }
-        let mut tris = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                let (a, b, c, d) = (g[j][i], g[j][i + 1], g[j + 1][i + 1], g[j + 1][i]);
-                if rng.next_u64() & 1 == 0 {
-                    tris.push([a, b, c]);
-                    tris.push([a, c, d]);
-                } else {
-                    tris.push([a, b, d]);
-                    tris.push([b, c, d]);
-                }
-            }
-        }
+        let tris = jittered_grid(&mut rng, nx, ny, (x0, y0), (x1, y1));
         let threads = 1 + (seed % 4) as usize;
         let n = counts(&pipeline(threads), &tris, RasterMode::Standard, &grid);
         for (j, &sy) in ys.iter().enumerate() {
@@ -160,20 +130,8 @@ proptest! {
             v
         };
         let (ci, cj) = (pick(&mut rng, W as usize, nx), pick(&mut rng, H as usize, ny));
-        let mut tris = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                let v = |a: usize, b: usize| (xs[ci[a]], ys[cj[b]]);
-                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
-                if rng.next_u64() & 1 == 0 {
-                    tris.push([a, b, c]);
-                    tris.push([a, c, d]);
-                } else {
-                    tris.push([a, b, d]);
-                    tris.push([b, c, d]);
-                }
-            }
-        }
+        let g: Vec<Vec<(i64, i64)>> = cj.iter().map(|&j| ci.iter().map(|&i| (xs[i], ys[j])).collect()).collect();
+        let tris = quads(&mut rng, &g);
         let n = counts(&pipeline(2), &tris, RasterMode::Standard, &grid);
         let (i0, i1, j0, j1) = (ci[0], ci[nx], cj[0], cj[ny]);
         for j in 0..H as usize {
@@ -200,32 +158,15 @@ proptest! {
         } else {
             ((0..W as i64).map(|i| i * 256 + 128).collect(), SampleGrid::rows(W, &ypx).unwrap())
         };
-        let steps: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * rng.next_f32() as f64).collect();
-        let total: f64 = steps.iter().sum();
-        let start = rng.next_f32() as f64 * std::f64::consts::TAU;
-        let angles: Vec<f64> = (0..n).map(|i| start + steps[..i].iter().sum::<f64>() / total * std::f64::consts::TAU).collect();
-        let rim: Vec<(i64, i64)> = angles.iter().map(|a| {
-            let r = 2000.0 + rng.next_f32() as f64 * 60000.0;
-            (cx + (r * a.cos()) as i64, cy + (r * a.sin()) as i64)
-        }).collect();
         let c = (cx, cy);
-        let tris: Vec<[(i64, i64); 3]> = (0..n).map(|i| [c, rim[i], rim[(i + 1) % n]])
-            .filter(|t| orient(t[0], t[1], t[2]) != 0).collect();
+        let (tris, rim) = fan(&mut rng, n, c);
         let counts = counts(&pipeline(2), &tris, RasterMode::Standard, &grid);
         for (j, &sy) in ys.iter().enumerate() {
             for (i, &sx) in xs.iter().enumerate() {
                 let p = (sx, sy);
                 let v = counts[j * W as usize + i];
                 prop_assert!(v <= 1, "sample ({}, {}) covered {} times", i, j, v);
-                let strictly = tris.iter().any(|t| {
-                    let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
-                    d.iter().all(|&x| x > 0) || d.iter().all(|&x| x < 0)
-                });
-                let on_spoke = rim.iter().any(|&r| {
-                    orient(c, r, p) == 0 && p != c && p != r
-                        && p.0 >= c.0.min(r.0) && p.0 <= c.0.max(r.0) && p.1 >= c.1.min(r.1) && p.1 <= c.1.max(r.1)
-                });
-                if strictly || on_spoke {
+                if fan_covers(&tris, &rim, c, p) {
                     prop_assert_eq!(v, 1, "sample ({}, {}) must be covered once", i, j);
                 }
             }
@@ -376,28 +317,11 @@ fn bad_tables_are_refused() {
         assert!(format!("{e:?}").contains(what), "{e:?}");
     }
     let grid = SampleGrid::uniform(8, 8).unwrap();
-    let mut d = Surface::new(8, 9, 1.0f32).unwrap();
-    let e = pipeline(1)
-        .draw_depth_at(
-            &mut d,
-            None,
-            &RenderState::default(),
-            &[Vec4::ONE; 3],
-            &[0, 1, 2],
-            &grid,
-        )
-        .unwrap_err();
-    assert!(matches!(e, PipelineError::SizeMismatch { .. }), "{e:?}");
-    let mut d = Surface::new(8, 8, 1.0f32).unwrap();
-    let e = pipeline(1)
-        .draw_depth_at(
-            &mut d,
-            None,
-            &RenderState::default(),
-            &[Vec4::ONE; 3],
-            &[0, 1, 5],
-            &grid,
-        )
-        .unwrap_err();
-    assert!(matches!(e, PipelineError::IndexOutOfRange { .. }), "{e:?}");
+    for (height, idx, want) in [(9, [0, 1, 2], "SizeMismatch"), (8, [0, 1, 5], "IndexOutOfRange")] {
+        let mut d = Surface::new(8, height, 1.0f32).unwrap();
+        let e = pipeline(1)
+            .draw_depth_at(&mut d, None, &RenderState::default(), &[Vec4::ONE; 3], &idx, &grid)
+            .unwrap_err();
+        assert!(format!("{e:?}").starts_with(want), "{e:?}");
+    }
 }

@@ -266,6 +266,21 @@ impl std::ops::AddAssign for DrawStats {
     }
 }
 
+/// Whole triangles of indices below `vertices`, or the error that says which index is not.
+pub(crate) fn check_indices(indices: &[u32], vertices: usize) -> Result<(), PipelineError> {
+    if !indices.len().is_multiple_of(3) {
+        return Err(PipelineError::BadIndexCount(indices.len()));
+    }
+    if let Some(p) = indices.iter().position(|&i| i as usize >= vertices) {
+        return Err(PipelineError::IndexOutOfRange {
+            triangle: p / 3,
+            index: indices[p],
+            vertices,
+        });
+    }
+    Ok(())
+}
+
 /// The render targets of one draw. All present targets must have the same size.
 pub struct Targets<'a, C = Rgba8> {
     /// Colour target.
@@ -492,16 +507,7 @@ impl Pipeline {
         C: ColorFormat,
     {
         let (width, height) = targets.size()?;
-        if !indices.len().is_multiple_of(3) {
-            return Err(PipelineError::BadIndexCount(indices.len()));
-        }
-        if let Some(p) = indices.iter().position(|&i| i as usize >= vertices.len()) {
-            return Err(PipelineError::IndexOutOfRange {
-                triangle: p / 3,
-                index: indices[p],
-                vertices: vertices.len(),
-            });
-        }
+        check_indices(indices, vertices.len())?;
         let grid = TileGrid::new(width, height);
         let params = SetupParams::new(state, width, height);
         let clipper = Clipper::new(width, height, !state.depth.clamp);

@@ -385,16 +385,7 @@ impl Pipeline {
         indices: &[u32],
         grid: &SampleGrid,
     ) -> Result<(Vec<SampleTri>, DrawStats), PipelineError> {
-        if !indices.len().is_multiple_of(3) {
-            return Err(PipelineError::BadIndexCount(indices.len()));
-        }
-        if let Some(p) = indices.iter().position(|&i| i as usize >= positions.len()) {
-            return Err(PipelineError::IndexOutOfRange {
-                triangle: p / 3,
-                index: indices[p],
-                vertices: positions.len(),
-            });
-        }
+        super::check_indices(indices, positions.len())?;
         let (width, height) = (grid.width(), grid.height());
         let mut params = SetupParams::new(state, width, height);
         params.raster = RasterMode::Overestimate;

@@ -173,3 +173,110 @@ pub fn fixture_result(scene: &str, technique: &str, sets: &[(&str, &str)]) -> pe
         .unwrap()
         .result
 }
+
+/// A window-space triangle of the raster tests (fixed point, 1/256 pixel).
+pub type WinTri = [(i64, i64); 3];
+
+/// Exact orientation of (b - a) x (c - a), in i128.
+pub fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i128 {
+    (b.0 - a.0) as i128 * (c.1 - a.1) as i128 - (b.1 - a.1) as i128 * (c.0 - a.0) as i128
+}
+
+/// A grid of `nx` x `ny` quads over `[x0, x1] x [y0, y1]`, two triangles each on a random
+/// diagonal; interior vertices jittered by up to 2 pixels, so the union stays the rectangle.
+pub fn jittered_grid(
+    rng: &mut penumbra::bench::SplitMix,
+    nx: usize,
+    ny: usize,
+    (x0, y0): (i64, i64),
+    (x1, y1): (i64, i64),
+) -> Vec<WinTri> {
+    let mut g = vec![vec![(0i64, 0i64); nx + 1]; ny + 1];
+    for (j, row) in g.iter_mut().enumerate() {
+        for (i, v) in row.iter_mut().enumerate() {
+            let mut x = x0 + (x1 - x0) * i as i64 / nx as i64;
+            let mut y = y0 + (y1 - y0) * j as i64 / ny as i64;
+            if i > 0 && i < nx {
+                x += (rng.next_u64() % 1024) as i64 - 512;
+            }
+            if j > 0 && j < ny {
+                y += (rng.next_u64() % 1024) as i64 - 512;
+            }
+            *v = (x, y);
+        }
+    }
+    quads(rng, &g)
+}
+
+/// Two triangles per quad of the vertex grid `g` (rows of vertices), each on a random
+/// diagonal.
+pub fn quads(rng: &mut penumbra::bench::SplitMix, g: &[Vec<(i64, i64)>]) -> Vec<WinTri> {
+    let mut tris = Vec::new();
+    for j in 0..g.len() - 1 {
+        for i in 0..g[j].len() - 1 {
+            let (a, b, c, d) = (g[j][i], g[j][i + 1], g[j + 1][i + 1], g[j + 1][i]);
+            if rng.next_u64() & 1 == 0 {
+                tris.push([a, b, c]);
+                tris.push([a, c, d]);
+            } else {
+                tris.push([a, b, d]);
+                tris.push([b, c, d]);
+            }
+        }
+    }
+    tris
+}
+
+/// A fan of `n` triangles around `c` (rim radii 2000 to 62000 units, angular gaps below pi,
+/// so slivers but no overlaps), the degenerate ones left out; and its rim.
+pub fn fan(rng: &mut penumbra::bench::SplitMix, n: usize, c: (i64, i64)) -> (Vec<WinTri>, Vec<(i64, i64)>) {
+    let steps: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * rng.next_f32() as f64).collect();
+    let total: f64 = steps.iter().sum();
+    let start = rng.next_f32() as f64 * std::f64::consts::TAU;
+    let angles: Vec<f64> = (0..n)
+        .map(|i| start + steps[..i].iter().sum::<f64>() / total * std::f64::consts::TAU)
+        .collect();
+    let rim: Vec<(i64, i64)> = angles
+        .iter()
+        .map(|a| {
+            let r = 2000.0 + rng.next_f32() as f64 * 60000.0;
+            (c.0 + (r * a.cos()) as i64, c.1 + (r * a.sin()) as i64)
+        })
+        .collect();
+    let tris = (0..n)
+        .map(|i| [c, rim[i], rim[(i + 1) % n]])
+        .filter(|t| orient(t[0], t[1], t[2]) != 0)
+        .collect();
+    (tris, rim)
+}
+
+/// Whether a sample at `p` must be covered by the fan (`tris`, `rim` around `c`): strictly
+/// inside one of its triangles, or on a spoke (an edge shared by two triangles) strictly
+/// between the centre and the rim vertex.
+pub fn fan_covers(tris: &[WinTri], rim: &[(i64, i64)], c: (i64, i64), p: (i64, i64)) -> bool {
+    let strictly = tris.iter().any(|t| {
+        let d = [orient(t[0], t[1], p), orient(t[1], t[2], p), orient(t[2], t[0], p)];
+        d.iter().all(|&x| x > 0) || d.iter().all(|&x| x < 0)
+    });
+    let on_spoke = rim.iter().any(|&r| {
+        orient(c, r, p) == 0
+            && p != c
+            && p != r
+            && p.0 >= c.0.min(r.0)
+            && p.0 <= c.0.max(r.0)
+            && p.1 >= c.1.min(r.1)
+            && p.1 <= c.1.max(r.1)
+    });
+    strictly || on_spoke
+}
+
+/// A window position in 1/256 pixels of a `w` x `h` target to clip space (`w = 1`); with a
+/// power-of-two size the trip through NDC is exact.
+pub fn window_to_clip(x: i64, y: i64, z: f32, (w, h): (u32, u32)) -> glam::Vec4 {
+    glam::Vec4::new(
+        x as f32 / (128.0 * w as f32) - 1.0,
+        1.0 - y as f32 / (128.0 * h as f32),
+        z,
+        1.0,
+    )
+}

@@ -16,37 +16,18 @@
 //! warp axis (the map falls back to the orthographic map of the view and says so in
 //! `notes`). Directional lights only (a scene with another light is an error that says so).
 
-use super::plain::HoldsMapPass;
-use super::plain::{MapPass, Options as MapPassOptions};
+use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::light::MapOptions;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, TechniqueInfo};
 use crate::Error;
 
-/// Options of LiSPSM.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// The shadow map's options (map pass, bias, layer, filter), the warp in
-    /// `shadow.map.warp`. Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest
-    /// as `shadow-map`'s defaults.
-    pub shadow: MapPassOptions,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Lispsm)),
-        }
-    }
-}
-
-impl HoldsMapPass for Options {
-    fn shadow(&mut self) -> &mut MapPassOptions {
-        &mut self.shadow
-    }
-}
+super::warped::warped_options!(
+    "LiSPSM",
+    WarpKind::Lispsm,
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest as `shadow-map`'s defaults."
+);
 
 /// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)
 /// and `n_scale`.

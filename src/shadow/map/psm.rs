@@ -24,37 +24,18 @@
 //! camera, so edges crawl as it moves; the stored depth is post-perspective, so the bias
 //! varies across the map. Directional lights only.
 
-use super::plain::HoldsMapPass;
-use super::plain::{MapPass, Options as MapPassOptions};
+use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::light::MapOptions;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, TechniqueInfo};
 use crate::Error;
 
-/// Options of PSM.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// The shadow map's options (map pass, bias, layer, filter), the warp in
-    /// `shadow.map.warp`. Default: one 2048² map, the virtual camera moved back past the
-    /// casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults.
-    pub shadow: MapPassOptions,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Psm)),
-        }
-    }
-}
-
-impl HoldsMapPass for Options {
-    fn shadow(&mut self) -> &mut MapPassOptions {
-        &mut self.shadow
-    }
-}
+super::warped::warped_options!(
+    "PSM",
+    WarpKind::Psm,
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the virtual camera moved back past the casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults."
+);
 
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `shift`.
 pub fn declaration() -> Declaration<Options> {

@@ -23,37 +23,18 @@
 //! the orthographic one and says so in `notes`); shadows crawl as the camera moves.
 //! Directional lights only.
 
-use super::plain::HoldsMapPass;
-use super::plain::{MapPass, Options as MapPassOptions};
+use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::light::MapOptions;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::{Declaration, Family, TechniqueInfo};
 use crate::Error;
 
-/// Options of TSM.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// The shadow map's options (map pass, bias, layer, filter), the warp in
-    /// `shadow.map.warp`. Default: one 2048² map, the focus at half the view range; the rest
-    /// as `shadow-map`'s defaults.
-    pub shadow: MapPassOptions,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shadow: MapPassOptions::with_map(MapOptions::warped(WarpKind::Tsm)),
-        }
-    }
-}
-
-impl HoldsMapPass for Options {
-    fn shadow(&mut self) -> &mut MapPassOptions {
-        &mut self.shadow
-    }
-}
+super::warped::warped_options!(
+    "TSM",
+    WarpKind::Tsm,
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the focus at half the view range; the rest as `shadow-map`'s defaults."
+);
 
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `focus`.
 pub fn declaration() -> Declaration<Options> {
