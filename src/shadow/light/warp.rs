@@ -50,9 +50,10 @@
 //! distance in front of it (`shift = max(0, z_n - 2 z_min)`, `z_min` the casters' least view
 //! depth), the near and far planes moved with it. Its price: a farther near plane weakens
 //! the warp (the ratio `far / near` falls), so the texels near the eye grow. Where the light's
-//! position in that space comes too close to the body for one frustum (the light within
-//! about the view's field of view of the view direction or its opposite: Stamminger and
-//! Drettakis then use a cube map), the map falls back to the orthographic one and says so.
+//! position in that space comes too close to the body for one frustum (measured: the light
+//! ahead of the viewer within about the field of view; behind it, the inverted frustum still
+//! held on the fixtures; Stamminger and Drettakis use a cube map there), the map falls back
+//! to the orthographic one and says so.
 
 use super::cascades::{convex_hull, depth_plane, slice_corners, view_range};
 use super::sdsm::DepthSamples;

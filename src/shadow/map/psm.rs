@@ -16,7 +16,7 @@
 //! camera back until they are in front of it (Kozlov, GPU Gems ch. 14); its price is a
 //! weaker warp (the near plane moves away with it), measured in the docs.
 //!
-//! Known failures: the light near the view axis, ahead or behind (its post-perspective
+//! Known failures: the light ahead of the viewer near the view axis (its post-perspective
 //! position comes too close to the body for one frustum: the map falls back to the
 //! orthographic one and says so in `notes`; the paper uses a cube map there); with
 //! `shift=false`, a caster behind the eye casts no shadow; a long view range with a near
