@@ -278,7 +278,8 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
             })
         })
         .collect();
-    let (n, px) = if fallback.is_some() || w.kind == WarpKind::Psm {
+    // PSM has no light-space `n`: its matrix comes from `psm_matrix` below.
+    let (n, px) = if fallback.is_some() {
         (f32::INFINITY, eye.x)
     } else {
         match w.kind {
@@ -298,7 +299,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
                     ((lambda * dp + lambda * dp * TSM_XI) / den, top.x)
                 }
             }
-            WarpKind::Psm => unreachable!("PSM has no light-space n"),
+            WarpKind::Psm => (f32::INFINITY, eye.x),
         }
     };
     let n = if n.is_finite() && n < lambda * 1e5 {
