@@ -304,6 +304,89 @@ fn depth_is_the_plane_at_the_warped_sample() {
     }
 }
 
+/// The polygon offset's slope term is the depth's change across the sample's own cell:
+/// `factor * max(|dz/dx| w_i, |dz/dy| h_j)` plus `units * r`, so rows spread wider get a
+/// proportionally larger bias; on pixel centres it is the standard draw's offset.
+#[test]
+fn the_slope_offset_scales_with_the_sample_cell() {
+    let (w, h) = (32u32, 64u32);
+    let ys: Vec<f64> = (0..h)
+        .map(|j| h as f64 * ((1.0 + 63.0f64).powf((j as f64 + 0.5) / h as f64) - 1.0) / 63.0)
+        .collect();
+    let grid = SampleGrid::rows(w, &ys).unwrap();
+    // Depth rising in y much faster than in x, so the row term is the larger one.
+    let z = |x: f32, y: f32| 0.5 + 0.01 * x + 0.2 * y;
+    let corner = |x: f32, y: f32| Vec4::new(x, y, z(x, y), 1.0);
+    let v = [
+        corner(-1.0, -1.0),
+        corner(1.0, -1.0),
+        corner(1.0, 1.0),
+        corner(-1.0, 1.0),
+    ];
+    let idx = [0, 1, 2, 0, 2, 3];
+    let offset = PolygonOffset {
+        factor: 2.0,
+        units: 3.0,
+    };
+    let draw = |offset: PolygonOffset, grid: &SampleGrid| {
+        let mut d = Surface::new(grid.width(), grid.height(), 1.0f32).unwrap();
+        let state = RenderState {
+            offset,
+            ..Default::default()
+        };
+        pipeline(2)
+            .draw_depth_at(&mut d, Some(1.0), &state, &v, &idx, grid)
+            .unwrap();
+        d
+    };
+    let (plain, biased) = (draw(PolygonOffset::default(), &grid), draw(offset, &grid));
+    // Per pixel in window units: dz/dy = 0.2 * 2 / h.
+    let (dzdx, dzdy) = (0.01 * 2.0 / w as f64, 0.2 * 2.0 / h as f64);
+    let r = DepthFormat::F32.resolvable(1.0) as f64;
+    let (mut small, mut large) = (f64::MAX, 0.0f64);
+    for j in 0..h {
+        let want = 2.0 * (dzdx * grid.cell_width(0)).max(dzdy * grid.cell_height(j as usize)) + 3.0 * r;
+        let got = (biased.at(5, j) - plain.at(5, j)) as f64;
+        assert!((got - want).abs() < 1e-6, "row {j}: offset {got} against {want}");
+        small = small.min(got);
+        large = large.max(got);
+    }
+    assert!(
+        large > 4.0 * small,
+        "the rows' cells differ, so must their offsets: {small} .. {large}"
+    );
+    // On pixel centres: the standard draw's offset.
+    let uniform = SampleGrid::uniform(w, h).unwrap();
+    let at = draw(offset, &uniform);
+    let mut standard = Surface::new(w, h, 1.0f32).unwrap();
+    let state = RenderState {
+        offset,
+        ..Default::default()
+    };
+    pipeline(2)
+        .draw(
+            &mut Targets::depth_only(&mut standard).clearing_depth(1.0),
+            &state,
+            &v,
+            &idx,
+            &ClipPassthrough,
+            &DepthOnly,
+        )
+        .unwrap();
+    // (The standard rasterizer steps its depth plane incrementally: the same values to
+    // within one rounding.)
+    let worst = at
+        .data()
+        .iter()
+        .zip(standard.data())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 1.2e-7,
+        "pixel centres: the standard draw's offset, but {worst} apart"
+    );
+}
+
 /// Bad tables and mismatched targets are errors that say what was wrong.
 #[test]
 fn bad_tables_are_refused() {

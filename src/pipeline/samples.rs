@@ -15,8 +15,13 @@
 //! underestimate one whose cell lies inside all three, evaluated at the cell's extreme corner
 //! per edge (exact as well).
 //!
-//! Depth is the triangle's window-depth plane at the sample position, plus the polygon offset
-//! (its slope per unit of window coordinate), clamped to [0, 1] and quantized to the format.
+//! Depth is the triangle's window-depth plane at the sample position, plus the polygon offset,
+//! clamped to [0, 1] and quantized to the format. The offset's slope term is the depth's
+//! change across the sample's own cell, `factor * max(|dz/dx| w_i, |dz/dy| h_j)` with `w_i`,
+//! `h_j` the cell's width and height in pixels: where samples are a pixel apart it is the
+//! standard `factor * max(|dz/dx|, |dz/dy|)`, and where rows are spread wider (a logarithmic
+//! map's rows near the eye) the bias grows with them, so a slope-scaled bias keeps covering
+//! one sample's depth change.
 //! Each 64 x 64 tile of samples takes its triangles in submission order on one worker, so the
 //! result does not depend on the thread count.
 //!
@@ -146,6 +151,17 @@ impl SampleGrid {
     /// Row `j`'s sample y in window pixels (as snapped).
     pub fn y(&self, j: usize) -> f64 {
         self.ys[j] as f64 / ONE as f64
+    }
+
+    /// Column `i`'s cell width in pixels (from the midpoint with the previous sample to the
+    /// next's): what the polygon offset's slope term is scaled by.
+    pub fn cell_width(&self, i: usize) -> f64 {
+        (self.x_cells.1[i] - self.x_cells.0[i]) as f64 / ONE as f64
+    }
+
+    /// Row `j`'s cell height in pixels.
+    pub fn cell_height(&self, j: usize) -> f64 {
+        (self.y_cells.1[j] - self.y_cells.0[j]) as f64 / ONE as f64
     }
 }
 
@@ -280,6 +296,10 @@ impl Pipeline {
         // plane takes them.
         let xf: Vec<f64> = (0..width as usize).map(|i| grid.x(i) - 0.5).collect();
         let yf: Vec<f64> = (0..height as usize).map(|j| grid.y(j) - 0.5).collect();
+        // The offset's slope term per sample cell (see the module docs).
+        let factor = state.offset.factor;
+        let cw: Vec<f64> = (0..width as usize).map(|i| grid.cell_width(i)).collect();
+        let ch: Vec<f64> = (0..height as usize).map(|j| grid.cell_height(j)).collect();
         let data = depth.data_mut();
         let ptr = RawPtr(data.as_mut_ptr());
         let results: Vec<DrawStats> = self.pool.install(|| {
@@ -302,15 +322,23 @@ impl Pipeline {
                         let (i0, i1) = (st.bbox[0].max(rect[0]) as usize, st.bbox[2].min(rect[2]) as usize);
                         let (j0, j1) = (st.bbox[1].max(rect[1]) as usize, st.bbox[3].min(rect[3]) as usize);
                         let z = st.tri.z;
+                        // The units term (the set-up's offset, computed without the factor).
                         let zoff = st.tri.z_offset;
+                        let (sx, sy) = (z.dx.abs(), z.dy.abs());
                         for (j, y) in yf.iter().enumerate().take(j1 + 1).skip(j0) {
                             let Some((l, r)) = grid.row_span(st, mode, j, i0, i1) else {
                                 continue;
                             };
                             s.fragments_rasterized += (r - l + 1) as u64;
                             let zrow = z.c + z.dy * y;
+                            let rise = sy * ch[j];
                             for (i, x) in xf.iter().enumerate().take(r + 1).skip(l) {
-                                let v = fmt.quantize((((zrow + z.dx * x) as f32) + zoff).clamp(0.0, 1.0));
+                                let off = if factor != 0.0 {
+                                    zoff + factor * (sx * cw[i]).max(rise) as f32
+                                } else {
+                                    zoff
+                                };
+                                let v = fmt.quantize((((zrow + z.dx * x) as f32) + off).clamp(0.0, 1.0));
                                 // SAFETY: (i, j) lies in this worker's tile.
                                 let p = unsafe { ptr.0.add(j * stride + i) };
                                 let old = unsafe { *p };
@@ -389,6 +417,8 @@ impl Pipeline {
         let (width, height) = (grid.width(), grid.height());
         let mut params = SetupParams::new(state, width, height);
         params.raster = RasterMode::Overestimate;
+        // The offset's slope term is added per sample cell by the draw.
+        params.offset.factor = 0.0;
         let clipper = Clipper::new(width, height, !state.depth.clamp);
         let per: Vec<(Vec<SampleTri>, DrawStats)> = self.pool.install(|| {
             indices
