@@ -78,6 +78,12 @@ pub fn ln(x: f32) -> f32 {
     libm::logf(x)
 }
 
+/// Natural logarithm in double precision.
+#[inline]
+pub fn ln_f64(x: f64) -> f64 {
+    libm::log(x)
+}
+
 /// Base-2 logarithm.
 #[inline]
 pub fn log2(x: f32) -> f32 {

@@ -284,6 +284,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
         map::cascaded::info(),
         map::sdsm::info(),
         map::lispsm::info(),
+        map::logpsm::info(),
         map::tsm::info(),
         map::psm::info(),
         map::pcss::info(),

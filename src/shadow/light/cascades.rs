@@ -430,6 +430,7 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool, samples: 
             texel: (x1 - x0).max(y1 - y0) / size as f32,
             perspective: false,
             warped: false,
+            log: None,
             slice: Some(Slice {
                 plane,
                 near: splits[i],

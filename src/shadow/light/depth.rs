@@ -110,6 +110,19 @@ impl DepthPass {
             },
             ..Default::default()
         };
+        if let Some(rows) = &view.log {
+            // LogPSM: the perspective warp's space drawn at the logarithmic rows' samples.
+            if peel.is_some() {
+                return Err(Error::technique(
+                    "a logarithmic map draws one depth layer (first or second), not peeled ones",
+                ));
+            }
+            let grid = samples::SampleGrid::rows(self.size, &rows.table(self.size))?;
+            let m = view.matrix;
+            let clip: Vec<Vec4> = casters.positions.iter().map(|q| m * q.extend(1.0)).collect();
+            p.draw_depth_at(&mut map, Some(1.0), &state, &clip, &casters.indices, &grid)?;
+            return Ok(map);
+        }
         // All kept casters in one draw (in scene order): one pass over the tiles, not one per
         // object.
         let vs = TransformPositions(view.matrix);

@@ -308,16 +308,23 @@ impl LightMaps {
                     frame.light.kind.describe()
                 )));
             }
-            // PSM covers the depths seen: this frame's reduction.
+            if w.kind == super::warp::WarpKind::Logpsm && matches!(layer, Layer::Midpoint | Layer::Id) {
+                return Err(Error::option(
+                    "layer",
+                    layer.as_str(),
+                    "logpsm draws its logarithmic rows one depth layer at a time: first or second",
+                ));
+            }
+            // PSM and LogPSM cover the depths seen: this frame's reduction.
             let start = std::time::Instant::now();
             let seen = match w.kind {
-                super::warp::WarpKind::Psm => sdsm::reduce(p, frame, false)?,
+                super::warp::WarpKind::Psm | super::warp::WarpKind::Logpsm => sdsm::reduce(p, frame, false)?,
                 _ => None,
             };
             let ms = start.elapsed().as_secs_f64() * 1e3;
             let (fit, mut info) = warp_fit(frame, o.size, w, seen.as_ref());
-            if let Some(psm) = &mut info.psm {
-                psm.reduce_ms = ms;
+            if seen.is_some() {
+                info.reduce_ms = Some(ms);
             }
             self.warp = Some(info);
             fit
@@ -622,6 +629,7 @@ mod tests {
                     texel: 2.0 / 64.0,
                     perspective: true,
                     warped: false,
+                    log: None,
                     slice: None,
                 }
             })

@@ -51,6 +51,10 @@ pub struct LightView {
     /// matrix whose texel size varies over the map ([`LightView::texel_at`] takes it from the
     /// matrix) and whose depth is not linear along the light (no [`LightView::distance`]).
     pub warped: bool,
+    /// LogPSM's logarithmic rows ([`warp::LogRows`]): the map's `v` is the logarithm of the
+    /// distance along the warp axis instead of the matrix's perspective `v`, and the map is
+    /// drawn at the rows' sample table. `None` for every other view.
+    pub log: Option<warp::LogRows>,
     /// One cascade of a set: the view depths it covers and how points pick it
     /// ([`cascades::Slice`]); `None` for single views and cube faces.
     pub slice: Option<cascades::Slice>,
@@ -61,13 +65,16 @@ impl LightView {
     /// behind a perspective view's eye.
     #[inline]
     pub fn lookup(&self, p: Vec3) -> Option<(Vec2, f32)> {
-        project(&self.matrix, p)
+        match &self.log {
+            None => project(&self.matrix, p),
+            Some(rows) => rows.project(&self.matrix, p),
+        }
     }
 
     /// World size of one texel at world point `p` (seen from `light`).
     pub fn texel_at(&self, light: &Light, p: Vec3) -> f32 {
         if self.warped {
-            warp::texel_at(&self.matrix, light.direction, p, self.texel)
+            warp::texel_at(&self.matrix, self.log.as_ref(), light.direction, p, self.texel)
         } else if self.perspective {
             self.texel * (p - light.position).length()
         } else {
@@ -157,6 +164,7 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 texel: 2.0 * half / size as f32,
                 perspective: true,
                 warped: false,
+                log: None,
                 slice: None,
             }]
         }
@@ -191,6 +199,7 @@ pub fn cube_views(frame: &Frame, size: u32) -> Vec<LightView> {
                 texel: 2.0 / size as f32,
                 perspective: true,
                 warped: false,
+                log: None,
                 slice: None,
             }
         })
@@ -244,6 +253,7 @@ pub fn directional_view(frame: &Frame, receivers: &[Vec3], casters: &[Vec3], siz
         texel: (x1 - x0).max(y1 - y0) / size as f32,
         perspective: false,
         warped: false,
+        log: None,
         slice: None,
     }
 }
@@ -434,6 +444,7 @@ mod tests {
             texel: 0.001,
             perspective: true,
             warped: false,
+            log: None,
             slice: None,
         };
         for d in [0.1f32, 1.0, 7.5, 30.0] {
@@ -447,6 +458,7 @@ mod tests {
             texel: 0.01,
             perspective: false,
             warped: false,
+            log: None,
             slice: None,
         };
         let (_, z1) = o.lookup(eye + dir * 3.0).unwrap();

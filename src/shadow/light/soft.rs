@@ -98,6 +98,7 @@ mod tests {
                 texel: 0.01,
                 perspective,
                 warped: false,
+                log: None,
                 slice: None,
             };
             // A light 0.5 wide, a blocker at 2, a receiver at 6: the penumbra is

@@ -73,6 +73,9 @@ choice_enum! {
         /// Perspective shadow maps (Stamminger and Drettakis 2002): the map of the camera's
         /// post-perspective space.
         Psm = "psm",
+        /// Logarithmic perspective shadow maps (Lloyd et al. 2008): LiSPSM's light space with
+        /// logarithmic rows, drawn by logarithmic rasterization.
+        Logpsm = "logpsm",
     }
 }
 
@@ -94,7 +97,8 @@ pub struct Warp {
     /// The warp. Default: LiSPSM.
     pub kind: WarpKind,
     /// LiSPSM: factor on `n_opt` (1: the paper's; larger: a weaker warp, towards the
-    /// orthographic map; smaller: more texels near the eye, fewer far away). Default: 1.
+    /// orthographic map; smaller: more texels near the eye, fewer far away). LogPSM: factor
+    /// on its balanced `n` ([`LogRows::balanced_n`]). Default: 1.
     pub n_scale: f32,
     /// TSM: the focus point's distance past the near plane, as a fraction of the view range;
     /// the region up to it takes 80 % of the map. Default: 0.5.
@@ -121,6 +125,17 @@ impl Warp {
         vec![Field::range(
             "n_scale",
             "factor on LiSPSM's n_opt (1: the paper's; larger: weaker warp, towards the uniform map)",
+            0.01,
+            100.0,
+            |w: &mut Warp| &mut w.n_scale,
+        )]
+    }
+
+    /// LogPSM's field (`n_scale`).
+    pub fn logpsm_fields() -> Vec<Field<Warp>> {
+        vec![Field::range(
+            "n_scale",
+            "factor on LogPSM's n, which balances the two axes' error (larger: weaker perspective, more texels across the view far away, fewer near the eye)",
             0.01,
             100.0,
             |w: &mut Warp| &mut w.n_scale,
@@ -163,6 +178,13 @@ pub struct WarpInfo {
     pub fallback: Option<String>,
     /// PSM: its post-perspective space (also where it fell back: the range and shift).
     pub psm: Option<PsmInfo>,
+    /// PSM and LogPSM: milliseconds of the depth reduction that found the depths seen.
+    pub reduce_ms: Option<f64>,
+    /// LogPSM: its rows (`None` where it fell back to the orthographic map).
+    pub log: Option<LogRows>,
+    /// LogPSM: `n` was raised to keep the farthest rows [`LOG_MIN_ROW_GAP`] apart (a view
+    /// range too deep for the rasterizer's precision), from this value.
+    pub log_limited: Option<f32>,
 }
 
 /// What PSM fitted in the camera's post-perspective space.
@@ -180,8 +202,6 @@ pub struct PsmInfo {
     pub parallel: bool,
     /// Casters that reach behind the virtual camera's eye plane (clipped: their shadows lost).
     pub behind: usize,
-    /// Milliseconds of the depth reduction that found the range.
-    pub reduce_ms: f64,
 }
 
 /// The light space of a warp: unit axes `x`, `y` (to the light) and `z` (the warp axis).
@@ -233,6 +253,11 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
             (a.min(*q), b.max(*q))
         });
     let (near, far) = view_range(frame);
+    // LogPSM covers the depths seen (the reduction's, padded by a hundredth), where given.
+    let (near, far) = match (w.kind, samples) {
+        (WarpKind::Logpsm, Some(s)) if s.far > s.near => ((s.near * 0.99).max(near), (s.far * 1.01).min(far)),
+        _ => (near, far),
+    };
     let frustum = slice_corners(frame, near, far).map(|c| basis.of(c));
     // The body seen from the light: the frustum's outline clipped to the scene's.
     let outline = convex_hull(&frustum.map(|q| Vec2::new(q.x, q.z)));
@@ -284,6 +309,14 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
     } else {
         match w.kind {
             WarpKind::Lispsm => ((near + (near * far).sqrt()) / sin_g * w.n_scale, eye.x),
+            // LiSPSM's n_opt without its sqrt(z_n z_f) term (the logarithm spreads the rows
+            // along the view instead), or the centre of projection at the eye where the body
+            // lies ahead of the eye and nearer than that.
+            WarpKind::Logpsm => {
+                let base = near / sin_g;
+                let at_eye = z0 - eye.z;
+                ((if at_eye > 0.0 { base.min(at_eye) } else { base }) * w.n_scale, eye.x)
+            }
             WarpKind::Tsm => {
                 let top = basis.of(frame.camera.position + forward * near);
                 let focus = basis.of(frame.camera.position + forward * (near + w.focus * (far - near)));
@@ -306,6 +339,17 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
         n
     } else {
         f32::INFINITY
+    };
+    // LogPSM: rows far enough apart for the rasterizer's precision.
+    let mut log_limited = None;
+    let n = if w.kind == WarpKind::Logpsm && n.is_finite() {
+        let least = LogRows::least_n(lambda);
+        if n < least {
+            log_limited = Some(n);
+        }
+        n.max(least)
+    } else {
+        n
     };
     let orthographic = || orthographic_matrix(&basis, (blo.x - margin, bhi.x + margin), (z0, z1), (y0, y1));
     let mut psm = None;
@@ -331,11 +375,13 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
     } else {
         (orthographic(), n)
     };
+    let log = (w.kind == WarpKind::Logpsm && n.is_finite()).then(|| LogRows::new(n, n + lambda));
     let view = LightView {
         matrix,
         texel: 1.0 / size as f32,
         perspective: false,
         warped: true,
+        log,
         slice: None,
     };
     let fit = Fit {
@@ -352,6 +398,9 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
         depth: lambda,
         fallback,
         psm,
+        reduce_ms: None,
+        log,
+        log_limited: log_limited.filter(|_| log.is_some()),
     };
     (fit, info)
 }
@@ -551,7 +600,6 @@ fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -
         inverted: !parallel && l.w < 0.0,
         parallel,
         behind,
-        reduce_ms: 0.0,
     };
     if receivers.len() < 4 || !radius.is_finite() || radius <= 0.0 || lxyz.length() == 0.0 {
         return PsmFit {
@@ -739,18 +787,24 @@ pub fn clip_to_rect(poly: &[Vec2], lo: Vec2, hi: Vec2) -> Vec<Vec2> {
     out
 }
 
-/// World size of one texel of a warped view with matrix `m` at world point `p`, for a light
-/// along `dir` and texels of `uv_texel` in texture coordinates: the texel's area on the plane
-/// perpendicular to the light is `uv_texel² / |det J|`, `J` the Jacobian of the texture
-/// coordinate there, and its side the square root (the geometric mean of the two axes).
-pub fn texel_at(m: &Mat4, dir: Vec3, p: Vec3, uv_texel: f32) -> f32 {
+/// World size of one texel of a warped view with matrix `m` (and LogPSM's `log` rows, if
+/// any) at world point `p`, for a light along `dir` and texels of `uv_texel` in texture
+/// coordinates: the texel's area on the plane perpendicular to the light is
+/// `uv_texel² / |det J|`, `J` the Jacobian of the texture coordinate there, and its side the
+/// square root (the geometric mean of the two axes).
+pub fn texel_at(m: &Mat4, log: Option<&LogRows>, dir: Vec3, p: Vec3, uv_texel: f32) -> f32 {
     let c = *m * p.extend(1.0);
     let u = up_for(dir);
     let e1 = dir.cross(u).normalize_or_zero();
     let e2 = dir.normalize_or_zero().cross(e1);
     let derivative = |e: Vec3| {
         let dc = *m * e.extend(0.0);
-        Vec2::new(dc.x * c.w - c.x * dc.w, dc.y * c.w - c.y * dc.w) * (0.5 / (c.w * c.w))
+        let d = Vec2::new(dc.x * c.w - c.x * dc.w, dc.y * c.w - c.y * dc.w) * (0.5 / (c.w * c.w));
+        match log {
+            // v = 1 - ln(w / n) / ln(f / n): dv = -(dw / w) / ln(f / n).
+            Some(rows) => Vec2::new(d.x, -dc.w / c.w * rows.k),
+            None => d,
+        }
     };
     let (a, b) = (derivative(e1), derivative(e2));
     let det = (a.x * b.y - a.y * b.x).abs();
@@ -759,6 +813,115 @@ pub fn texel_at(m: &Mat4, dir: Vec3, p: Vec3, uv_texel: f32) -> f32 {
         t
     } else {
         uv_texel
+    }
+}
+
+/// LogPSM's rows (Lloyd et al. 2008): the map's `v` is `1 - ln(w / n) / ln(f / n)`, `w` the
+/// distance along the warp axis from the centre of projection (the warped matrix's clip
+/// `w`) over the body's `n .. f`, so each row covers the same ratio of distances, and the
+/// texels' depth extent grows in proportion to the distance, as the camera's pixels do. The
+/// map is drawn in the perspective warp's space (straight lines stay straight there) at a
+/// sample table whose row `j` lies where that space puts the distance of row `j`'s centre
+/// ([`LogRows::table`]): logarithmic rasterization, exact at the samples.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LogRows {
+    /// Distance from the centre of projection to the body's near side.
+    pub n: f32,
+    /// Distance to the body's far side.
+    pub f: f32,
+    /// `1 / ln(f / n)`.
+    pub k: f32,
+}
+
+/// LogPSM's rows must lie at least this far apart (window pixels) in the perspective space
+/// they are drawn in (4 steps of the rasterizer's 1/256-pixel grid): the farthest rows are
+/// the closest there, `n ln(f / n) / (f - n)` pixels apart, which bounds the ratio `f / n`
+/// to about 380 ([`LogRows::least_n`]).
+pub const LOG_MIN_ROW_GAP: f32 = 1.0 / 64.0;
+
+impl LogRows {
+    /// Rows over distances `n .. f` (`0 < n < f`).
+    pub fn new(n: f32, f: f32) -> LogRows {
+        LogRows {
+            n,
+            f,
+            k: 1.0 / crate::math::ln(f / n),
+        }
+    }
+
+    /// Texture `v` of a point at distance `w` (see the type's docs).
+    #[inline(always)]
+    pub fn v(&self, w: f32) -> f32 {
+        1.0 - crate::math::ln(w / self.n) * self.k
+    }
+
+    /// Texture coordinate and depth of world point `p` through the warped matrix `m`: its
+    /// `u` and depth as [`super::project`] gives them, its `v` from the logarithm of its
+    /// clip `w`. `None` behind the centre of projection.
+    #[inline]
+    pub fn project(&self, m: &Mat4, p: Vec3) -> Option<(Vec2, f32)> {
+        let c = *m * p.extend(1.0);
+        if c.w <= 0.0 {
+            return None;
+        }
+        let ndc = c / Vec4::splat(c.w);
+        Some((Vec2::new(ndc.x * 0.5 + 0.5, self.v(c.w)), ndc.z))
+    }
+
+    /// The window y (pixels, y down, in the perspective warp's space of a `height`-row
+    /// target) of each row's sample: row `j`'s centre `v_j = (j + 1/2) / height` lies at
+    /// distance `w_j = n (f / n)^(1 - v_j)`, which the perspective puts at
+    /// `y = (1 - ndc) height / 2`, `ndc = (f + n) / (f - n) - 2 f n / ((f - n) w_j)`.
+    /// Increasing in `j`.
+    pub fn table(&self, height: u32) -> Vec<f64> {
+        let (n, f) = (self.n as f64, self.f as f64);
+        let ratio = crate::math::ln_f64(f / n);
+        (0..height)
+            .map(|j| {
+                let t = 1.0 - (j as f64 + 0.5) / height as f64;
+                let w = n * crate::math::exp_f64(t * ratio);
+                let ndc = (f + n) / (f - n) - 2.0 * f * n / ((f - n) * w);
+                (1.0 - ndc) * 0.5 * height as f64
+            })
+            .collect()
+    }
+
+    /// The least `n` for a body `depth` deep whose rows keep [`LOG_MIN_ROW_GAP`] apart: the
+    /// root of `n ln((n + depth) / n) / depth = LOG_MIN_ROW_GAP` (the left side increases with
+    /// `n`), by bisection.
+    pub fn least_n(depth: f32) -> f32 {
+        let gap = |n: f32| n * crate::math::ln((n + depth) / n) / depth;
+        let (mut lo, mut hi) = (depth * 1e-6, depth);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if gap(mid) < LOG_MIN_ROW_GAP {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
+    }
+
+    /// LogPSM's `n` for the light across the view: the distance that makes the two axes'
+    /// worst texel-to-pixel ratios equal (Lloyd et al. 2008's error measure, section 4). The
+    /// perspective's `u` gives the across axis a ratio growing to `n / z_n` at the near
+    /// plane (`z_n` the view's near distance), the logarithm gives the along axis the constant
+    /// `ln(1 + depth / n) / (2 tan(theta))`, `theta` the camera's horizontal half-angle, so
+    /// `n / z_n = ln(1 + depth / n) / (2 tan(theta))`, solved by bisection (the left side
+    /// increases with `n`, the right decreases).
+    pub fn balanced_n(z_n: f32, depth: f32, tan_half: f32) -> f32 {
+        let excess = |n: f32| n / z_n - crate::math::ln(1.0 + depth / n) / (2.0 * tan_half);
+        let (mut lo, mut hi) = (z_n * 1e-3, depth.max(z_n) * 1e3);
+        for _ in 0..80 {
+            let mid = (lo * hi).sqrt();
+            if excess(mid) < 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
     }
 }
 
@@ -805,20 +968,58 @@ mod tests {
         ];
         let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, -2.0), 3.0, 29.0, (-1.0, 10.0), 0.01);
         let size = 1024.0f32;
-        for p in [
-            Vec3::new(2.0, 0.5, 0.0),
-            Vec3::new(25.0, 3.0, -10.0),
-            Vec3::new(10.0, 0.0, 8.0),
-        ] {
-            let t = texel_at(&m, dir, p, 1.0 / size);
-            let u = up_for(dir);
-            let e1 = dir.cross(u).normalize();
-            let e2 = dir.cross(e1);
-            let uv = |q: Vec3| super::super::project(&m, q).unwrap().0;
-            let (a, c) = ((uv(p + e1 * t) - uv(p)) * size, (uv(p + e2 * t) - uv(p)) * size);
-            let area = (a.x * c.y - a.y * c.x).abs();
-            assert!((area - 1.0).abs() < 0.02, "{p}: {area} texels");
+        // With LogPSM's rows over the same body (distances 3 .. 32 from the centre) too.
+        let rows = LogRows::new(3.0, 32.0);
+        for log in [None, Some(&rows)] {
+            for p in [
+                Vec3::new(2.0, 0.5, 0.0),
+                Vec3::new(25.0, 3.0, -10.0),
+                Vec3::new(10.0, 0.0, 8.0),
+            ] {
+                let t = texel_at(&m, log, dir, p, 1.0 / size);
+                let u = up_for(dir);
+                let e1 = dir.cross(u).normalize();
+                let e2 = dir.cross(e1);
+                let uv = |q: Vec3| match log {
+                    None => super::super::project(&m, q).unwrap().0,
+                    Some(r) => r.project(&m, q).unwrap().0,
+                };
+                let (a, c) = ((uv(p + e1 * t) - uv(p)) * size, (uv(p + e2 * t) - uv(p)) * size);
+                let area = (a.x * c.y - a.y * c.x).abs();
+                assert!((area - 1.0).abs() < 0.02, "{p} ({log:?}): {area} texels");
+            }
         }
+    }
+
+    #[test]
+    fn log_rows_put_each_row_centre_at_its_sample() {
+        // A point at row j's sample (window y in the perspective space) has v at row j's
+        // centre; rows are increasing and the farthest keep the least gap after raising n.
+        let b = Basis {
+            x: Vec3::Z,
+            y: Vec3::Y,
+            z: Vec3::X,
+        };
+        let body = [Vec2::new(-5.0, 1.0), Vec2::new(5.0, 1.0), Vec2::new(20.0, 30.0), Vec2::new(-20.0, 30.0)];
+        let (n, depth) = (LogRows::least_n(29.0).max(0.5), 29.0);
+        let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, 1.0 - n), n, depth, (-1.0, 10.0), 0.01);
+        let rows = LogRows::new(n, n + depth);
+        let h = 512u32;
+        let table = rows.table(h);
+        assert!(table.windows(2).all(|p| p[1] > p[0]), "increasing");
+        let gap = table.windows(2).map(|p| p[1] - p[0]).fold(f64::MAX, f64::min);
+        assert!(gap >= LOG_MIN_ROW_GAP as f64 * 0.99, "least gap {gap}");
+        let inv = crate::math::inverse(&m);
+        for j in [0usize, 7, 200, 511] {
+            // Unproject the window point (u = 0.5) at row j's sample, depth 0.5.
+            let ndc_y = 1.0 - 2.0 * table[j] / h as f64;
+            let q = inv * Vec4::new(0.0, ndc_y as f32, 0.5, 1.0);
+            let (uv, _) = rows.project(&m, q.truncate() / q.w).unwrap();
+            let want = (j as f32 + 0.5) / h as f32;
+            assert!((uv.y - want).abs() * (h as f32) < 2e-3, "row {j}: v {} against {want}", uv.y);
+        }
+        let least = LogRows::least_n(100.0);
+        assert!(least > 100.0 / 400.0 && least < 100.0 / 360.0, "{least}");
     }
 
     #[test]

@@ -6,10 +6,10 @@
 //! - receiver-plane depth bias (Isidoro 2006): the receiver's depth slope in shadow-map
 //!   texels, from its screen-space neighbours.
 
-use super::super::light::{project, LightView};
+use super::super::light::LightView;
 use crate::reference::SamplePoint;
 use crate::scene::Light;
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 
 /// The normal-offset lookup point (Holbert 2011): `s` moved along `normal` by `k` texels of
 /// `view` at `s`, times the sine of the angle between the normal and the light direction.
@@ -38,10 +38,10 @@ pub fn receiver_plane(
     h: usize,
     x: usize,
     y: usize,
-    m: &Mat4,
+    view: &LightView,
     size: u32,
 ) -> (Option<Vec2>, f32) {
-    let Some(d) = plane_slopes(pts, objs, w, h, x, y, m) else {
+    let Some(d) = plane_slopes(pts, objs, w, h, x, y, view) else {
         return (None, 0.0);
     };
     plane_terms(d / size as f32, (d.x.abs() + d.y.abs()) / size as f32)
@@ -65,12 +65,12 @@ fn plane_slopes(
     h: usize,
     x: usize,
     y: usize,
-    m: &Mat4,
+    view: &LightView,
 ) -> Option<Vec2> {
     let own = objs[y * w + x];
     let at = |xx: usize, yy: usize| {
         if objs[yy * w + xx] == own {
-            pts[yy * w + xx].and_then(|s| project(m, s.position))
+            pts[yy * w + xx].and_then(|s| view.lookup(s.position))
         } else {
             None
         }
@@ -103,7 +103,7 @@ fn plane_slopes(
 }
 
 /// [`receiver_plane`] of pixels `x .. x + n` of row `y` (`n` at most 4), all seen through
-/// `m`, lane `l` for pixel `x + l` (lanes past `n`: `(None, 0.0)`). Where a pixel and its right
+/// `view`, lane `l` for pixel `x + l` (lanes past `n`: `(None, 0.0)`). Where a pixel and its right
 /// and lower neighbours are on one object, inside the image and in front of the light, the
 /// three projections and the slope solve run on four lanes with the one-pixel operations in
 /// the same order (glam's `Mat4 * Vec4`: `((x_axis x + y_axis y) + z_axis z) + w_axis`), so
@@ -116,14 +116,16 @@ pub fn receiver_plane4(
     h: usize,
     (x, y): (usize, usize),
     n: usize,
-    m: &Mat4,
+    view: &LightView,
     size: u32,
 ) -> [(Option<Vec2>, f32); 4] {
+    let m = &view.matrix;
     let mut out = [(None, 0.0); 4];
     // Per lane: the pixel and its neighbours' positions, when all three are usable.
     let mut general = [false; 4];
     let mut p = [[Vec3::ZERO; 4]; 3];
-    if y + 1 < h {
+    // (LogPSM's logarithmic `v` takes the one-pixel path.)
+    if y + 1 < h && view.log.is_none() {
         for l in 0..n.min(4) {
             let i = y * w + x + l;
             if x + l + 1 >= w || objs[i + 1] != objs[i] || objs[i + w] != objs[i] {
@@ -180,7 +182,7 @@ pub fn receiver_plane4(
     }
     for (l, o) in out.iter_mut().enumerate().take(n.min(4)) {
         if !general[l] {
-            *o = receiver_plane(pts, objs, w, h, x + l, y, m, size);
+            *o = receiver_plane(pts, objs, w, h, x + l, y, view, size);
         }
     }
     out
@@ -209,9 +211,9 @@ mod tests {
                 for y in 0..h {
                     for x in (0..w).step_by(4) {
                         let n = (w - x).min(4);
-                        let four = receiver_plane4(pts, objs, w, h, (x, y), n, &view.matrix, size);
+                        let four = receiver_plane4(pts, objs, w, h, (x, y), n, view, size);
                         for (l, got) in four.into_iter().enumerate().take(n) {
-                            let one = receiver_plane(pts, objs, w, h, x + l, y, &view.matrix, size);
+                            let one = receiver_plane(pts, objs, w, h, x + l, y, view, size);
                             assert_eq!(bits(got), bits(one), "{light} ({}, {y}) size {size}", x + l);
                             general += one.0.is_some() as usize;
                         }

@@ -504,6 +504,7 @@ mod tests {
             texel: 0.01,
             perspective: false,
             warped: false,
+            log: None,
             slice: None,
         };
         let (mut inside, mut blockers) = (0, 0);

@@ -251,6 +251,17 @@ impl MapLookup {
                         .int("psm: casters reaching behind the virtual eye (clipped)", psm.behind),
                     None => step,
                 };
+                let step = match &w.log {
+                    Some(rows) => step
+                        .num("logpsm: rows' nearest distance n", rows.n)
+                        .num("logpsm: rows' farthest distance f", rows.f)
+                        .text("logpsm: v of distance w", "1 - ln(w / n) / ln(f / n)"),
+                    None => step,
+                };
+                let step = match w.log_limited {
+                    Some(was) => step.num("logpsm: n raised for the rasterizer's precision, from", was),
+                    None => step,
+                };
                 match &w.fallback {
                     Some(why) => step.text("fall-back", why.clone()),
                     None => step,
@@ -321,7 +332,7 @@ impl MapLookup {
         }
         let Some(face) = face else { return [None; 4] };
         let (map, view) = &self.maps.maps()[face];
-        receiver_plane4(pts, objs, w, h, (x, y), n, &view.matrix, map.width()).map(Some)
+        receiver_plane4(pts, objs, w, h, (x, y), n, view, map.width()).map(Some)
     }
 
     /// [`MapLookup::filter`] of the lanes with a kernel, all prepared on view `face`: the
@@ -585,7 +596,7 @@ impl MapLookup {
         let mut z = z;
         let mut gradient = Vec2::ZERO;
         if o.bias.receiver {
-            let (g, b) = plane.unwrap_or_else(|| receiver_plane(pts, objs, w, h, x, y, &view.matrix, size));
+            let (g, b) = plane.unwrap_or_else(|| receiver_plane(pts, objs, w, h, x, y, view, size));
             if o.wide.is_some() {
                 gradient = g.unwrap_or(Vec2::ZERO);
             }

@@ -13,6 +13,7 @@ pub mod cascaded;
 pub mod chs;
 pub mod kernel;
 pub mod lispsm;
+pub mod logpsm;
 pub mod lookup;
 pub mod multi_sample;
 pub mod pcss;

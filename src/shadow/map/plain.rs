@@ -468,10 +468,10 @@ impl Pass for MapPass {
                 passes.add(name, *ms);
             }
             passes.end_after("light pass", reduce + times.iter().sum::<f64>());
-        } else if let Some(psm) = maps.warp().and_then(|w| w.psm.as_ref()) {
-            // PSM: the reduction that found the depths seen, then the map.
-            passes.add("depth reduction", psm.reduce_ms);
-            passes.end_after("light pass", psm.reduce_ms);
+        } else if let Some(ms) = maps.warp().and_then(|w| w.reduce_ms) {
+            // PSM, LogPSM: the reduction that found the depths seen, then the map.
+            passes.add("depth reduction", ms);
+            passes.end_after("light pass", ms);
         } else {
             passes.end("light pass");
         }
@@ -529,16 +529,31 @@ impl Pass for MapPass {
                 c.push(("psm inverted light", psm.inverted as u8 as f64));
                 c.push(("psm casters behind the eye", psm.behind as f64));
             }
+            if let Some(rows) = &w.log {
+                c.push(("logpsm far / near", (rows.f / rows.n) as f64));
+                c.push(("logpsm n raised (0: no)", w.log_limited.is_some() as u8 as f64));
+            }
         }
         c
     }
 
     fn notes(&self) -> Vec<String> {
         let maps = self.lookup.light_maps();
-        maps.warp()
-            .and_then(|w| w.fallback.as_ref().map(|why| format!("{}: {why}", w.kind.as_str())))
-            .into_iter()
-            .collect()
+        let Some(w) = maps.warp() else {
+            return Vec::new();
+        };
+        let mut notes: Vec<String> = w
+            .fallback
+            .iter()
+            .map(|why| format!("{}: {why}", w.kind.as_str()))
+            .collect();
+        if let (Some(was), Some(rows)) = (w.log_limited, &w.log) {
+            notes.push(format!(
+                "logpsm: n raised from {was:.3} to {:.3} so the farthest rows stay 1/64 pixel apart in the rasterized space (a view range deeper than the rasterizer's precision holds; the near texels grow)",
+                rows.n
+            ));
+        }
+        notes
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {

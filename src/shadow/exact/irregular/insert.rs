@@ -421,6 +421,7 @@ pub(super) fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> (LightVie
         texel: base.texel * (hi - lo).max_element(),
         perspective: base.perspective,
         warped: base.warped,
+        log: base.log,
         slice: base.slice,
     };
     let grid = Grid {
