@@ -1,7 +1,8 @@
-//! Perspective warps (LiSPSM, TSM, PSM): perspective aliasing against one map of the same
-//! texels, dueling frusta, the fall-back where the warp degenerates, `n_scale`, PSM's casters
-//! behind the eye and its inverted and orthographic lights, bad input; shimmering under a
-//! moving sun for the plain map, the warps and the cascades.
+//! Perspective warps (LiSPSM, TSM, PSM, LogPSM): perspective aliasing against one map of the
+//! same texels, dueling frusta, the fall-back where the warp degenerates, `n_scale`, PSM's
+//! casters behind the eye and its inverted and orthographic lights, LogPSM's rows against
+//! LiSPSM's, bad input; shimmering under a moving sun for the plain map, the warps and the
+//! cascades.
 
 mod common;
 use penumbra::frame;
@@ -18,15 +19,16 @@ fn counter(r: &RunResult, key: &str) -> f64 {
 }
 
 /// The perspective-aliasing failure and its fix: one 2048² map fitted to the scene against
-/// LiSPSM's, TSM's and PSM's 2048² warped maps on the long views. Measured (2026-12-06):
-/// long_view footprint p99 7.0 px against 1.1 (LiSPSM), 1.5 (TSM) and 1.4 (PSM), wrong
-/// 0.054 % against 0.013 %, 0.020 % and 0.034 %; street 6.3 px against 1.6, 2.0 and 1.0,
-/// 0.326 % against 0.167 %, 0.188 % and 0.121 %.
+/// LiSPSM's, TSM's, PSM's and LogPSM's 2048² warped maps on the long views. Measured
+/// (2026-12-07): long_view footprint p99 7.0 px against 1.1 (LiSPSM), 1.5 (TSM), 1.4 (PSM)
+/// and 0.83 (LogPSM), wrong 0.054 % against 0.013 %, 0.020 %, 0.034 % and 0.008 %; street
+/// 6.3 px against 1.6, 2.0, 1.0 and 2.2, 0.326 % against 0.167 %, 0.188 %, 0.121 % and
+/// 0.142 %.
 #[test]
 fn warps_cut_perspective_aliasing_at_equal_texels() {
     for scene in ["long_view", "street"] {
         let one = result(scene, "shadow-map", &[]);
-        for technique in ["lispsm", "tsm", "psm"] {
+        for technique in ["lispsm", "tsm", "psm", "logpsm"] {
             let w = result(scene, technique, &[]);
             assert_eq!(
                 counter(&one, "map texels"),
@@ -61,7 +63,7 @@ fn warps_cut_perspective_aliasing_at_equal_texels() {
 #[test]
 fn dueling_frusta_the_warp_gains_little() {
     let one = result("facing_sun", "shadow-map", &[]);
-    for technique in ["lispsm", "tsm"] {
+    for technique in ["lispsm", "tsm", "logpsm"] {
         let w = result("facing_sun", technique, &[]);
         let ratio = w.texel_px_p99 / one.texel_px_p99;
         assert!((0.8..1.2).contains(&ratio), "{technique}: footprint p99 ratio {ratio}");
@@ -90,7 +92,7 @@ fn degenerate_warps_fall_back_and_say_so() {
         .replace("direction = [0.3, -0.577, -0.76]", "direction = [-0.5, -0.3, -88]");
     let s = parse(&text, Path::new("street_along.toml")).unwrap();
     let p = Pipeline::new(2).unwrap();
-    for technique in ["lispsm", "tsm", "psm"] {
+    for technique in ["lispsm", "tsm", "psm", "logpsm"] {
         let mut t = shadow::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
@@ -127,7 +129,7 @@ fn degenerate_warps_fall_back_and_say_so() {
 fn warps_refuse_other_lights_and_bad_options() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/facing_light.toml")).unwrap();
-    for technique in ["lispsm", "tsm", "psm"] {
+    for technique in ["lispsm", "tsm", "psm", "logpsm"] {
         let mut t = shadow::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let e = t.visibility(&p, &f).unwrap_err().to_string();
@@ -142,6 +144,8 @@ fn warps_refuse_other_lights_and_bad_options() {
         ("tsm", "fit", "receivers"),
         ("psm", "shift", "maybe"),
         ("psm", "n_scale", "2"),
+        ("logpsm", "n_scale", "1000"),
+        ("logpsm", "shift", "true"),
     ] {
         let e = shadow::create(technique, &owned(&[(key, value)]))
             .err()
@@ -174,7 +178,7 @@ fn shimmering_under_a_moving_sun() {
     let csm = flicker("csm", &[]);
     let stable = flicker("csm", &[("snap", "true")]);
     assert!(stable < 0.7 * csm && stable > 1e-5, "csm {csm}, stable {stable}");
-    for t in ["lispsm", "tsm", "psm", "sdsm"] {
+    for t in ["lispsm", "tsm", "psm", "logpsm", "sdsm"] {
         let f = flicker(t, &[]);
         assert!(f > 5e-5, "{t}: {f}");
     }
@@ -282,4 +286,64 @@ fn a_reference_is_keyed_by_its_frames_light() {
         penumbra::run::reference_key(&text, &f0, 0, &opts),
         penumbra::run::reference_key(&text, &relit, 0, &opts)
     );
+}
+
+/// LogPSM's logarithmic rows against LiSPSM's perspective ones. Where the light crosses the
+/// view (`long_view`, `behind_eye`: the view and light directions 70 to 110 degrees apart),
+/// the rows' texels grow with the distance as the pixels do, so both the median and the 99th
+/// percentile footprint fall. With the sun low behind the eye (`street`, 41 degrees) one
+/// logarithmic map does not pay: the body reaches behind the eye, the centre of projection
+/// cannot sit at it, and the rows near the eye are coarser than LiSPSM's (Lloyd et al.
+/// partition the frustum into faces there). Measured (2026-12-07): long_view p99 0.83 against
+/// 1.12 px, median 0.101 against 0.133; behind_eye p99 0.62 against 0.72, median 0.233
+/// against 0.287; street p99 2.17 against 1.62.
+#[test]
+fn logpsm_rows_beat_lispsm_where_the_light_crosses_the_view() {
+    for scene in ["long_view", "behind_eye"] {
+        let (log, lis) = (result(scene, "logpsm", &[]), result(scene, "lispsm", &[]));
+        assert!(
+            log.texel_px_p99 < 0.92 * lis.texel_px_p99 && log.texel_px < 0.9 * lis.texel_px,
+            "{scene}: p99 {} vs {}, median {} vs {}",
+            log.texel_px_p99,
+            lis.texel_px_p99,
+            log.texel_px,
+            lis.texel_px
+        );
+        assert!(counter(&log, "logpsm far / near") > 20.0, "{scene}: a logarithmic range");
+    }
+    let (log, lis) = (result("street", "logpsm", &[]), result("street", "lispsm", &[]));
+    assert!(
+        log.texel_px_p99 > 1.2 * lis.texel_px_p99,
+        "street: p99 {} vs {}",
+        log.texel_px_p99,
+        lis.texel_px_p99
+    );
+}
+
+/// The rasterizer's 1/256-pixel grid bounds the logarithmic range: a strong warp
+/// (`n_scale=0.1`) has its `n` raised until the farthest rows are 1/64 pixel apart, and the
+/// notes and counters say so; the peeled and id layers are refused with a message naming the
+/// option.
+#[test]
+fn logpsm_raises_n_for_precision_and_refuses_peeled_layers() {
+    let p = Pipeline::new(2).unwrap();
+    let s = load(Path::new("fixtures/scenes/behind_eye.toml")).unwrap();
+    let f = frame::frame(&p, &s, 0, 0).unwrap();
+    let mut t = shadow::create("logpsm", &owned(&[("n_scale", "0.1")])).unwrap();
+    let v = t.visibility(&p, &f).unwrap().to_scalar();
+    assert!(v.iter().all(|x| x.is_nan() || (0.0..=1.0).contains(x)));
+    let notes = t.notes();
+    assert!(notes.iter().any(|n| n.contains("n raised")), "{notes:?}");
+    let c = t.counters();
+    let get = |k: &str| c.iter().find(|(key, _)| *key == k).unwrap().1;
+    assert_eq!(get("logpsm n raised (0: no)"), 1.0);
+    let ratio = get("logpsm far / near");
+    assert!((300.0..400.0).contains(&ratio), "far / near {ratio}");
+    for layer in ["midpoint", "id"] {
+        let mut t = shadow::create("logpsm", &owned(&[("layer", layer)])).unwrap();
+        let e = t.visibility(&p, &f).unwrap_err().to_string();
+        assert!(e.contains("layer") && e.contains(layer), "{layer}: {e}");
+    }
+    let mut t = shadow::create("logpsm", &owned(&[("layer", "second")])).unwrap();
+    t.visibility(&p, &f).unwrap();
 }
