@@ -105,6 +105,7 @@ fn techniques(c: &mut Criterion) {
         ("lispsm", "lispsm", vec![]),
         ("tsm", "tsm", vec![]),
         ("psm", "psm", vec![]),
+        ("logpsm", "logpsm", vec![]),
         ("izb", "izb", vec![]),
         ("izb-4spp", "izb", izb4),
         ("avsm", "avsm", vec![]),

@@ -1,7 +1,8 @@
 //! Perspective warping of a directional light's map (RTR 7.4.1, fig. 7.15): a perspective
 //! transform that spends more texels near the eye, shared by LiSPSM (Wimmer et al. 2004),
-//! TSM (Martin and Tan 2004) and PSM (Stamminger and Drettakis 2002; see
-//! [Perspective shadow maps](#perspective-shadow-maps) below).
+//! TSM (Martin and Tan 2004), PSM (Stamminger and Drettakis 2002; see
+//! [Perspective shadow maps](#perspective-shadow-maps) below) and LogPSM (Lloyd et al. 2008:
+//! LiSPSM's space with logarithmic rows, [`LogRows`]).
 //!
 //! Light space: `y` points to the light, `z` along the view direction projected onto the
 //! plane perpendicular to the light (the warp axis), `x = light direction × z`. A
@@ -14,7 +15,7 @@
 //! the same, so depth comparisons within a texel are exact; across texels the depth scale
 //! changes, so no technique that unprojects depths takes a warp.
 //!
-//! The two warps differ only in `P` and `n`:
+//! The light-space warps differ only in `P` and `n` (and LogPSM's rows):
 //! - LiSPSM: `P` under the eye, `n_opt = (z_n + sqrt(z_n z_f)) / sin(gamma)` (Wimmer et al.
 //!   2004, section 5: the `n` that spreads the error evenly over the view range `z_n .. z_f`;
 //!   `gamma` the angle between the view and light directions, so the warp fades as the view
@@ -24,6 +25,10 @@
 //!   line `xi = -0.6` of the map (Martin and Tan 2004, section 4):
 //!   `eta = (lambda delta' + lambda delta' xi) / (lambda - 2 delta' - lambda xi)`, with
 //!   `lambda` the trapezoid's height and `delta'` the focus point's distance from its top.
+//! - LogPSM: `P` under the eye, `n = z_n / sin(gamma)` over the depths seen (LiSPSM's
+//!   `n_opt` without the `sqrt(z_n z_f)` term: the logarithmic rows spread the error along
+//!   the view instead), or `P` at the eye where the body lies wholly ahead of it and nearer;
+//!   the map's `v` is `1 - ln(w / n) / ln(f / n)` ([`LogRows`]), drawn at a sample table.
 //!
 //! Falls back to the orthographic map of the same body ([`WarpInfo::fallback`] says why)
 //! where the parameterization degenerates: the light along the view direction (no warp
@@ -98,7 +103,8 @@ pub struct Warp {
     pub kind: WarpKind,
     /// LiSPSM: factor on `n_opt` (1: the paper's; larger: a weaker warp, towards the
     /// orthographic map; smaller: more texels near the eye, fewer far away). LogPSM: factor
-    /// on its balanced `n` ([`LogRows::balanced_n`]). Default: 1.
+    /// on its `n` (`z_n / sin(gamma)`, or the eye's distance before the body where nearer).
+    /// Default: 1.
     pub n_scale: f32,
     /// TSM: the focus point's distance past the near plane, as a fraction of the view range;
     /// the region up to it takes 80 % of the map. Default: 0.5.
@@ -135,7 +141,7 @@ impl Warp {
     pub fn logpsm_fields() -> Vec<Field<Warp>> {
         vec![Field::range(
             "n_scale",
-            "factor on LogPSM's n, which balances the two axes' error (larger: weaker perspective, more texels across the view far away, fewer near the eye)",
+            "factor on LogPSM's n (z_n / sin(gamma), or the centre of projection at the eye; larger: weaker perspective, fewer texels near the eye, more far away)",
             0.01,
             100.0,
             |w: &mut Warp| &mut w.n_scale,
@@ -895,27 +901,6 @@ impl LogRows {
         for _ in 0..60 {
             let mid = 0.5 * (lo + hi);
             if gap(mid) < LOG_MIN_ROW_GAP {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        hi
-    }
-
-    /// LogPSM's `n` for the light across the view: the distance that makes the two axes'
-    /// worst texel-to-pixel ratios equal (Lloyd et al. 2008's error measure, section 4). The
-    /// perspective's `u` gives the across axis a ratio growing to `n / z_n` at the near
-    /// plane (`z_n` the view's near distance), the logarithm gives the along axis the constant
-    /// `ln(1 + depth / n) / (2 tan(theta))`, `theta` the camera's horizontal half-angle, so
-    /// `n / z_n = ln(1 + depth / n) / (2 tan(theta))`, solved by bisection (the left side
-    /// increases with `n`, the right decreases).
-    pub fn balanced_n(z_n: f32, depth: f32, tan_half: f32) -> f32 {
-        let excess = |n: f32| n / z_n - crate::math::ln(1.0 + depth / n) / (2.0 * tan_half);
-        let (mut lo, mut hi) = (z_n * 1e-3, depth.max(z_n) * 1e3);
-        for _ in 0..80 {
-            let mid = (lo * hi).sqrt();
-            if excess(mid) < 0.0 {
                 lo = mid;
             } else {
                 hi = mid;

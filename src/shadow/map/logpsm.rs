@@ -16,18 +16,20 @@
 //! watertight, with the same top-left rule). The polygon offset's slope term there is taken
 //! per sample cell, so the slope-scaled bias follows the rows' spacing.
 //!
-//! `n`: where the two axes' worst texel-to-pixel ratios are equal (Lloyd et al.'s error
-//! measure): the across axis's ratio grows to `n / z_n` at the near plane, the logarithmic
-//! axis's is about `ln(1 + depth / n) / (2 tan(theta))` everywhere
-//! ([`crate::shadow::light::warp::LogRows::balanced_n`]), divided by `sin(gamma)` as
-//! LiSPSM's `n_opt` is (the warp fades as the light turns towards the view), times the
+//! `n`: LiSPSM's `n_opt` without its `sqrt(z_n z_f)` term, `z_n / sin(gamma)` (the
+//! logarithm spreads the rows along the view in its place), `z_n` the nearest depth seen (the
+//! depth reduction PSM and SDSM use); where the body lies wholly ahead of the eye and nearer
+//! than that, the centre of projection sits at the eye, as Lloyd et al. place it (the across
+//! axis's texels then follow the view's angle, the along axis's the distance). Times the
 //! option `n_scale`. The rasterizer's 1/256-pixel grid bounds the log range: `n` is raised
 //! until the farthest rows are 1/64 pixel apart in the rasterized space (`f / n` at most
 //! about 380), and `notes` says so when it is.
 //!
-//! Known failures: dueling frusta (the light facing the camera: `sin(gamma)` small, `n`
-//! large, the map tends to the uniform one, as every single-map warp does; Lloyd et al.
-//! split the frustum into faces there); the depth stored is the perspective warp's, so the
+//! Known failures: the sun low behind the eye (the body reaches behind the eye, so the centre
+//! of projection cannot sit at it, and the rows near the eye are `ln(f / n)` times coarser
+//! than LiSPSM's: its 99th percentile footprint is worse; Lloyd et al. split the frustum into
+//! faces there); dueling frusta (the light facing the camera: `sin(gamma)` small, `n`
+//! large, the map tends to the uniform one, as every single-map warp does); the depth stored is the perspective warp's, so the
 //! constant bias varies across the map; the map changes with the camera, so edges crawl as
 //! it moves; the light along the view has no warp axis (the orthographic fall-back, said in
 //! `notes`). Only the first and second depth layers (`layer=first|second`): the peeled and
@@ -43,7 +45,7 @@ use crate::Error;
 super::warped::warped_options!(
     "LogPSM",
     WarpKind::Logpsm,
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the balanced `n` (`n_scale=1`); the rest as `shadow-map`'s defaults."
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, `n_scale=1`; the rest as `shadow-map`'s defaults."
 );
 
 /// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)
@@ -59,13 +61,9 @@ pub fn info() -> TechniqueInfo {
         family: Family::Map,
         summary: "logarithmic perspective shadow maps (Lloyd et al. 2008): LiSPSM's warp with logarithmic rows, drawn by logarithmic rasterization at a sample table; gains nothing when the light faces the camera",
         options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("n_scale", "4")],
-            &[("size", "1024")],
-            &[("filter", "pcf2")],
-        ],
+        sweep: &[&[], &[("n_scale", "4")], &[("filter", "pcf2")]],
         extended: &[
+            &[("size", "1024")],
             &[("n_scale", "0.25")],
             &[("n_scale", "20")],
             &[("filter", "poisson"), ("kernel", "7")],
