@@ -268,26 +268,37 @@ fn draws_at_samples_are_identical_for_1_2_4_threads() {
     }
 }
 
+/// Rows crowded near the top of a `w` x `h` target, as a logarithmic warp of one axis would
+/// put them (64:1).
+fn log_grid(w: u32, h: u32) -> SampleGrid {
+    let ys: Vec<f64> = (0..h)
+        .map(|j| h as f64 * ((1.0 + 63.0f64).powf((j as f64 + 0.5) / h as f64) - 1.0) / 63.0)
+        .collect();
+    SampleGrid::rows(w, &ys).unwrap()
+}
+
+/// The whole viewport (two triangles) at depth `z(x_ndc, y_ndc)`, a plane.
+fn plane_quad(z: impl Fn(f32, f32) -> f32) -> ([Vec4; 4], [u32; 6]) {
+    let corner = |x: f32, y: f32| Vec4::new(x, y, z(x, y), 1.0);
+    (
+        [
+            corner(-1.0, -1.0),
+            corner(1.0, -1.0),
+            corner(1.0, 1.0),
+            corner(-1.0, 1.0),
+        ],
+        [0, 1, 2, 0, 2, 3],
+    )
+}
+
 /// A sample's depth is the triangle's plane at the sample's own position: a plane tilted in
 /// x and y, drawn at a logarithmic row table, matches the plane evaluated at each sample.
 #[test]
 fn depth_is_the_plane_at_the_warped_sample() {
     let (w, h) = (64u32, 128u32);
-    // Rows crowded near the top, as a logarithmic warp of one axis would.
-    let ys: Vec<f64> = (0..h)
-        .map(|j| h as f64 * ((1.0 + 63.0f64).powf((j as f64 + 0.5) / h as f64) - 1.0) / 63.0)
-        .collect();
-    let grid = SampleGrid::rows(w, &ys).unwrap();
-    // z = 0.5 + 0.2 x_ndc + 0.1 y_ndc over the whole viewport (two triangles).
+    let grid = log_grid(w, h);
     let z = |x: f32, y: f32| 0.5 + 0.2 * x + 0.1 * y;
-    let corner = |x: f32, y: f32| Vec4::new(x, y, z(x, y), 1.0);
-    let v = [
-        corner(-1.0, -1.0),
-        corner(1.0, -1.0),
-        corner(1.0, 1.0),
-        corner(-1.0, 1.0),
-    ];
-    let idx = [0, 1, 2, 0, 2, 3];
+    let (v, idx) = plane_quad(z);
     let mut d = Surface::new(w, h, 1.0f32).unwrap();
     let state = RenderState::default();
     let s = pipeline(2)
@@ -310,20 +321,9 @@ fn depth_is_the_plane_at_the_warped_sample() {
 #[test]
 fn the_slope_offset_scales_with_the_sample_cell() {
     let (w, h) = (32u32, 64u32);
-    let ys: Vec<f64> = (0..h)
-        .map(|j| h as f64 * ((1.0 + 63.0f64).powf((j as f64 + 0.5) / h as f64) - 1.0) / 63.0)
-        .collect();
-    let grid = SampleGrid::rows(w, &ys).unwrap();
+    let grid = log_grid(w, h);
     // Depth rising in y much faster than in x, so the row term is the larger one.
-    let z = |x: f32, y: f32| 0.5 + 0.01 * x + 0.2 * y;
-    let corner = |x: f32, y: f32| Vec4::new(x, y, z(x, y), 1.0);
-    let v = [
-        corner(-1.0, -1.0),
-        corner(1.0, -1.0),
-        corner(1.0, 1.0),
-        corner(-1.0, 1.0),
-    ];
-    let idx = [0, 1, 2, 0, 2, 3];
+    let (v, idx) = plane_quad(|x, y| 0.5 + 0.01 * x + 0.2 * y);
     let offset = PolygonOffset {
         factor: 2.0,
         units: 3.0,

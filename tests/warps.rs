@@ -309,7 +309,10 @@ fn logpsm_rows_beat_lispsm_where_the_light_crosses_the_view() {
             log.texel_px,
             lis.texel_px
         );
-        assert!(counter(&log, "logpsm far / near") > 20.0, "{scene}: a logarithmic range");
+        assert!(
+            counter(&log, "logpsm far / near") > 20.0,
+            "{scene}: a logarithmic range"
+        );
     }
     let (log, lis) = (result("street", "logpsm", &[]), result("street", "lispsm", &[]));
     assert!(

@@ -985,7 +985,12 @@ mod tests {
             y: Vec3::Y,
             z: Vec3::X,
         };
-        let body = [Vec2::new(-5.0, 1.0), Vec2::new(5.0, 1.0), Vec2::new(20.0, 30.0), Vec2::new(-20.0, 30.0)];
+        let body = [
+            Vec2::new(-5.0, 1.0),
+            Vec2::new(5.0, 1.0),
+            Vec2::new(20.0, 30.0),
+            Vec2::new(-20.0, 30.0),
+        ];
         let (n, depth) = (LogRows::least_n(29.0).max(0.5), 29.0);
         let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, 1.0 - n), n, depth, (-1.0, 10.0), 0.01);
         let rows = LogRows::new(n, n + depth);
@@ -1001,7 +1006,11 @@ mod tests {
             let q = inv * Vec4::new(0.0, ndc_y as f32, 0.5, 1.0);
             let (uv, _) = rows.project(&m, q.truncate() / q.w).unwrap();
             let want = (j as f32 + 0.5) / h as f32;
-            assert!((uv.y - want).abs() * (h as f32) < 2e-3, "row {j}: v {} against {want}", uv.y);
+            assert!(
+                (uv.y - want).abs() * (h as f32) < 2e-3,
+                "row {j}: v {} against {want}",
+                uv.y
+            );
         }
         let least = LogRows::least_n(100.0);
         assert!(least > 100.0 / 400.0 && least < 100.0 / 360.0, "{least}");
