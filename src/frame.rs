@@ -283,6 +283,47 @@ pub fn frame<'a>(p: &Pipeline, scene: &'a Scene, light: usize, index: usize) -> 
     })
 }
 
+/// The sRGB transfer function of a linear value clamped to [0, 1] (IEC 61966-2-1).
+fn srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * math::powf(c, 1.0 / 2.4) - 0.055
+    }
+}
+
+/// The byte of [`srgb`] as an 8-bit channel stores it ([`ColorFormat::from_vec4`]'s clamp,
+/// scale and rounding; NaN and below zero: 0), by the 255 thresholds where the byte steps:
+/// each the least `f32` whose byte reaches the step, found once by bisection over the bit
+/// patterns of [0, 1] (ordered as their values) with that same function, so a channel costs
+/// eight comparisons instead of a `powf` and gets the function's byte.
+fn srgb_byte(c: f32) -> u8 {
+    static STEPS: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    let byte = |c: f32| <Rgba8 as ColorFormat>::from_vec4(Vec4::new(srgb(c), 0.0, 0.0, 0.0))[0];
+    let steps = STEPS.get_or_init(|| {
+        (1..=255u8)
+            .map(|k| {
+                let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if byte(f32::from_bits(mid)) >= k {
+                        hi = mid;
+                    } else {
+                        lo = mid + 1;
+                    }
+                }
+                f32::from_bits(lo)
+            })
+            .collect()
+    });
+    if c > 0.0 {
+        steps.partition_point(|t| *t <= c) as u8
+    } else {
+        0
+    }
+}
+
 /// Final image: `ambient + v * (Lambert + Blinn-Phong)` from the light's centre, in sRGB,
 /// where `v` is the visibility per channel (light through coloured glass is tinted).
 /// Background pixels get a dark sky colour.
@@ -290,37 +331,74 @@ pub fn shade(frame: &Frame, visibility: &Visibility) -> Surface<Rgba8> {
     let (w, h) = (frame.width(), frame.height());
     let mut out =
         Surface::from_vec_derived(w, h, vec![[18, 20, 28, 255]; w as usize * h as usize]).expect("frame size is valid");
-    for y in 0..h {
-        for x in 0..w {
-            let Some(s) = frame.point(x, y) else { continue };
-            let obj = frame.gbuffer.object.at(x, y) as usize;
-            let albedo = frame.scene.materials[frame.scene.objects[obj].material].albedo;
-            let l = frame.light.to_light(s.position);
-            let v = (frame.camera.position - s.position).normalize_or_zero();
-            let ndl = s.normal.dot(l).max(0.0);
-            let hv = (l + v).normalize_or_zero();
-            let spec = if ndl > 0.0 {
-                0.25 * math::powf(s.normal.dot(hv).max(0.0), 48.0)
-            } else {
-                0.0
-            };
-            let vis = visibility.rgb((y * w + x) as usize);
-            let vis = if vis.is_finite() { vis } else { Vec3::ONE };
-            let c = albedo * 0.12 + (albedo * ndl + Vec3::splat(spec)) * vis * frame.light.intensity;
-            let srgb = |c: f32| {
-                let c = c.clamp(0.0, 1.0);
-                if c <= 0.003_130_8 {
-                    c * 12.92
+    // Rows in parallel: each pixel's colour is its own, so any split gives the same image.
+    use rayon::prelude::*;
+    out.data_mut()
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let y = y as u32;
+            for (x, px) in (0..w).zip(row.iter_mut()) {
+                let Some(s) = frame.point(x, y) else { continue };
+                let obj = frame.gbuffer.object.at(x, y) as usize;
+                let albedo = frame.scene.materials[frame.scene.objects[obj].material].albedo;
+                let l = frame.light.to_light(s.position);
+                let v = (frame.camera.position - s.position).normalize_or_zero();
+                let ndl = s.normal.dot(l).max(0.0);
+                let hv = (l + v).normalize_or_zero();
+                let spec = if ndl > 0.0 {
+                    // (n . h)^48 by squaring: ((x^3)^2)^2^2^2, exact IEEE products everywhere.
+                    let x = s.normal.dot(hv).max(0.0);
+                    let x6 = (x * x * x) * (x * x * x);
+                    let x24 = (x6 * x6) * (x6 * x6);
+                    0.25 * (x24 * x24)
                 } else {
-                    1.055 * math::powf(c, 1.0 / 2.4) - 0.055
+                    0.0
+                };
+                let vis = visibility.rgb((y * w + x) as usize);
+                let vis = if vis.is_finite() { vis } else { Vec3::ONE };
+                let c = albedo * 0.12 + (albedo * ndl + Vec3::splat(spec)) * vis * frame.light.intensity;
+                *px = [srgb_byte(c.x), srgb_byte(c.y), srgb_byte(c.z), 255];
+            }
+        });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thresholds give the transfer function's byte: on every 251st `f32` of [0, 1]
+    /// (about 4 million values, each step's neighbourhood included), at the steps themselves
+    /// and one ulp below, and outside [0, 1].
+    #[test]
+    fn srgb_bytes_by_threshold_equal_the_function() {
+        let byte = |c: f32| <Rgba8 as ColorFormat>::from_vec4(Vec4::new(srgb(c), 0.0, 0.0, 0.0))[0];
+        let mut bits = 0u32;
+        while bits <= 1.0f32.to_bits() {
+            let c = f32::from_bits(bits);
+            assert_eq!(srgb_byte(c), byte(c), "{c:e}");
+            bits += 251;
+        }
+        let mut seen = 0;
+        for k in 1..=255u8 {
+            // The least value reaching step k, and the value just below it.
+            let mut c = 1.0f32;
+            let mut step = 0.5f32;
+            for _ in 0..40 {
+                if byte(c - step) >= k {
+                    c -= step;
                 }
-            };
-            out.set(
-                x,
-                y,
-                <Rgba8 as ColorFormat>::from_vec4(Vec4::new(srgb(c.x), srgb(c.y), srgb(c.z), 1.0)),
-            );
+                step *= 0.5;
+            }
+            for v in [c, f32::from_bits(c.to_bits() - 1)] {
+                assert_eq!(srgb_byte(v), byte(v), "step {k} at {v:e}");
+                seen += 1;
+            }
+        }
+        assert_eq!(seen, 510);
+        for c in [-1.0, -0.0, 1.5, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(srgb_byte(c), byte(c), "{c}");
         }
     }
-    out
 }

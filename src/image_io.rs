@@ -19,10 +19,9 @@ pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), Error> {
 /// An RGBA8 surface as the bytes of a PNG file (row 0 at the top).
 pub fn encode_png(s: &Surface<Rgba8>) -> Result<Vec<u8>, image::ImageError> {
     use image::ImageEncoder;
-    let bytes: Vec<u8> = s.data().iter().flat_map(|p| p.iter().copied()).collect();
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out).write_image(
-        &bytes,
+        s.data().as_flattened(),
         s.width(),
         s.height(),
         image::ExtendedColorType::Rgba8,
