@@ -30,6 +30,9 @@ struct Cli {
     max_memory: Option<u64>,
 }
 
+/// The sweep's timed repetitions per run (after one warm-up) by default.
+const DEFAULT_SWEEP_REPS: usize = 1;
+
 /// Largest `--reps`: repetitions of a measurement that a 2-core machine finishes.
 const MAX_REPS: usize = 100;
 
@@ -263,8 +266,9 @@ struct SweepArgs {
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
-    /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = parse_reps)]
+    /// Timed repetitions after one warm-up (the median is reported; 1 by default, so the
+    /// default sweep stays within minutes on two cores).
+    #[arg(long, default_value_t = DEFAULT_SWEEP_REPS, allow_negative_numbers = true, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
@@ -438,7 +442,8 @@ fn main() -> ExitCode {
                 scenes: vec![],
                 techniques: "all".into(),
                 threads: 0,
-                reps: 2,
+                // The sweep command's default (`--reps`).
+                reps: DEFAULT_SWEEP_REPS,
                 out: PathBuf::from("out/sweep"),
                 all: false,
                 shard: (0, 1),
