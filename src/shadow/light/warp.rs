@@ -934,12 +934,10 @@ mod tests {
         assert!(clip_to_rect(&square, Vec2::new(2.0, 2.0), Vec2::new(3.0, 3.0)).is_empty());
     }
 
-    #[test]
-    fn texel_at_is_the_side_of_a_texel_on_the_plane_across_the_light() {
-        // A warped matrix: a world square of the returned side, across the light, covers
-        // one texel's area of the map.
-        // The light straight down, the warp axis along x: x = light × z = z.
-        let dir = -Vec3::Y;
+    /// A warped map of a trapezoid body (x from ±5 at z = 1 to ±20 at z = 30, the light
+    /// straight down, the warp axis along world x), its centre of projection `n` before the
+    /// near side.
+    fn trapezoid(n: f32) -> Mat4 {
         let b = Basis {
             x: Vec3::Z,
             y: Vec3::Y,
@@ -951,7 +949,15 @@ mod tests {
             Vec2::new(20.0, 30.0),
             Vec2::new(-20.0, 30.0),
         ];
-        let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, -2.0), 3.0, 29.0, (-1.0, 10.0), 0.01);
+        perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, 1.0 - n), n, 29.0, (-1.0, 10.0), 0.01)
+    }
+
+    #[test]
+    fn texel_at_is_the_side_of_a_texel_on_the_plane_across_the_light() {
+        // A warped matrix: a world square of the returned side, across the light, covers
+        // one texel's area of the map.
+        let dir = -Vec3::Y;
+        let m = trapezoid(3.0);
         let size = 1024.0f32;
         // With LogPSM's rows over the same body (distances 3 .. 32 from the centre) too.
         let rows = LogRows::new(3.0, 32.0);
@@ -980,19 +986,8 @@ mod tests {
     fn log_rows_put_each_row_centre_at_its_sample() {
         // A point at row j's sample (window y in the perspective space) has v at row j's
         // centre; rows are increasing and the farthest keep the least gap after raising n.
-        let b = Basis {
-            x: Vec3::Z,
-            y: Vec3::Y,
-            z: Vec3::X,
-        };
-        let body = [
-            Vec2::new(-5.0, 1.0),
-            Vec2::new(5.0, 1.0),
-            Vec2::new(20.0, 30.0),
-            Vec2::new(-20.0, 30.0),
-        ];
         let (n, depth) = (LogRows::least_n(29.0).max(0.5), 29.0);
-        let m = perspective_matrix(&b, &body, Vec3::new(0.0, 0.0, 1.0 - n), n, depth, (-1.0, 10.0), 0.01);
+        let m = trapezoid(n);
         let rows = LogRows::new(n, n + depth);
         let h = 512u32;
         let table = rows.table(h);
