@@ -10,6 +10,7 @@ mod bench;
 mod choose;
 mod defaults;
 mod error;
+mod explore;
 mod export;
 mod scene;
 mod sweep;
@@ -94,6 +95,10 @@ enum Cmd {
     Inspect(InspectArgs),
     /// Compute (or read from the cache) the ray-traced ground truth of a scene.
     Reference(SceneArgs),
+    /// Step through a technique in the browser: a local server (127.0.0.1) and one page with
+    /// the images, every stage, one pixel's steps on a click, a technique and option picker,
+    /// and two techniques side by side.
+    Explore(ExploreArgs),
     /// Every technique (and each option set it declares) on every scene: CSV, charts, report.
     Sweep(SweepArgs),
     /// Which technique for this scene? Names what the scene has, runs the techniques that model
@@ -254,6 +259,27 @@ struct InspectArgs {
     /// Print the steps as JSON.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Args)]
+struct ExploreArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// The technique shown first (see `penumbra list`).
+    #[arg(long, default_value = "shadow-map")]
+    technique: String,
+    /// Its options, key=value (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// The port on 127.0.0.1 (0: a free one; the URL is printed).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = count::<u16>(0, 65535))]
+    port: u16,
+    /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    threads: usize,
+    /// Output folder of the reference cache (`OUT/cache`, shared with `render`).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -453,6 +479,14 @@ fn main() -> ExitCode {
         Some(Cmd::Dump(a)) => scene::dump(&a.scene, &a.technique, &a.sets, a.threads, &a.out),
         Some(Cmd::Inspect(a)) => scene::inspect(&a.scene, &a.technique, &a.sets, &a.pixel, a.threads, a.json),
         Some(Cmd::Reference(a)) => scene::reference(&a.scene, a.threads, &a.out),
+        Some(Cmd::Explore(a)) => explore::explore(explore::ExploreOpts {
+            scene: a.scene,
+            technique: a.technique,
+            sets: a.sets,
+            port: a.port,
+            threads: a.threads,
+            out: a.out,
+        }),
         Some(Cmd::Sweep(a)) if !a.merge.is_empty() => {
             if a.scenes.is_empty() {
                 sweep::merge(&a.merge, &a.out)

@@ -10,6 +10,7 @@ use penumbra::report::{self, DirCache};
 use penumbra::run;
 use penumbra::scene::{file, Scene};
 use penumbra::shadow::{self, Stage, Step};
+use penumbra::visibility::Visibility;
 use std::path::Path;
 
 /// The built-in scenes folder.
@@ -147,7 +148,7 @@ pub fn render(
 }
 
 /// False colour (blue -> green -> yellow -> red) of a scalar in [lo, hi]; NaN grey.
-fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
+pub fn false_color(s: &Surface<f32>, lo: f32, hi: f32) -> Surface<Rgba8> {
     let k = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
     s.map(|v| {
         if !v.is_finite() {
@@ -278,32 +279,25 @@ pub fn parse_pixel(s: &str) -> Result<(u32, u32), CliError> {
     ))
 }
 
-/// `penumbra inspect`: one pixel, step by step: the surface point, the technique's steps,
-/// and the reference's hard and area visibility there.
-pub fn inspect(
-    scene: &Path,
-    technique: &str,
-    sets: &[String],
-    pixel: &str,
-    threads: usize,
-    json: bool,
-) -> Result<(), CliError> {
-    let sets = shadow::parse_sets(sets)?;
-    let mut t = shadow::create(technique, &sets)?;
-    let (x, y) = parse_pixel(pixel)?;
-    let (s, _) = load(scene)?;
-    let p = pipeline(threads)?;
-    let f = frame::frame(&p, &s, 0, 0)?;
+/// The error for a pixel outside the frame (the CLI's words, also `explore`'s).
+pub fn check_pixel(f: &frame::Frame, x: u32, y: u32) -> Result<(), CliError> {
     if x >= f.width() || y >= f.height() {
         return Err(format!(
             "--pixel {x},{y} is outside the {}x{} image of scene '{}'",
             f.width(),
             f.height(),
-            s.name
+            f.scene.name
         )
         .into());
     }
-    let v = t.visibility(&p, &f)?;
+    Ok(())
+}
+
+/// One pixel's steps after technique `t` drew visibility `v` of frame `f`: the surface point,
+/// the technique's own steps (the per-pixel function its image came from) and the reference
+/// there. The pixel must be inside the frame ([`check_pixel`]).
+pub fn pixel_steps(f: &frame::Frame, t: &dyn shadow::ShadowTechnique, v: &Visibility, x: u32, y: u32) -> Vec<Step> {
+    let s = f.scene;
     let i = (y * f.width() + x) as usize;
     let mut steps = Vec::new();
     match f.point(x, y) {
@@ -323,8 +317,8 @@ pub fn inspect(
                     .num("cos to light", pt.normal.dot(l))
                     .flag("faces the light", pt.normal.dot(l) > 0.0),
             );
-            steps.extend(t.inspect(&f, x, y));
-            let r = Reference::new(&s);
+            steps.extend(t.inspect(f, x, y));
+            let r = Reference::new(s);
             let hard = r.hard(&pt, &f.light);
             let opts = ReferenceOptions::default();
             let area = r.area_rgb(&pt, &f.light, i as u64, &opts);
@@ -342,14 +336,41 @@ pub fn inspect(
             steps.push(st);
         }
     }
+    steps
+}
+
+/// `inspect --json`'s document of one pixel's steps.
+pub fn pixel_json(scene: &str, technique: &str, sets: &[(String, String)], x: u32, y: u32, steps: &[Step]) -> serde_json::Value {
+    serde_json::json!({
+        "scene": scene,
+        "technique": technique,
+        "settings": sets.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>(),
+        "pixel": [x, y],
+        "steps": steps,
+    })
+}
+
+/// `penumbra inspect`: one pixel, step by step: the surface point, the technique's steps,
+/// and the reference's hard and area visibility there.
+pub fn inspect(
+    scene: &Path,
+    technique: &str,
+    sets: &[String],
+    pixel: &str,
+    threads: usize,
+    json: bool,
+) -> Result<(), CliError> {
+    let sets = shadow::parse_sets(sets)?;
+    let mut t = shadow::create(technique, &sets)?;
+    let (x, y) = parse_pixel(pixel)?;
+    let (s, _) = load(scene)?;
+    let p = pipeline(threads)?;
+    let f = frame::frame(&p, &s, 0, 0)?;
+    check_pixel(&f, x, y)?;
+    let v = t.visibility(&p, &f)?;
+    let steps = pixel_steps(&f, t.as_ref(), &v, x, y);
     if json {
-        let doc = serde_json::json!({
-            "scene": s.name,
-            "technique": technique,
-            "settings": sets.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>(),
-            "pixel": [x, y],
-            "steps": steps,
-        });
+        let doc = pixel_json(&s.name, technique, &sets, x, y, &steps);
         println!("{}", serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?);
         return Ok(());
     }
