@@ -246,10 +246,12 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
         shard: format!("{}/{}", o.shard.0, o.shard.1),
         scenes: loaded
             .iter()
-            .map(|(s, _)| SceneInfo {
+            .zip(scenes)
+            .map(|((s, _), path)| SceneInfo {
                 name: s.name.clone(),
                 description: s.description.clone(),
                 class: s.class(),
+                file: path.display().to_string(),
             })
             .collect(),
         skipped,

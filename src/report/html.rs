@@ -13,6 +13,7 @@ const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:auto;pa
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}\
 td:first-child,th:first-child{text-align:left}th{background:#f3f3f3;cursor:pointer;user-select:none}\
 th.asc::after{content:' \\25B2'}th.desc::after{content:' \\25BC'}td img{width:110px;cursor:zoom-in;margin:1px}td.imgs{white-space:nowrap}\
+details.cmd{font-size:11px;color:#555}details.cmd code{white-space:nowrap}\
 .fail{background:#fff8e0;border-left:4px solid #e0b000;padding:6px 10px}nav a{margin-right:10px}\
 #box{display:none;position:fixed;inset:0;background:rgba(0,0,0,.85);align-items:center;justify-content:center;cursor:zoom-out}\
 #box img{max-width:95vw;max-height:90vh;image-rendering:pixelated}#box div{color:#fff;position:fixed;top:8px;left:12px}\
@@ -111,7 +112,7 @@ pub fn report_html(
             let e = &r.errors;
             let _ = write!(
                 h,
-                "<tr><td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>{2}{3}{4}{5}{6}{7}{8}{9}{10}",
+                "<tr><td data-v=\"{0}\">{0}{11}</td><td data-v=\"{1}\">{1}</td>{2}{3}{4}{5}{6}{7}{8}{9}{10}",
                 xml(&r.label()),
                 xml(r.family.key()),
                 num(r.ms, 2),
@@ -127,6 +128,7 @@ pub fn report_html(
                 num(r.flicker, 4),
                 num(r.discontinuity, 4),
                 num(r.banding, 4),
+                explore_command(s, r),
             );
             h.push_str("<td class=\"imgs\" data-v=\"\">");
             if let Some(imgs) = images(r) {
@@ -161,6 +163,25 @@ pub fn report_html(
     h
 }
 
+/// The command that opens a run in `penumbra explore`, as a fold-out under its label.
+fn explore_command(s: &SceneInfo, r: &RunResult) -> String {
+    if s.file.is_empty() {
+        return String::new();
+    }
+    let sets: String = r
+        .settings
+        .split(';')
+        .filter(|kv| !kv.is_empty())
+        .map(|kv| format!(" --set {kv}"))
+        .collect();
+    format!(
+        "<details class=\"cmd\"><summary>explore</summary><code>penumbra explore {} --technique {}{}</code></details>",
+        xml(&s.file),
+        xml(&r.technique),
+        xml(&sets)
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,6 +200,7 @@ mod tests {
             name: "s<x>".into(),
             description: "![x](javascript:alert(1)) <script>alert(2)</script>".into(),
             class: SceneClass::Hard,
+            file: "fixtures/scenes/s.toml".into(),
         }];
         let h = report_html(
             &[r],
@@ -192,5 +214,6 @@ mod tests {
         assert!(!h.contains("http://") || !h.replace("http://www.w3.org/2000/svg", "").contains("http://"));
         assert!(!h.contains("https://"));
         assert_eq!(h.matches("<table>").count(), 1);
+        assert!(h.contains("<code>penumbra explore fixtures/scenes/s.toml --technique shadow-map</code>"));
     }
 }

@@ -30,6 +30,9 @@ pub struct SceneInfo {
     /// Its class.
     #[serde(with = "class_key")]
     pub class: crate::scene::SceneClass,
+    /// The scene file the sweep read (for the commands the report gives; empty if unknown).
+    #[serde(default)]
+    pub file: String,
 }
 
 mod class_key {
