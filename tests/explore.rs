@@ -20,15 +20,30 @@ impl Server {
     fn start(technique: &str) -> Server {
         let out = std::env::temp_dir().join(format!("penumbra-explore-test-{}-{technique}", std::process::id()));
         let mut child = Command::new(BIN)
-            .args(["explore", SCENE, "--technique", technique, "--port", "0", "--threads", "2", "--out"])
+            .args([
+                "explore",
+                SCENE,
+                "--technique",
+                technique,
+                "--port",
+                "0",
+                "--threads",
+                "2",
+                "--out",
+            ])
             .arg(&out)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
             .expect("the binary starts");
         let mut line = String::new();
-        BufReader::new(child.stdout.as_mut().unwrap()).read_line(&mut line).unwrap();
-        let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no URL in '{line}'"));
+        BufReader::new(child.stdout.as_mut().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let url = line
+            .split_whitespace()
+            .find(|w| w.starts_with("http://"))
+            .unwrap_or_else(|| panic!("no URL in '{line}'"));
         let addr = url.trim_start_matches("http://").trim_end_matches('/').to_string();
         assert!(addr.starts_with("127.0.0.1:"), "bound to loopback only: {addr}");
         Server { child, addr, out }
@@ -44,7 +59,11 @@ impl Server {
         let _ = s.read_to_end(&mut buf);
         let text = String::from_utf8_lossy(&buf);
         let status = text.split_whitespace().nth(1).and_then(|c| c.parse().ok()).unwrap_or(0);
-        let body = buf.windows(4).position(|w| w == b"\r\n\r\n").map(|i| buf[i + 4..].to_vec()).unwrap_or_default();
+        let body = buf
+            .windows(4)
+            .position(|w| w == b"\r\n\r\n")
+            .map(|i| buf[i + 4..].to_vec())
+            .unwrap_or_default();
         (status, body)
     }
 
@@ -54,7 +73,8 @@ impl Server {
 
     fn json(&self, target: &str) -> (u16, serde_json::Value) {
         let (status, body) = self.get(target);
-        let v = serde_json::from_slice(&body).unwrap_or_else(|e| panic!("{target}: {e}: {}", String::from_utf8_lossy(&body)));
+        let v = serde_json::from_slice(&body)
+            .unwrap_or_else(|e| panic!("{target}: {e}: {}", String::from_utf8_lossy(&body)));
         (status, v)
     }
 
@@ -83,7 +103,17 @@ impl Drop for Server {
 
 fn inspect_json(technique: &str, sets: &[&str], x: u32, y: u32) -> serde_json::Value {
     let mut c = Command::new(BIN);
-    c.args(["inspect", SCENE, "--technique", technique, "--pixel", &format!("{x},{y}"), "--json", "--threads", "2"]);
+    c.args([
+        "inspect",
+        SCENE,
+        "--technique",
+        technique,
+        "--pixel",
+        &format!("{x},{y}"),
+        "--json",
+        "--threads",
+        "2",
+    ]);
     for s in sets {
         c.args(["--set", s]);
     }
@@ -95,7 +125,10 @@ fn inspect_json(technique: &str, sets: &[&str], x: u32, y: u32) -> serde_json::V
 fn cli_error(args: &[&str]) -> String {
     let out = Command::new(BIN).args(args).output().unwrap();
     assert!(!out.status.success());
-    String::from_utf8_lossy(&out.stderr).trim().trim_start_matches("penumbra: error: ").to_string()
+    String::from_utf8_lossy(&out.stderr)
+        .trim()
+        .trim_start_matches("penumbra: error: ")
+        .to_string()
 }
 
 /// The pixel's steps without the explorer's own keys: `inspect --json`'s document.
@@ -121,7 +154,12 @@ fn a_pixels_steps_are_inspects_and_its_result_is_the_image() {
 
     let (st, info) = s.json("/api/info");
     assert_eq!(st, 200);
-    let names: Vec<&str> = info["techniques"].as_array().unwrap().iter().map(|t| t["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = info["techniques"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
     let reg: Vec<&str> = penumbra::shadow::registry().iter().map(|t| t.name).collect();
     assert_eq!(names, reg);
     assert_eq!(info["technique"], "pcss");
@@ -158,11 +196,18 @@ fn a_pixels_steps_are_inspects_and_its_result_is_the_image() {
             assert!(doc["read"].is_object());
             let doc = as_inspect(doc);
             assert_eq!(doc, inspect_json(technique, &sets, x, y), "{technique} at {x},{y}");
-            let result = doc["steps"].as_array().unwrap().iter().find(|st| st["name"] == "result");
+            let result = doc["steps"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|st| st["name"] == "result");
             match (result, vals[i].as_f64()) {
                 (Some(r), Some(v)) => {
                     let shown = r["values"][0][1].as_f64().unwrap();
-                    assert!((shown - v).abs() < 1e-6, "{technique} at {x},{y}: steps {shown}, image {v}");
+                    assert!(
+                        (shown - v).abs() < 1e-6,
+                        "{technique} at {x},{y}: steps {shown}, image {v}"
+                    );
                 }
                 (None, None) => {}
                 (r, v) => panic!("{technique} at {x},{y}: result step {r:?}, image {v:?}"),
@@ -173,10 +218,23 @@ fn a_pixels_steps_are_inspects_and_its_result_is_the_image() {
     // What a light-space step read is marked: the texel, and the kernel's taps.
     let (_, values) = s.json("/api/values?slot=0");
     let w = values["width"].as_u64().unwrap() as usize;
-    let i = values["values"].as_array().unwrap().iter().position(|v| v.as_f64().is_some_and(|v| v > 0.1 && v < 0.9)).unwrap();
+    let i = values["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|v| v.as_f64().is_some_and(|v| v > 0.1 && v < 0.9))
+        .unwrap();
     let (_, doc) = s.json(&format!("/api/pixel?slot=0&pixel={},{}", i % w, i / w));
-    let kinds: Vec<&str> = doc["read"]["marks"].as_array().unwrap().iter().map(|m| m["kind"].as_str().unwrap()).collect();
-    assert!(kinds.contains(&"texel") && kinds.contains(&"tap") && kinds.contains(&"kernel"), "{kinds:?}");
+    let kinds: Vec<&str> = doc["read"]["marks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["kind"].as_str().unwrap())
+        .collect();
+    assert!(
+        kinds.contains(&"texel") && kinds.contains(&"tap") && kinds.contains(&"kernel"),
+        "{kinds:?}"
+    );
 
     let (ok, rest) = s.interrupt();
     assert!(ok, "Ctrl-C: the server exits 0");
@@ -193,14 +251,38 @@ fn hostile_requests_get_4xx_and_change_nothing() {
 
     // The same messages the CLI gives.
     let same_as_cli = [
-        ("/api/pixel?slot=0&pixel=NaN,1", cli_error(&["inspect", SCENE, "--pixel", "NaN,1"])),
-        ("/api/pixel?slot=0&pixel=99999999999999999999,1", cli_error(&["inspect", SCENE, "--pixel", "99999999999999999999,1"])),
-        ("/api/pixel?slot=0&pixel=4000000,3", cli_error(&["inspect", SCENE, "--pixel", "4000000,3"])),
-        ("/api/run?technique=no-such", cli_error(&["render", SCENE, "--technique", "no-such"])),
-        ("/api/run?technique=shadow-map&set=no_such%3D1", cli_error(&["render", SCENE, "--set", "no_such=1"])),
-        ("/api/run?technique=shadow-map&set=units%3DNaN", cli_error(&["render", SCENE, "--set", "units=NaN"])),
-        ("/api/run?technique=shadow-map&set=size%3D1e30", cli_error(&["render", SCENE, "--set", "size=1e30"])),
-        ("/api/run?technique=shadow-map&set=noequals", cli_error(&["render", SCENE, "--set", "noequals"])),
+        (
+            "/api/pixel?slot=0&pixel=NaN,1",
+            cli_error(&["inspect", SCENE, "--pixel", "NaN,1"]),
+        ),
+        (
+            "/api/pixel?slot=0&pixel=99999999999999999999,1",
+            cli_error(&["inspect", SCENE, "--pixel", "99999999999999999999,1"]),
+        ),
+        (
+            "/api/pixel?slot=0&pixel=4000000,3",
+            cli_error(&["inspect", SCENE, "--pixel", "4000000,3"]),
+        ),
+        (
+            "/api/run?technique=no-such",
+            cli_error(&["render", SCENE, "--technique", "no-such"]),
+        ),
+        (
+            "/api/run?technique=shadow-map&set=no_such%3D1",
+            cli_error(&["render", SCENE, "--set", "no_such=1"]),
+        ),
+        (
+            "/api/run?technique=shadow-map&set=units%3DNaN",
+            cli_error(&["render", SCENE, "--set", "units=NaN"]),
+        ),
+        (
+            "/api/run?technique=shadow-map&set=size%3D1e30",
+            cli_error(&["render", SCENE, "--set", "size=1e30"]),
+        ),
+        (
+            "/api/run?technique=shadow-map&set=noequals",
+            cli_error(&["render", SCENE, "--set", "noequals"]),
+        ),
     ];
     for (target, message) in &same_as_cli {
         let (st, body) = s.json(target);
@@ -215,26 +297,46 @@ fn hostile_requests_get_4xx_and_change_nothing() {
         (b"GET /%2e%2e/Cargo.toml HTTP/1.1\r\n\r\n".to_vec(), 404),
         (b"GET /img/0/1/../../../../etc/passwd HTTP/1.1\r\n\r\n".to_vec(), 404),
         (b"GET /etc/passwd HTTP/1.1\r\n\r\n".to_vec(), 404),
-        (b"GET /img/0/1/../../fixtures/scenes/contact.toml HTTP/1.1\r\n\r\n".to_vec(), 404),
+        (
+            b"GET /img/0/1/../../fixtures/scenes/contact.toml HTTP/1.1\r\n\r\n".to_vec(),
+            404,
+        ),
         (b"GET /img/9/1/0.png HTTP/1.1\r\n\r\n".to_vec(), 404),
-        (b"GET /img/0/99999999999999999999999/0.png HTTP/1.1\r\n\r\n".to_vec(), 404),
-        (b"GET /api/run?frame=99999999999999999999 HTTP/1.1\r\n\r\n".to_vec(), 400),
+        (
+            b"GET /img/0/99999999999999999999999/0.png HTTP/1.1\r\n\r\n".to_vec(),
+            404,
+        ),
+        (
+            b"GET /api/run?frame=99999999999999999999 HTTP/1.1\r\n\r\n".to_vec(),
+            400,
+        ),
         (b"GET /api/run?frame=-1 HTTP/1.1\r\n\r\n".to_vec(), 400),
         (b"GET /api/run?slot=2 HTTP/1.1\r\n\r\n".to_vec(), 400),
         (b"GET /api/pixel?slot=1&pixel=1,1 HTTP/1.1\r\n\r\n".to_vec(), 400),
         (b"GET /api/values?name=../../etc HTTP/1.1\r\n\r\n".to_vec(), 400),
         (b"GET /api/run?set=%ZZ HTTP/1.1\r\n\r\n".to_vec(), 400),
         (b"GET /api/run?set=%FF%FE HTTP/1.1\r\n\r\n".to_vec(), 400),
-        (format!("GET /api/run?{} HTTP/1.1\r\n\r\n", many.join("&")).into_bytes(), 400),
+        (
+            format!("GET /api/run?{} HTTP/1.1\r\n\r\n", many.join("&")).into_bytes(),
+            400,
+        ),
         (big.into_bytes(), 431),
-        (b"POST /api/run HTTP/1.1\r\nContent-Length: 5\r\n\r\nhello".to_vec(), 413),
+        (
+            b"POST /api/run HTTP/1.1\r\nContent-Length: 5\r\n\r\nhello".to_vec(),
+            413,
+        ),
         (b"DELETE / HTTP/1.1\r\n\r\n".to_vec(), 405),
         (b"this is not http\r\n\r\n".to_vec(), 400),
         (b"GET / HTTP/1.1\r\nbroken header line\r\n\r\n".to_vec(), 400),
     ];
     for (request, want) in &cases {
         let (st, _) = s.raw(request);
-        assert_eq!(st, *want, "{}", String::from_utf8_lossy(&request[..request.len().min(80)]));
+        assert_eq!(
+            st,
+            *want,
+            "{}",
+            String::from_utf8_lossy(&request[..request.len().min(80)])
+        );
     }
     // A client that connects and sends nothing does not stop the server (it times out).
     let idle = TcpStream::connect(&s.addr).unwrap();
@@ -256,7 +358,12 @@ fn runs_wait_for_each_other() {
             std::thread::spawn(move || {
                 let mut c = TcpStream::connect(&addr).unwrap();
                 let slot = k % 2;
-                write!(c, "GET /api/run?slot={slot}&technique=shadow-map&set=size%3D{} HTTP/1.1\r\n\r\n", 256 << k).unwrap();
+                write!(
+                    c,
+                    "GET /api/run?slot={slot}&technique=shadow-map&set=size%3D{} HTTP/1.1\r\n\r\n",
+                    256 << k
+                )
+                .unwrap();
                 let mut buf = String::new();
                 c.read_to_string(&mut buf).unwrap();
                 buf
@@ -269,7 +376,9 @@ fn runs_wait_for_each_other() {
             let r = t.join().unwrap();
             assert!(r.starts_with("HTTP/1.1 200"), "{r}");
             let body = &r[r.find("\r\n\r\n").unwrap() + 4..];
-            serde_json::from_str::<serde_json::Value>(body).unwrap()["gen"].as_u64().unwrap()
+            serde_json::from_str::<serde_json::Value>(body).unwrap()["gen"]
+                .as_u64()
+                .unwrap()
         })
         .collect();
     gens.sort();

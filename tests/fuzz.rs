@@ -458,6 +458,7 @@ fn html_markup_is_the_plain_pages(r: &penumbra::run::RunResult, name: &str) -> b
             name: n.to_string(),
             description: n.to_string(),
             class: r.class,
+            file: n.to_string(),
         };
         report::report_html(&[r], &[info], &|_| None, &|_| None)
     };

@@ -63,16 +63,22 @@ pub fn explore(o: ExploreOpts) -> Result<(), CliError> {
     shadow::create(&o.technique, &sets)?;
     let (s, text) = scene::load(&o.scene)?;
     let p = scene::pipeline(o.threads)?;
-    let listener = TcpListener::bind(("127.0.0.1", o.port))
-        .map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", o.port))?;
+    let listener =
+        TcpListener::bind(("127.0.0.1", o.port)).map_err(|e| format!("cannot listen on 127.0.0.1:{}: {e}", o.port))?;
     let addr = listener.local_addr().map_err(|e| e.to_string())?;
     listener
         .set_nonblocking(true)
         .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
-    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
-        .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    // The first Ctrl-C stops the server after the request in hand; a second one, during a
+    // long render, exits at once.
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    })
+    .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
     let mut state = State::new(&p, &s, &text, &o.scene, scene::cache(&o.out), o.technique.clone(), sets);
     println!("penumbra explore: {} at http://{addr}/ (Ctrl-C stops)", s.name);
     std::io::stdout().flush().ok();
@@ -251,7 +257,10 @@ fn parse_target(target: &str) -> Result<(String, Vec<(String, String)>), Reply> 
         }
         let (k, v) = pair.split_once('=').unwrap_or((pair, ""));
         let (Some(k), Some(v)) = (percent_decode(k), percent_decode(v)) else {
-            return Err(Reply::error(400, format!("query parameter '{pair}' is not valid percent-encoded UTF-8")));
+            return Err(Reply::error(
+                400,
+                format!("query parameter '{pair}' is not valid percent-encoded UTF-8"),
+            ));
         };
         params.push((k, v));
     }
@@ -281,9 +290,7 @@ pub fn marks(steps: &[Step]) -> serde_json::Value {
     let mut depth: Option<f64> = None;
     let mut out = Vec::new();
     let mut curve: Vec<(f64, f64)> = Vec::new();
-    let mark = |kind: &str, step: &str, view, size, x: f64, y: f64, r: f64| {
-        json!({ "kind": kind, "step": step, "view": view, "size": size, "x": x, "y": y, "r": r })
-    };
+    let mark = |kind: &str, step: &str, view, size, x: f64, y: f64, r: f64| json!({ "kind": kind, "step": step, "view": view, "size": size, "x": x, "y": y, "r": r });
     for st in steps {
         for (k, v) in &st.values {
             let num = match v {
@@ -345,6 +352,9 @@ pub fn shown_range(data: &[f32], lo: f32, hi: f32) -> (f32, f32) {
         (lo, hi)
     }
 }
+
+/// An image of a run before encoding: name, group, pixels, the range it is shown over.
+type Picture = (String, &'static str, Surface<Rgba8>, Option<(f32, f32)>);
 
 /// An image of a run, encoded.
 struct Image {
@@ -478,7 +488,11 @@ impl<'a> State<'a> {
     fn run(&mut self, params: &[(String, String)]) -> Result<serde_json::Value, CliError> {
         let slot = Self::slot(params)?;
         let technique = param(params, "technique").unwrap_or(&self.technique).to_string();
-        let sets: Vec<String> = params.iter().filter(|(k, _)| k == "set").map(|(_, v)| v.clone()).collect();
+        let sets: Vec<String> = params
+            .iter()
+            .filter(|(k, _)| k == "set")
+            .map(|(_, v)| v.clone())
+            .collect();
         let sets = shadow::parse_sets(&sets)?;
         let count = self.scene.frame_count();
         let index = match param(params, "frame") {
@@ -507,11 +521,26 @@ impl<'a> State<'a> {
         let (w, h) = (f.width(), f.height());
         let mask = f.metric_mask();
         let errors = penumbra::metrics::compare(&v, &reference, &mask);
-        let mut pictures: Vec<(String, &'static str, Surface<Rgba8>, Option<(f32, f32)>)> = vec![
+        let mut pictures: Vec<Picture> = vec![
             ("shaded".into(), "frame", frame::shade(&f, &v), None),
-            ("visibility".into(), "frame", report::visibility_image(&v, w, h), Some((0.0, 1.0))),
-            ("reference".into(), "frame", report::visibility_image(&reference, w, h), Some((0.0, 1.0))),
-            ("error".into(), "frame", report::error_image(&v, &reference, &mask, w, h), Some((-1.0, 1.0))),
+            (
+                "visibility".into(),
+                "frame",
+                report::visibility_image(&v, w, h),
+                Some((0.0, 1.0)),
+            ),
+            (
+                "reference".into(),
+                "frame",
+                report::visibility_image(&reference, w, h),
+                Some((0.0, 1.0)),
+            ),
+            (
+                "error".into(),
+                "frame",
+                report::error_image(&v, &reference, &mask, w, h),
+                Some((-1.0, 1.0)),
+            ),
         ];
         for st in stages {
             match st {
@@ -671,7 +700,9 @@ mod tests {
     #[test]
     fn too_many_parameters_are_refused() {
         let q: Vec<String> = (0..=MAX_PARAMS).map(|i| format!("a{i}=1")).collect();
-        let r = parse_target(&format!("/api/run?{}", q.join("&"))).err().map(|r| r.status);
+        let r = parse_target(&format!("/api/run?{}", q.join("&")))
+            .err()
+            .map(|r| r.status);
         assert_eq!(r, Some(400));
     }
 
@@ -680,7 +711,9 @@ mod tests {
         let steps = vec![
             Step::new("maps", "").int("size", 512),
             Step::new("light view", "").int("view", 2),
-            Step::new("light-space position", "").vec2("texel", glam::Vec2::new(10.5, 20.25)).num("depth", 0.5),
+            Step::new("light-space position", "")
+                .vec2("texel", glam::Vec2::new(10.5, 20.25))
+                .num("depth", 0.5),
             Step::new("kernel", "")
                 .num("width in texels", 4.0)
                 .vec2("tap 0 offset", glam::Vec2::new(1.0, -1.0)),
@@ -691,7 +724,12 @@ mod tests {
                 .num("node 1 T", 0.0),
         ];
         let m = marks(&steps);
-        let kinds: Vec<&str> = m["marks"].as_array().unwrap().iter().map(|k| k["kind"].as_str().unwrap()).collect();
+        let kinds: Vec<&str> = m["marks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|k| k["kind"].as_str().unwrap())
+            .collect();
         assert_eq!(kinds, ["texel", "kernel", "tap"]);
         assert_eq!(m["marks"][0]["view"], 2);
         assert_eq!(m["marks"][0]["size"], 512.0);

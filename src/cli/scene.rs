@@ -340,7 +340,14 @@ pub fn pixel_steps(f: &frame::Frame, t: &dyn shadow::ShadowTechnique, v: &Visibi
 }
 
 /// `inspect --json`'s document of one pixel's steps.
-pub fn pixel_json(scene: &str, technique: &str, sets: &[(String, String)], x: u32, y: u32, steps: &[Step]) -> serde_json::Value {
+pub fn pixel_json(
+    scene: &str,
+    technique: &str,
+    sets: &[(String, String)],
+    x: u32,
+    y: u32,
+    steps: &[Step],
+) -> serde_json::Value {
     serde_json::json!({
         "scene": scene,
         "technique": technique,
