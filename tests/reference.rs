@@ -195,3 +195,76 @@ fn reference_is_deterministic_across_threads() {
     assert_eq!(one, run(2));
     assert_eq!(one, run(4));
 }
+
+/// Rays traced in packets give each ray's single answer bit for bit: transmittance through the
+/// translucent layers of `layers` and the coloured panes of `stained_glass` (every surface
+/// each ray crosses, multiplied in the same order), opaque stops, coherent packets (the
+/// shadow rays of neighbouring pixels) and incoherent ones (random rays), partial packets.
+#[test]
+fn packets_give_each_rays_single_answer_bit_for_bit() {
+    use penumbra::reference::bvh::PACKET;
+    for name in ["layers", "stained_glass", "spheres"] {
+        let path = format!("fixtures/scenes/{name}.toml");
+        let s = penumbra::scene::file::load(Path::new(&path)).unwrap();
+        let r = Reference::new(&s);
+        let p = penumbra::pipeline::Pipeline::new(2).unwrap();
+        let f = penumbra::frame::frame(&p, &s, 0, 0).unwrap();
+        let light = &f.light;
+        let mut rays: Vec<penumbra::reference::Ray> = f
+            .points()
+            .iter()
+            .flatten()
+            .step_by(3)
+            .map(|pt| {
+                let o = penumbra::reference::offset_origin(pt.position, pt.face);
+                match light.kind {
+                    penumbra::scene::LightKind::Directional => (o, -light.direction, f32::INFINITY),
+                    _ => {
+                        let to = light.position - o;
+                        (o, to.normalize(), to.length())
+                    }
+                }
+            })
+            .collect();
+        let (lo, hi) = s.bounds().unwrap();
+        let mut h = penumbra::hash::SplitMix(7);
+        for _ in 0..2000 {
+            let mut u = || h.next_f32();
+            let o = lo + (hi - lo) * Vec3::new(u(), u(), u());
+            let d = (Vec3::new(u(), u(), u()) - 0.5).normalize();
+            rays.push((o, d, if u() < 0.5 { f32::INFINITY } else { 5.0 * u() }));
+        }
+        let (mut k, mut n) = (0, 1);
+        let mut shadowed = 0;
+        while k < rays.len() {
+            let m = n.min(rays.len() - k);
+            let packet = &rays[k..k + m];
+            let mut out = [0.0f32; PACKET];
+            let mut rgb = [Vec3::ZERO; PACKET];
+            r.transmittance_packet(packet, &mut out[..m]);
+            r.transmittance_rgb_packet(packet, &mut rgb[..m]);
+            for (i, &(o, d, t)) in packet.iter().enumerate() {
+                assert_eq!(
+                    out[i].to_bits(),
+                    r.transmittance(o, d, t).to_bits(),
+                    "{name}: ray {}",
+                    k + i
+                );
+                let want = r.transmittance_rgb(o, d, t);
+                assert_eq!(
+                    rgb[i].to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{name}: ray {}",
+                    k + i
+                );
+                shadowed += (out[i] < 1.0) as usize;
+            }
+            k += m;
+            n = n % PACKET + 1;
+        }
+        assert!(
+            shadowed > 100,
+            "{name}: {shadowed} rays shadowed: the rays must cross something"
+        );
+    }
+}

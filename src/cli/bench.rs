@@ -315,14 +315,31 @@ pub fn rays(a: RaysArgs) -> Result<(), CliError> {
     let run = || {
         use rayon::prelude::*;
         p.install(|| {
-            (0..a.rays)
-                .into_par_iter()
-                .with_min_len(4096)
-                .map(|i| {
-                    let (o, d, t) = rays[i % rays.len()];
-                    (r.transmittance(o, d, t) < 1.0) as u64
-                })
-                .sum::<u64>()
+            if a.packets {
+                // Consecutive rays (neighbouring pixels) in packets.
+                const N: usize = penumbra::reference::bvh::PACKET;
+                (0..a.rays.div_ceil(N))
+                    .into_par_iter()
+                    .with_min_len(4096 / N)
+                    .map(|c| {
+                        let m = (a.rays - c * N).min(N);
+                        let packet: [penumbra::reference::Ray; N] =
+                            std::array::from_fn(|k| rays[(c * N + k) % rays.len()]);
+                        let mut out = [0.0f32; N];
+                        r.transmittance_packet(&packet[..m], &mut out[..m]);
+                        out[..m].iter().filter(|&&v| v < 1.0).count() as u64
+                    })
+                    .sum::<u64>()
+            } else {
+                (0..a.rays)
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .map(|i| {
+                        let (o, d, t) = rays[i % rays.len()];
+                        (r.transmittance(o, d, t) < 1.0) as u64
+                    })
+                    .sum::<u64>()
+            }
         })
     };
     let occluded = run();
@@ -338,12 +355,13 @@ pub fn rays(a: RaysArgs) -> Result<(), CliError> {
         export_rays(dir, &scene, &rays, a.rays, occluded)?;
     }
     println!(
-        "rays: {} triangles (BVH built in {:.1} ms, {:.1} MB), {} {} rays in {:.1} ms: {mrays:.2} Mrays/s, {} threads ({:.1} % occluded)",
+        "rays: {} triangles (BVH built in {:.1} ms, {:.1} MB), {} {} rays{} in {:.1} ms: {mrays:.2} Mrays/s, {} threads ({:.1} % occluded)",
         scene.triangles(),
         build * 1e3,
         r.bytes() as f64 / 1e6,
         a.rays,
         if a.random { "random" } else { "shadow" },
+        if a.packets { " in packets" } else { "" },
         s * 1e3,
         p.threads(),
         100.0 * occluded as f64 / a.rays as f64
@@ -354,6 +372,8 @@ pub fn rays(a: RaysArgs) -> Result<(), CliError> {
             "rays": a.rays,
             "threads": p.threads(),
             "mrays_per_s": mrays,
+            "packets": a.packets,
+            "occluded": occluded,
             "ms_build": build * 1e3,
         });
         println!("{j}");

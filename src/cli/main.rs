@@ -414,6 +414,10 @@ struct RaysArgs {
     /// bounds, directions uniform on the sphere (SplitMix64, seed 1), unbounded.
     #[arg(long)]
     random: bool,
+    /// Trace consecutive rays (neighbouring pixels) in packets of 8 (`Reference::
+    /// transmittance_packet`), as the reference does, instead of one at a time.
+    #[arg(long)]
+    packets: bool,
     /// Write the triangles and the rays to this folder (`triangles.f32`: 9 floats per
     /// triangle; `rays.f32`: origin, direction and tmax, 7 floats per ray; little-endian) and
     /// `rays.txt` (counts and the occluded count), for another tracer to run the same rays

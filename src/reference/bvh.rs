@@ -555,7 +555,351 @@ impl Bvh {
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         self.traverse(o, d, tmax, |_, _| true)
     }
+
+    /// [`Bvh::traverse`] for a packet of up to [`PACKET`] rays `(o, d, tmax)` at once (Wald,
+    /// Slusallek, Benthin and Wagner 2001, "Interactive Rendering with Coherent Ray
+    /// Tracing"): the packet walks the tree together, each node fetched once for all its rays,
+    /// and each stack entry carries the rays that entered the node. Every ray's box and
+    /// triangle tests are the single ray's, so each ray meets exactly the triangles, at
+    /// exactly the distances, that [`Bvh::traverse`] reports for it (tested); only the order
+    /// of its hits may differ. Calls `hit(ray, tag, t)`; a ray stops when it returns true.
+    /// Returns a bit per ray that was stopped.
+    pub fn traverse_packet(&self, rays: &[(Vec3, Vec3, f32)], hit: impl FnMut(usize, u32, f32) -> bool) -> u32 {
+        assert!(rays.len() <= PACKET, "a packet holds at most {PACKET} rays");
+        if self.nodes.is_empty() || rays.is_empty() {
+            return 0;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: the build found AVX on this machine.
+            return unsafe { self.traverse_packet_avx(rays, hit) };
+        }
+        self.walk_packet(rays, hit, Ray4::boxes, Soa::child)
+    }
+
+    /// [`Bvh::traverse_packet`] compiled for AVX, with the eight-lane box test.
+    ///
+    /// # Safety
+    /// The machine must have AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn traverse_packet_avx(&self, rays: &[(Vec3, Vec3, f32)], hit: impl FnMut(usize, u32, f32) -> bool) -> u32 {
+        // SAFETY: this function runs only with AVX.
+        self.walk_packet(
+            rays,
+            hit,
+            |r, n| unsafe { avx::boxes(r, n) },
+            |s, n, lane| unsafe { avx::soa_child(s, n, lane) },
+        )
+    }
+
+    /// The packet's traversal, with `boxes` as the node's box test.
+    #[inline(always)]
+    fn walk_packet(
+        &self,
+        rays: &[(Vec3, Vec3, f32)],
+        mut hit: impl FnMut(usize, u32, f32) -> bool,
+        boxes: impl Fn(&Ray4, &Node) -> (u32, [f32; W]),
+        child: impl Fn(&Soa, &Node, usize) -> (u32, [f32; PACKET]),
+    ) -> u32 {
+        let n = rays.len();
+        let all = (1u32 << n) - 1;
+        // Lanes past the packet's rays repeat its first ray and are never active.
+        let ray = |i: usize| rays[if i < n { i } else { 0 }];
+        let wt: [WatertightRay; PACKET] = std::array::from_fn(|i| WatertightRay::new(ray(i).0, ray(i).1));
+        let r4: [Ray4; PACKET] = std::array::from_fn(|i| Ray4::new(ray(i).0, ray(i).1, ray(i).2, &wt[i]));
+        if let Some(soa) = Soa::new(rays) {
+            return self.walk_soa(rays, &soa, &wt, &r4, hit, child);
+        }
+        let mut done = 0u32;
+        let mut stack = [(0u32, 0u32); 64];
+        let mut overflow: Vec<(u32, u32)> = Vec::new();
+        let mut sp = 0;
+        let (mut ni, mut active) = (0u32, all);
+        loop {
+            active &= !done;
+            if active != 0 {
+                let node = &self.nodes[ni as usize];
+                // Per child, the rays that enter it and the nearest entry among them.
+                let mut entered = [0u32; W];
+                let mut near = [f32::INFINITY; W];
+                let mut rs = active;
+                while rs != 0 {
+                    let i = rs.trailing_zeros() as usize;
+                    rs &= rs - 1;
+                    let (mask, tn) = boxes(&r4[i], node);
+                    let mut lanes = mask;
+                    while lanes != 0 {
+                        let lane = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        entered[lane] |= 1 << i;
+                        near[lane] = near[lane].min(tn[lane]);
+                    }
+                }
+                let mut leaves = node.leaves & node.valid;
+                while leaves != 0 {
+                    let lane = leaves.trailing_zeros() as usize;
+                    leaves &= leaves - 1;
+                    if entered[lane] == 0 {
+                        continue;
+                    }
+                    let c = node.child[lane];
+                    let first = (c & FIRST_MASK) as usize;
+                    let count = (c >> PACKETS_SHIFT) as usize + 1;
+                    let mut rs = entered[lane];
+                    while rs != 0 {
+                        let i = rs.trailing_zeros() as usize;
+                        rs &= rs - 1;
+                        'packets: for p in &self.packets[first..first + count] {
+                            let (hits, th) = r4[i].triangles(p, &wt[i], rays[i].2);
+                            let mut h = hits;
+                            while h != 0 {
+                                let k = h.trailing_zeros() as usize;
+                                h &= h - 1;
+                                if hit(i, p.tag[k], th[k]) {
+                                    done |= 1 << i;
+                                    break 'packets;
+                                }
+                            }
+                        }
+                    }
+                    if done == all {
+                        return done;
+                    }
+                }
+                // The inner children entered: the nearest next, the others onto the stack,
+                // farthest first.
+                let mut next = [(0.0f32, 0u32, 0u32); W];
+                let mut k = 0;
+                let mut inner = node.valid & !node.leaves;
+                while inner != 0 {
+                    let lane = inner.trailing_zeros() as usize;
+                    inner &= inner - 1;
+                    let rs = entered[lane] & !done;
+                    if rs != 0 {
+                        next[k] = (near[lane], node.child[lane], rs);
+                        k += 1;
+                    }
+                }
+                let next = &mut next[..k];
+                for i in 1..next.len() {
+                    let mut j = i;
+                    while j > 0 && next[j - 1].0 < next[j].0 {
+                        next.swap(j - 1, j);
+                        j -= 1;
+                    }
+                }
+                if let Some((last, rest)) = next.split_last() {
+                    for &(_, c, rs) in rest {
+                        if sp < stack.len() {
+                            stack[sp] = (c, rs);
+                            sp += 1;
+                        } else {
+                            overflow.push((c, rs));
+                        }
+                    }
+                    (ni, active) = (last.1, last.2);
+                    continue;
+                }
+            }
+            (ni, active) = if let Some(e) = overflow.pop() {
+                e
+            } else if sp > 0 {
+                sp -= 1;
+                stack[sp]
+            } else {
+                return done;
+            };
+        }
+    }
 }
+
+impl Bvh {
+    /// The packet's traversal when its rays share their direction signs ([`Soa`]): at each
+    /// node, each child's box against all the packet's rays at once, a bit per ray that enters
+    /// it (each bit the single ray's own test); leaves then test their triangles with each ray
+    /// that entered them, inner children go onto one stack with the rays that entered them.
+    #[inline(always)]
+    fn walk_soa(
+        &self,
+        rays: &[(Vec3, Vec3, f32)],
+        soa: &Soa,
+        wt: &[WatertightRay; PACKET],
+        r4: &[Ray4; PACKET],
+        mut hit: impl FnMut(usize, u32, f32) -> bool,
+        child: impl Fn(&Soa, &Node, usize) -> (u32, [f32; PACKET]),
+    ) -> u32 {
+        let all = (1u32 << rays.len()) - 1;
+        let mut done = 0u32;
+        let mut stack = [(0u32, 0u32); 64];
+        let mut overflow: Vec<(u32, u32)> = Vec::new();
+        let mut sp = 0;
+        let (mut ni, mut active) = (0u32, all);
+        loop {
+            active &= !done;
+            if active != 0 {
+                let node = &self.nodes[ni as usize];
+                let mut next = [(0.0f32, 0u32, 0u32); W];
+                let mut k = 0;
+                let mut lanes = node.valid;
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let (entered, tn) = child(soa, node, lane);
+                    let rs = entered & active & !done;
+                    if rs == 0 {
+                        continue;
+                    }
+                    let c = node.child[lane];
+                    if node.leaves & (1 << lane) == 0 {
+                        next[k] = (tn[rs.trailing_zeros() as usize], c, rs);
+                        k += 1;
+                        continue;
+                    }
+                    let first = (c & FIRST_MASK) as usize;
+                    let count = (c >> PACKETS_SHIFT) as usize + 1;
+                    let mut r = rs;
+                    while r != 0 {
+                        let i = r.trailing_zeros() as usize;
+                        r &= r - 1;
+                        'packets: for p in &self.packets[first..first + count] {
+                            let (hits, th) = r4[i].triangles(p, &wt[i], rays[i].2);
+                            let mut h = hits;
+                            while h != 0 {
+                                let b = h.trailing_zeros() as usize;
+                                h &= h - 1;
+                                if hit(i, p.tag[b], th[b]) {
+                                    done |= 1 << i;
+                                    break 'packets;
+                                }
+                            }
+                        }
+                    }
+                    if done == all {
+                        return done;
+                    }
+                }
+                // The nearest inner child next (by its first ray's entry), the others onto
+                // the stack, farthest first.
+                let next = &mut next[..k];
+                for i in 1..next.len() {
+                    let mut j = i;
+                    while j > 0 && next[j - 1].0 < next[j].0 {
+                        next.swap(j - 1, j);
+                        j -= 1;
+                    }
+                }
+                if let Some((last, rest)) = next.split_last() {
+                    for &(_, c, rs) in rest {
+                        if sp < stack.len() {
+                            stack[sp] = (c, rs);
+                            sp += 1;
+                        } else {
+                            overflow.push((c, rs));
+                        }
+                    }
+                    (ni, active) = (last.1, last.2);
+                    continue;
+                }
+            }
+            (ni, active) = if let Some(e) = overflow.pop() {
+                e
+            } else if sp > 0 {
+                sp -= 1;
+                stack[sp]
+            } else {
+                return done;
+            };
+        }
+    }
+}
+
+/// A packet's rays as structure of arrays, a lane per ray (Wald et al. 2001), when they share
+/// their direction signs (so one near and one far plane per axis for all): a child's slab
+/// test on all rays at once, with each lane's operations those of the ray's own
+/// [`Ray4::boxes`] in its order (`max` and `min` with the same operands first), so the same
+/// bit per ray.
+struct Soa {
+    o: [[F4; 2]; 3],
+    inv: [[F4; 2]; 3],
+    tmax: [F4; 2],
+    near: [usize; 3],
+    far: [usize; 3],
+    /// The same lanes as plain rows (for the eight-lane AVX test).
+    raw: SoaRows,
+}
+
+/// A packet's rays as rows of eight lanes: origin, reciprocal direction, `tmax`.
+#[derive(Copy, Clone)]
+#[repr(C, align(32))]
+struct SoaRows {
+    o: [[f32; PACKET]; 3],
+    inv: [[f32; PACKET]; 3],
+    tmax: [f32; PACKET],
+}
+
+impl Soa {
+    /// `None` when the rays' direction signs differ on some axis.
+    fn new(rays: &[(Vec3, Vec3, f32)]) -> Option<Soa> {
+        let inv = |d: Vec3| Vec3::from(Vec3A::from(d).recip());
+        let first = inv(rays[0].1);
+        let mut o = [[0.0f32; PACKET]; 3];
+        let mut iv = [[0.0f32; PACKET]; 3];
+        let mut tmax = [0.0f32; PACKET];
+        for k in 0..PACKET {
+            let (ro, rd, rt) = rays[if k < rays.len() { k } else { 0 }];
+            let v = inv(rd);
+            for a in 0..3 {
+                if v[a].is_sign_negative() != first[a].is_sign_negative() {
+                    return None;
+                }
+                o[a][k] = ro[a];
+                iv[a][k] = v[a];
+            }
+            tmax[k] = rt;
+        }
+        let halves = |x: &[f32; PACKET]| -> [F4; 2] {
+            [
+                F4::load(x[..4].try_into().expect("four")),
+                F4::load(x[4..].try_into().expect("four")),
+            ]
+        };
+        Some(Soa {
+            o: [halves(&o[0]), halves(&o[1]), halves(&o[2])],
+            inv: [halves(&iv[0]), halves(&iv[1]), halves(&iv[2])],
+            tmax: halves(&tmax),
+            near: std::array::from_fn(|a| if first[a].is_sign_negative() { 3 + a } else { a }),
+            far: std::array::from_fn(|a| if first[a].is_sign_negative() { a } else { 3 + a }),
+            raw: SoaRows { o, inv: iv, tmax },
+        })
+    }
+
+    /// A bit per ray that enters child `lane` of `n`, and the rays' entry distances.
+    #[inline(always)]
+    fn child(&self, n: &Node, lane: usize) -> (u32, [f32; PACKET]) {
+        let mut mask = 0;
+        let mut dist = [0.0f32; PACKET];
+        for h in 0..2 {
+            let slab = |axis: usize, side: usize| {
+                F4::splat(n.planes[side][lane])
+                    .sub(self.o[axis][h])
+                    .mul(self.inv[axis][h])
+            };
+            let (near, far) = (&self.near, &self.far);
+            let tn = slab(0, near[0]).max(slab(1, near[1]).max(slab(2, near[2]).max(F4::splat(0.0))));
+            let tf = slab(0, far[0]).min(slab(1, far[1]).min(slab(2, far[2]).min(self.tmax[h])));
+            let tf = tf.mul(F4::splat(ROBUST));
+            mask |= tn.le(tf) << (4 * h);
+            dist[4 * h..4 * h + 4].copy_from_slice(&tn.to_array());
+        }
+        (mask, dist)
+    }
+}
+
+/// Rays in a packet at most ([`Bvh::traverse_packet`]).
+pub const PACKET: usize = 8;
+// `Soa` holds a packet as two halves of four lanes, or one row of eight.
+const _: () = assert!(PACKET == 8);
 
 /// `1 + 2 gamma(3)` (Ize 2013): the far slab distance widened by the bound of its rounding.
 const ROBUST: f32 = 1.0 + 3.0 * f32::EPSILON;
@@ -756,6 +1100,41 @@ mod avx {
             // Writes eight floats into an array of eight.
             _mm256_storeu_ps(dist.as_mut_ptr(), tn);
             (mask & n.valid, dist)
+        }
+    }
+
+    /// [`super::Soa::child`] on all eight rays at once: the same operations, lane by lane.
+    ///
+    /// # Safety
+    /// The machine must have AVX.
+    #[inline(always)]
+    pub unsafe fn soa_child(s: &super::Soa, n: &Node, lane: usize) -> (u32, [f32; super::PACKET]) {
+        unsafe {
+            let r = &s.raw;
+            // Rows of eight floats, 32-byte aligned (`SoaRows` is).
+            let slab = |axis: usize, side: usize| {
+                _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_set1_ps(n.planes[side][lane]), _mm256_load_ps(r.o[axis].as_ptr())),
+                    _mm256_load_ps(r.inv[axis].as_ptr()),
+                )
+            };
+            let (near, far) = (&s.near, &s.far);
+            let tn = _mm256_max_ps(
+                slab(0, near[0]),
+                _mm256_max_ps(slab(1, near[1]), _mm256_max_ps(slab(2, near[2]), _mm256_setzero_ps())),
+            );
+            let tf = _mm256_min_ps(
+                slab(0, far[0]),
+                _mm256_min_ps(
+                    slab(1, far[1]),
+                    _mm256_min_ps(slab(2, far[2]), _mm256_load_ps(r.tmax.as_ptr())),
+                ),
+            );
+            let tf = _mm256_mul_ps(tf, _mm256_set1_ps(ROBUST));
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32;
+            let mut dist = [0.0f32; super::PACKET];
+            _mm256_storeu_ps(dist.as_mut_ptr(), tn);
+            (mask, dist)
         }
     }
 }
@@ -981,6 +1360,75 @@ mod tests {
     /// the four-lane box test and, where the machine has it, the eight-lane AVX one. Rays
     /// along the axes (zero direction components: NaN slabs) and triangles in axis planes
     /// (flat boxes) are among them.
+    /// Every ray of a packet meets exactly the triangles its single traversal meets, at the
+    /// same distances to the bit, and stops where it would (`stop` decides per hit): packets
+    /// of coherent rays (one direction, nearby origins: the hull of signs holds) and of
+    /// incoherent ones (mixed signs: the per-ray path), partial packets, axis-aligned
+    /// directions, with the four-lane and (where the machine has it) the AVX box tests.
+    #[test]
+    fn packets_meet_what_single_rays_meet() {
+        let mut r = SplitMix(11);
+        let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 10.0 - 5.0;
+        let mut tris = clustered(&mut p, 400, 0.8, 0);
+        tris.extend(clustered(&mut p, 200, 3.0, 1000));
+        let mut bvh = Bvh::build(tris);
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+        let mut packets: Vec<Vec<(Vec3, Vec3, f32)>> = Vec::new();
+        for k in 0..300 {
+            let n = 1 + k % PACKET;
+            let base = p();
+            let shared = if k % 7 == 0 {
+                axes[k / 7 % 6]
+            } else {
+                (p() - p()).normalize()
+            };
+            let coherent = k % 3 != 0;
+            packets.push(
+                (0..n)
+                    .map(|_| {
+                        let o = if coherent { base + p() * 0.02 } else { p() };
+                        let d = if coherent { shared } else { (p() - p()).normalize() };
+                        let tmax = if k % 4 == 0 {
+                            f32::INFINITY
+                        } else {
+                            2.0 + 6.0 * (p().x + 5.0) / 10.0
+                        };
+                        (o, d, tmax)
+                    })
+                    .collect(),
+            );
+        }
+        // Stop at a tag divisible by 5 (as an opaque surface), go on through the others.
+        let stop = |tag: u32| tag.is_multiple_of(5);
+        let mut compared = 0;
+        for avx in box_paths(&bvh) {
+            use_path(&mut bvh, avx);
+            for rays in &packets {
+                let mut got: Vec<Vec<(u32, u32)>> = vec![Vec::new(); rays.len()];
+                let stopped = bvh.traverse_packet(rays, |i, tag, t| {
+                    got[i].push((tag, t.to_bits()));
+                    stop(tag)
+                });
+                for (i, &(o, d, tmax)) in rays.iter().enumerate() {
+                    let mut want = Vec::new();
+                    let s = bvh.traverse(o, d, tmax, |tag, t| {
+                        want.push((tag, t.to_bits()));
+                        stop(tag)
+                    });
+                    assert_eq!(stopped & (1 << i) != 0, s, "ray {i} of a packet of {}", rays.len());
+                    if !s {
+                        // Not stopped: every hit, the same set.
+                        got[i].sort_unstable();
+                        want.sort_unstable();
+                        assert_eq!(got[i], want);
+                    }
+                    compared += want.len();
+                }
+            }
+        }
+        assert!(compared > 500, "{compared} hits: the packets must hit something");
+    }
+
     #[test]
     fn matches_brute_force_on_random_triangles() {
         let mut r = SplitMix(5);

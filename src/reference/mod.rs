@@ -19,7 +19,7 @@ pub mod bvh;
 use crate::math;
 use crate::scene::{AreaShape, Light, LightKind, Scene};
 use crate::visibility::Visibility;
-use bvh::{Bvh, Tri};
+use bvh::{Bvh, Tri, PACKET};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -87,7 +87,12 @@ trait Channels: Copy + PartialEq + std::ops::Add<Output = Self> + std::ops::Div<
     const ZERO: Self;
     const ONE: Self;
     fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> Self;
+    /// [`Channels::trace`] of up to [`PACKET`] rays at once, into `out`.
+    fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [Self]);
 }
+
+/// A shadow ray: origin, unit direction, and the distance it ends at.
+pub type Ray = (Vec3, Vec3, f32);
 
 impl Channels for f32 {
     const ZERO: f32 = 0.0;
@@ -95,6 +100,10 @@ impl Channels for f32 {
     #[inline]
     fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> f32 {
         r.transmittance(o, d, tmax)
+    }
+    #[inline]
+    fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [f32]) {
+        r.transmittance_packet(rays, out);
     }
 }
 
@@ -104,6 +113,10 @@ impl Channels for Vec3 {
     #[inline]
     fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> Vec3 {
         r.transmittance_rgb(o, d, tmax)
+    }
+    #[inline]
+    fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [Vec3]) {
+        r.transmittance_rgb_packet(rays, out);
     }
 }
 
@@ -317,6 +330,71 @@ impl Reference {
         }
     }
 
+    /// [`Reference::transmittance`] of up to [`PACKET`] rays traced together
+    /// ([`Bvh::traverse_packet`]): each result is the single ray's, bit for bit.
+    pub fn transmittance_packet(&self, rays: &[Ray], out: &mut [f32]) {
+        RAYS.with(|c| c.set(c.get() + rays.len() as u64));
+        self.through_packet(rays, &self.transmit, |t| t <= 0.0, out);
+        for v in out.iter_mut() {
+            *v = v.max(0.0);
+        }
+    }
+
+    /// [`Reference::transmittance_rgb`] of up to [`PACKET`] rays traced together.
+    pub fn transmittance_rgb_packet(&self, rays: &[Ray], out: &mut [Vec3]) {
+        RAYS.with(|c| c.set(c.get() + rays.len() as u64));
+        self.through_packet(rays, &self.transmit_rgb, |t| t.max_element() <= 0.0, out);
+        for v in out.iter_mut() {
+            *v = v.max(Vec3::ZERO);
+        }
+    }
+
+    /// [`Reference::through`] for a packet: per ray the same surfaces, multiplied in the same
+    /// order (by distance, ties by object), so the same bits.
+    fn through_packet<C>(&self, rays: &[Ray], per_object: &[C], opaque: impl Fn(C) -> bool, out: &mut [C])
+    where
+        C: Copy + PartialEq + std::ops::Mul<Output = C> + Channels,
+    {
+        let mut few = [[(0.0f32, 0u32); 16]; PACKET];
+        let mut n = [0usize; PACKET];
+        // Past 16 surfaces on one ray: (ray, distance, object).
+        let mut more: Vec<(usize, f32, u32)> = Vec::new();
+        let blocked = self.bvh.traverse_packet(rays, |i, tag, t| {
+            let tr = per_object[tag as usize];
+            if opaque(tr) {
+                return true;
+            }
+            if tr != C::ONE {
+                if n[i] < 16 {
+                    few[i][n[i]] = (t, tag);
+                    n[i] += 1;
+                } else {
+                    more.push((i, t, tag));
+                }
+            }
+            false
+        });
+        let order = |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        let product = |hits: &[(f32, u32)]| {
+            hits.iter()
+                .fold(C::ONE, |acc, &(_, tag)| acc * per_object[tag as usize])
+        };
+        for (i, o) in out.iter_mut().enumerate().take(rays.len()) {
+            *o = if blocked & (1 << i) != 0 {
+                C::ZERO
+            } else if more.iter().any(|m| m.0 == i) {
+                let mut all: Vec<(f32, u32)> = more.iter().filter(|m| m.0 == i).map(|m| (m.1, m.2)).collect();
+                all.extend_from_slice(&few[i][..n[i]]);
+                all.sort_unstable_by(order);
+                product(&all)
+            } else {
+                let hits = &mut few[i][..n[i]];
+                hits.sort_unstable_by(order);
+                product(hits)
+            };
+        }
+    }
+
     /// Whether some material transmits a colour (different per channel): visibility is then
     /// computed per channel.
     pub fn is_coloured(&self) -> bool {
@@ -329,22 +407,56 @@ impl Reference {
     }
 
     fn hard_c<C: Channels>(&self, s: &SamplePoint, light: &Light) -> C {
+        match Self::hard_ray(s, light) {
+            Some((o, d, t)) => C::trace(self, o, d, t),
+            None => C::ONE,
+        }
+    }
+
+    /// The shadow ray from `s` to the light's centre (`None`: the point is at the light, lit).
+    fn hard_ray(s: &SamplePoint, light: &Light) -> Option<Ray> {
         let o = offset_origin(s.position, s.face);
         match light.kind {
-            LightKind::Directional => C::trace(self, o, -light.direction, f32::INFINITY),
+            LightKind::Directional => Some((o, -light.direction, f32::INFINITY)),
             _ => {
                 let to = light.position - o;
                 let d = to.length();
-                if d <= 0.0 {
-                    return C::ONE;
-                }
-                C::trace(self, o, to / d, d)
+                (d > 0.0).then(|| (o, to / d, d))
             }
         }
     }
 
-    /// Visibility of the light sample at strata coordinate `u` in [0, 1)^2.
-    fn area_sample<C: Channels>(&self, o: Vec3, light: &Light, shape: AreaShape, u: Vec2) -> C {
+    /// Up to [`PACKET`] rays, `ray_of(0..m)`, traced together (`None`: lit, no ray); the
+    /// results in order, each the single ray's.
+    #[inline]
+    fn trace_chunk<C: Channels>(&self, m: usize, ray_of: impl Fn(usize) -> Option<Ray>) -> [C; PACKET] {
+        let mut rays = [(Vec3::ZERO, Vec3::ZERO, 0.0f32); PACKET];
+        let mut slot = [0usize; PACKET];
+        let mut nr = 0;
+        let mut vals = [C::ONE; PACKET];
+        for q in 0..m.min(PACKET) {
+            if let Some(r) = ray_of(q) {
+                rays[nr] = r;
+                slot[nr] = q;
+                nr += 1;
+            }
+        }
+        if nr == 1 {
+            let (o, d, t) = rays[0];
+            vals[slot[0]] = C::trace(self, o, d, t);
+        } else if nr > 1 {
+            let mut res = [C::ZERO; PACKET];
+            C::trace_packet(self, &rays[..nr], &mut res[..nr]);
+            for k in 0..nr {
+                vals[slot[k]] = res[k];
+            }
+        }
+        vals
+    }
+
+    /// The shadow ray from `o` to the light sample at strata coordinate `u` in [0, 1)^2
+    /// (`None`: `o` is on or inside the light, lit).
+    fn sample_ray(o: Vec3, light: &Light, shape: AreaShape, u: Vec2) -> Option<Ray> {
         let (t1, t2) = light.tangents();
         let target = match shape {
             AreaShape::Disk { radius } => {
@@ -359,7 +471,7 @@ impl Reference {
                 let to = light.position - o;
                 let dist = to.length();
                 if dist <= radius {
-                    return C::ONE;
+                    return None;
                 }
                 let w = to / dist;
                 let cos_max = (1.0 - (radius / dist).powi(2)).max(0.0).sqrt();
@@ -373,15 +485,12 @@ impl Reference {
                 // Distance to the near side of the sphere along d.
                 let tca = to.dot(d);
                 let thc = (radius * radius - (dist * dist - tca * tca)).max(0.0).sqrt();
-                return C::trace(self, o, d, (tca - thc).max(0.0));
+                return Some((o, d, (tca - thc).max(0.0)));
             }
         };
         let to = target - o;
         let d = to.length();
-        if d <= 0.0 {
-            return C::ONE;
-        }
-        C::trace(self, o, to / d, d)
+        (d > 0.0).then(|| (o, to / d, d))
     }
 
     /// Area visibility (stratified, adaptive; see the module docs). `pixel` seeds the jitter.
@@ -400,16 +509,24 @@ impl Reference {
             _ => return self.hard_c(s, light),
         };
         let o = offset_origin(s.position, s.face);
+        // The strata's samples in packets of rays, summed in the strata's order.
         let strata = |n: u32, salt: u64| -> C {
+            let total = (n * n) as usize;
             let mut sum = C::ZERO;
-            for j in 0..n {
-                for i in 0..n {
-                    let h = hash3(pixel, (salt << 32) | (j * n + i) as u64, opts.seed);
+            for k in (0..total).step_by(PACKET) {
+                let m = (total - k).min(PACKET);
+                let vals = self.trace_chunk::<C>(m, |q| {
+                    let idx = (k + q) as u32;
+                    let (j, i) = (idx / n, idx % n);
+                    let h = hash3(pixel, (salt << 32) | idx as u64, opts.seed);
                     let u = Vec2::new(
                         (i as f32 + unit(h)) / n as f32,
                         (j as f32 + unit(h.rotate_left(24))) / n as f32,
                     );
-                    sum = sum + self.area_sample::<C>(o, light, shape, u.min(Vec2::splat(0.999_999_9)));
+                    Self::sample_ray(o, light, shape, u.min(Vec2::splat(0.999_999_9)))
+                });
+                for v in &vals[..m] {
+                    sum = sum + *v;
                 }
             }
             sum / (n * n) as f32
@@ -419,7 +536,7 @@ impl Reference {
         // the slivers the strata can miss.
         let pilot = strata(8, 1);
         if pilot == C::ZERO || pilot == C::ONE {
-            let rim_agrees = (0..32).all(|k| {
+            let rim = |k: usize| {
                 let t = (k as f32 + 0.5) / 8.0;
                 let u = match (shape, k / 8) {
                     (AreaShape::Sphere { .. }, _) => Vec2::new(0.999, k as f32 / 32.0),
@@ -428,7 +545,11 @@ impl Reference {
                     (_, 2) => Vec2::new(3.0 - t, 0.999_999),
                     _ => Vec2::new(0.0, 4.0 - t),
                 };
-                self.area_sample::<C>(o, light, shape, u) == pilot
+                Self::sample_ray(o, light, shape, u)
+            };
+            let rim_agrees = (0..32).step_by(PACKET).all(|k| {
+                let vals = self.trace_chunk::<C>(PACKET, |q| rim(k + q));
+                vals.iter().all(|v| *v == pilot)
             });
             if rim_agrees {
                 return pilot;
@@ -464,11 +585,28 @@ impl Reference {
         none: C,
     ) -> Vec<C> {
         let mut out = vec![none; points.len()];
+        let area = matches!(light.kind, LightKind::Area(_)) && opts.area;
         out.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, o)| {
-            for (x, v) in o.iter_mut().enumerate() {
-                let i = row * width + x;
-                if let Some(s) = &points[i] {
-                    *v = self.area_c(s, light, i as u64, opts);
+            if area {
+                // Each pixel's light samples in packets (`area_c`).
+                for (x, v) in o.iter_mut().enumerate() {
+                    let i = row * width + x;
+                    if let Some(s) = &points[i] {
+                        *v = self.area_c(s, light, i as u64, opts);
+                    }
+                }
+            } else {
+                // The shadow rays of neighbouring pixels of the row in packets.
+                for (c, chunk) in o.chunks_mut(PACKET).enumerate() {
+                    let base = row * width + c * PACKET;
+                    let vals = self.trace_chunk::<C>(chunk.len(), |q| {
+                        points[base + q].as_ref().and_then(|s| Self::hard_ray(s, light))
+                    });
+                    for (q, v) in chunk.iter_mut().enumerate() {
+                        if points[base + q].is_some() {
+                            *v = vals[q];
+                        }
+                    }
                 }
             }
             self.flush_rays();
