@@ -2,7 +2,8 @@
 """penumbra's reference tracer against Intel Embree on this machine, on the same rays.
 
 `penumbra bench rays --export` writes the spheres scene's triangles and the rays (the camera's
-shadow rays, or with --random incoherent ones). tools/embree4_rays.c traces them with Embree 4,
+shadow rays, or with --random incoherent ones); penumbra traces them one at a time and, with
+`--packets`, in packets of 8 consecutive rays. tools/embree4_rays.c traces them with Embree 4,
 on the same number of threads: single rays (one rtcOccluded1 call per ray) and packets of 8
 and 16 consecutive rays (rtcOccluded8/16; the shadow rays are in pixel order, so a packet is
 neighbouring pixels of a row). With --embree3, tools/embree_rays.c does the same single rays
@@ -90,19 +91,22 @@ def main():
                            check=True)
             tracers.append(("Embree 3.13 rtcOccluded1", [exe3], []))
         names = [t[0] for t in tracers]
-        print("| rays | threads | penumbra Mrays/s | " + " | ".join(f"{n} Mrays/s" for n in names)
-              + " | penumbra / single | penumbra build ms | Embree 4 build ms | build ratio |")
-        print("| --- " * (7 + len(names)) + "|")
+        print("| rays | threads | penumbra Mrays/s | penumbra packets of 8 | "
+              + " | ".join(f"{n} Mrays/s" for n in names)
+              + " | penumbra / rtcOccluded1 | penumbra packets / rtcOccluded8 | penumbra build ms | Embree 4 build ms"
+              " | build ratio |")
+        print("| --- " * (9 + len(names)) + "|")
         for kind, extra in (("shadow", []), ("random", ["--random"])):
             d = os.path.join(tmp, kind)
             for t in (int(x) for x in a.threads.split(",")):
-                ours, theirs = [], {n: [] for n in names}
+                ours, packets, theirs = [], [], {n: [] for n in names}
                 for r in range(a.rounds):
                     args = [a.bin, "bench", "rays", "--threads", str(t), "--reps", str(a.reps), "--rays", str(a.rays),
                             "--json", *extra]
                     if r == 0:
                         args += ["--export", d]
                     ours.append(run_json(args))
+                    packets.append(run_json(args[:-2] + ["--packets"] if r == 0 else args + ["--packets"]))
                     for name, exe, tail in tracers:
                         theirs[name].append(embree([*exe, d, str(t), str(a.reps), *tail]))
                 with open(os.path.join(d, "rays.txt")) as f:
@@ -112,11 +116,12 @@ def main():
                         print(f"warning: {kind}: {name} found {int(theirs[name][0]['occluded'])} occluded rays, "
                               f"penumbra {info['occluded']}", file=sys.stderr)
                 om = statistics.median(x["mrays_per_s"] for x in ours)
+                pm = statistics.median(x["mrays_per_s"] for x in packets)
                 rates = [statistics.median(x["mrays_per_s"] for x in theirs[n]) for n in names]
                 ob = statistics.median(x["ms_build"] for x in ours)
                 eb = statistics.median(x["build_ms"] for x in theirs[names[0]])
-                print(f"| {kind} | {t} | {om:.2f} | " + " | ".join(f"{e:.2f}" for e in rates)
-                      + f" | **{om / rates[0]:.2f}** | {ob:.1f} | {eb:.1f} | {ob / eb:.2f} |")
+                print(f"| {kind} | {t} | {om:.2f} | {pm:.2f} | " + " | ".join(f"{e:.2f}" for e in rates)
+                      + f" | **{om / rates[0]:.2f}** | **{pm / rates[1]:.2f}** | {ob:.1f} | {eb:.1f} | {ob / eb:.2f} |")
 
 
 if __name__ == "__main__":

@@ -26,6 +26,9 @@
 //!   scalar test's, bit for bit.
 //! - **Queries**: any-hit, all hits in `(0, tmax)` reported to a callback that may stop the
 //!   ray (the reference multiplies translucent surfaces and stops at opaque ones).
+//! - **Packets** ([`Bvh::traverse_packet`]): up to eight rays with the same direction signs
+//!   walk the tree together, each child's box tested against all of them at once (each lane
+//!   the ray's own slab test), so each ray meets exactly the triangles it meets alone.
 
 use glam::{Vec3, Vec3A};
 
@@ -603,114 +606,21 @@ impl Bvh {
         child: impl Fn(&Soa, &Node, usize) -> (u32, [f32; PACKET]),
     ) -> u32 {
         let n = rays.len();
-        let all = (1u32 << n) - 1;
+        let Some(soa) = Soa::new(rays) else {
+            // Direction signs differ: each ray alone.
+            let mut done = 0;
+            for (i, &(o, d, tmax)) in rays.iter().enumerate() {
+                if self.walk(o, d, tmax, |tag, t| hit(i, tag, t), &boxes) {
+                    done |= 1 << i;
+                }
+            }
+            return done;
+        };
         // Lanes past the packet's rays repeat its first ray and are never active.
         let ray = |i: usize| rays[if i < n { i } else { 0 }];
         let wt: [WatertightRay; PACKET] = std::array::from_fn(|i| WatertightRay::new(ray(i).0, ray(i).1));
         let r4: [Ray4; PACKET] = std::array::from_fn(|i| Ray4::new(ray(i).0, ray(i).1, ray(i).2, &wt[i]));
-        if let Some(soa) = Soa::new(rays) {
-            return self.walk_soa(rays, &soa, &wt, &r4, hit, child);
-        }
-        let mut done = 0u32;
-        let mut stack = [(0u32, 0u32); 64];
-        let mut overflow: Vec<(u32, u32)> = Vec::new();
-        let mut sp = 0;
-        let (mut ni, mut active) = (0u32, all);
-        loop {
-            active &= !done;
-            if active != 0 {
-                let node = &self.nodes[ni as usize];
-                // Per child, the rays that enter it and the nearest entry among them.
-                let mut entered = [0u32; W];
-                let mut near = [f32::INFINITY; W];
-                let mut rs = active;
-                while rs != 0 {
-                    let i = rs.trailing_zeros() as usize;
-                    rs &= rs - 1;
-                    let (mask, tn) = boxes(&r4[i], node);
-                    let mut lanes = mask;
-                    while lanes != 0 {
-                        let lane = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        entered[lane] |= 1 << i;
-                        near[lane] = near[lane].min(tn[lane]);
-                    }
-                }
-                let mut leaves = node.leaves & node.valid;
-                while leaves != 0 {
-                    let lane = leaves.trailing_zeros() as usize;
-                    leaves &= leaves - 1;
-                    if entered[lane] == 0 {
-                        continue;
-                    }
-                    let c = node.child[lane];
-                    let first = (c & FIRST_MASK) as usize;
-                    let count = (c >> PACKETS_SHIFT) as usize + 1;
-                    let mut rs = entered[lane];
-                    while rs != 0 {
-                        let i = rs.trailing_zeros() as usize;
-                        rs &= rs - 1;
-                        'packets: for p in &self.packets[first..first + count] {
-                            let (hits, th) = r4[i].triangles(p, &wt[i], rays[i].2);
-                            let mut h = hits;
-                            while h != 0 {
-                                let k = h.trailing_zeros() as usize;
-                                h &= h - 1;
-                                if hit(i, p.tag[k], th[k]) {
-                                    done |= 1 << i;
-                                    break 'packets;
-                                }
-                            }
-                        }
-                    }
-                    if done == all {
-                        return done;
-                    }
-                }
-                // The inner children entered: the nearest next, the others onto the stack,
-                // farthest first.
-                let mut next = [(0.0f32, 0u32, 0u32); W];
-                let mut k = 0;
-                let mut inner = node.valid & !node.leaves;
-                while inner != 0 {
-                    let lane = inner.trailing_zeros() as usize;
-                    inner &= inner - 1;
-                    let rs = entered[lane] & !done;
-                    if rs != 0 {
-                        next[k] = (near[lane], node.child[lane], rs);
-                        k += 1;
-                    }
-                }
-                let next = &mut next[..k];
-                for i in 1..next.len() {
-                    let mut j = i;
-                    while j > 0 && next[j - 1].0 < next[j].0 {
-                        next.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-                if let Some((last, rest)) = next.split_last() {
-                    for &(_, c, rs) in rest {
-                        if sp < stack.len() {
-                            stack[sp] = (c, rs);
-                            sp += 1;
-                        } else {
-                            overflow.push((c, rs));
-                        }
-                    }
-                    (ni, active) = (last.1, last.2);
-                    continue;
-                }
-            }
-            (ni, active) = if let Some(e) = overflow.pop() {
-                e
-            } else if sp > 0 {
-                sp -= 1;
-                stack[sp]
-            } else {
-                return done;
-            };
-        }
+        self.walk_soa(rays, &soa, &wt, &r4, hit, child)
     }
 }
 
@@ -826,6 +736,7 @@ struct Soa {
     near: [usize; 3],
     far: [usize; 3],
     /// The same lanes as plain rows (for the eight-lane AVX test).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     raw: SoaRows,
 }
 

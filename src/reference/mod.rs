@@ -585,28 +585,14 @@ impl Reference {
         none: C,
     ) -> Vec<C> {
         let mut out = vec![none; points.len()];
-        let area = matches!(light.kind, LightKind::Area(_)) && opts.area;
+        // Hard shadows trace one ray per pixel: packets of neighbouring pixels' rays measured
+        // no faster there (docs/performance.md); an area light's samples of one pixel go in
+        // packets (`area_c`).
         out.par_chunks_mut(width.max(1)).enumerate().for_each(|(row, o)| {
-            if area {
-                // Each pixel's light samples in packets (`area_c`).
-                for (x, v) in o.iter_mut().enumerate() {
-                    let i = row * width + x;
-                    if let Some(s) = &points[i] {
-                        *v = self.area_c(s, light, i as u64, opts);
-                    }
-                }
-            } else {
-                // The shadow rays of neighbouring pixels of the row in packets.
-                for (c, chunk) in o.chunks_mut(PACKET).enumerate() {
-                    let base = row * width + c * PACKET;
-                    let vals = self.trace_chunk::<C>(chunk.len(), |q| {
-                        points[base + q].as_ref().and_then(|s| Self::hard_ray(s, light))
-                    });
-                    for (q, v) in chunk.iter_mut().enumerate() {
-                        if points[base + q].is_some() {
-                            *v = vals[q];
-                        }
-                    }
+            for (x, v) in o.iter_mut().enumerate() {
+                let i = row * width + x;
+                if let Some(s) = &points[i] {
+                    *v = self.area_c(s, light, i as u64, opts);
                 }
             }
             self.flush_rays();
