@@ -3,18 +3,18 @@
 
 `penumbra bench rays --export` writes the spheres scene's triangles and the rays (the camera's
 shadow rays, or with --random incoherent ones); penumbra traces them one at a time and, with
-`--packets`, in packets of 8 consecutive rays. tools/embree4_rays.c traces them with Embree 4,
+`--packets`, in packets of 8 consecutive rays. tools/embree_rays.c traces them with Embree 4,
 on the same number of threads: single rays (one rtcOccluded1 call per ray) and packets of 8
 and 16 consecutive rays (rtcOccluded8/16; the shadow rays are in pixel order, so a packet is
-neighbouring pixels of a row). With --embree3, tools/embree_rays.c does the same single rays
-with Debian's Embree 3.13 as a further column. The runs alternate (`--rounds` times each, so
+neighbouring pixels of a row). With --embree3, the same program built against Debian's Embree
+3.13 (-DEMBREE3) traces the single rays as a further column. The runs alternate (`--rounds` times each, so
 all see the same machine load); the script prints the median rates, build times and ratios,
 and checks that every tracer found the same number of occluded rays.
 
     python3 tools/compare_embree.py [--threads 1,2] [--rounds 3] [--embree3] [--bin target/release/penumbra]
 
 Embree 4 comes from PyPI: the `embreex` wheel ships its shared library (and TBB's) in
-`embreex.libs/`, without C headers, so embree4_rays.c declares the few entry points it calls.
+`embreex.libs/`, without C headers, so embree_rays.c declares the few entry points it calls.
 The wheel is downloaded with pip into --cache (default target/embree4) and unpacked there.
 Needs gcc; with --embree3, Debian's libembree-dev (installed with apt-get when missing).
 """
@@ -80,15 +80,15 @@ def main():
     lib = embree4_library(os.path.abspath(a.cache))
     with tempfile.TemporaryDirectory() as tmp:
         exe4 = os.path.join(tmp, "embree4_rays")
-        subprocess.run(["gcc", "-O3", "-o", exe4, os.path.join(HERE, "embree4_rays.c"), lib,
+        subprocess.run(["gcc", "-O3", "-o", exe4, os.path.join(HERE, "embree_rays.c"), lib,
                         f"-Wl,-rpath,{os.path.dirname(lib)}", "-lpthread"], check=True)
         tracers = [("Embree 4 rtcOccluded1", [exe4], ["1"]), ("Embree 4 rtcOccluded8", [exe4], ["8"]),
                    ("Embree 4 rtcOccluded16", [exe4], ["16"])]
         if a.embree3:
             ensure_embree3()
             exe3 = os.path.join(tmp, "embree_rays")
-            subprocess.run(["gcc", "-O3", "-o", exe3, os.path.join(HERE, "embree_rays.c"), "-lembree3", "-lpthread"],
-                           check=True)
+            subprocess.run(["gcc", "-O3", "-DEMBREE3", "-o", exe3, os.path.join(HERE, "embree_rays.c"), "-lembree3",
+                            "-lpthread"], check=True)
             tracers.append(("Embree 3.13 rtcOccluded1", [exe3], []))
         names = [t[0] for t in tracers]
         print("| rays | threads | penumbra Mrays/s | penumbra packets of 8 | "

@@ -522,25 +522,7 @@ impl Bvh {
                     near[k] = (tn[lane], node.child[lane]);
                     k += 1;
                 }
-                let near = &mut near[..k];
-                // At most W elements, by insertion, farthest first.
-                for i in 1..near.len() {
-                    let mut j = i;
-                    while j > 0 && near[j - 1].0 < near[j].0 {
-                        near.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-                let (last, rest) = near.split_last().expect("two or more");
-                for &(_, c) in rest {
-                    if sp < stack.len() {
-                        stack[sp] = c;
-                        sp += 1;
-                    } else {
-                        overflow.push(c);
-                    }
-                }
-                ni = last.1;
+                ni = push_farthest_first(&mut near[..k], &mut stack, &mut sp, &mut overflow).expect("two or more");
                 continue;
             }
             ni = if let Some(n) = overflow.pop() {
@@ -649,7 +631,7 @@ impl Bvh {
             active &= !done;
             if active != 0 {
                 let node = &self.nodes[ni as usize];
-                let mut next = [(0.0f32, 0u32, 0u32); W];
+                let mut next = [(0.0f32, (0u32, 0u32)); W];
                 let mut k = 0;
                 let mut lanes = node.valid;
                 while lanes != 0 {
@@ -662,7 +644,7 @@ impl Bvh {
                     }
                     let c = node.child[lane];
                     if node.leaves & (1 << lane) == 0 {
-                        next[k] = (tn[rs.trailing_zeros() as usize], c, rs);
+                        next[k] = (tn[rs.trailing_zeros() as usize], (c, rs));
                         k += 1;
                         continue;
                     }
@@ -691,24 +673,8 @@ impl Bvh {
                 }
                 // The nearest inner child next (by its first ray's entry), the others onto
                 // the stack, farthest first.
-                let next = &mut next[..k];
-                for i in 1..next.len() {
-                    let mut j = i;
-                    while j > 0 && next[j - 1].0 < next[j].0 {
-                        next.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-                if let Some((last, rest)) = next.split_last() {
-                    for &(_, c, rs) in rest {
-                        if sp < stack.len() {
-                            stack[sp] = (c, rs);
-                            sp += 1;
-                        } else {
-                            overflow.push((c, rs));
-                        }
-                    }
-                    (ni, active) = (last.1, last.2);
+                if let Some(e) = push_farthest_first(&mut next[..k], &mut stack, &mut sp, &mut overflow) {
+                    (ni, active) = e;
                     continue;
                 }
             }
@@ -805,6 +771,35 @@ impl Soa {
         }
         (mask, dist)
     }
+}
+
+/// Sorts `next` (entry distance, what to visit; at most [`W`]) farthest first by insertion,
+/// pushes all but the nearest onto the stack (past its end, onto `overflow`) and returns the
+/// nearest, which is visited next.
+#[inline(always)]
+fn push_farthest_first<T: Copy>(
+    next: &mut [(f32, T)],
+    stack: &mut [T; 64],
+    sp: &mut usize,
+    overflow: &mut Vec<T>,
+) -> Option<T> {
+    for i in 1..next.len() {
+        let mut j = i;
+        while j > 0 && next[j - 1].0 < next[j].0 {
+            next.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    let (last, rest) = next.split_last()?;
+    for &(_, c) in rest {
+        if *sp < stack.len() {
+            stack[*sp] = c;
+            *sp += 1;
+        } else {
+            overflow.push(c);
+        }
+    }
+    Some(last.1)
 }
 
 /// Rays in a packet at most ([`Bvh::traverse_packet`]).
