@@ -1,9 +1,11 @@
 //! An 8-wide bounding volume hierarchy over triangles for shadow rays.
 //!
 //! - **Build**: binned SAH (Wald 2007, "On fast Construction of SAH-based Bounding Volume
-//!   Hierarchies": 16 bins per axis, all three axes binned in one pass over the node's
-//!   primitives), in parallel with `rayon::join` below the top levels. Every split depends on
-//!   the primitives alone, and subtrees are laid out depth first with relative child offsets,
+//!   Hierarchies": all three axes binned in one pass over the node's primitives; 4 to 32
+//!   bins per axis, more for more primitives, as Embree's builder chooses them), in parallel
+//!   with `rayon::join` below the top levels and over chunks of the primitives for the
+//!   largest nodes' bins. The partition gathers each part's centre bounds, so the bins hold
+//!   only boxes and counts. Every split depends on the primitives alone, and subtrees are laid out depth first with relative child offsets,
 //!   so the tree is the same bytes for any thread count ([`Bvh::digest`], tested). The binary
 //!   tree is then collapsed into 8-wide nodes (each node adopts the children of its largest
 //!   inner child until it has eight), whose boxes are stored as structure of arrays, and
@@ -88,7 +90,8 @@ struct Tri4 {
 
 const PACKETS_SHIFT: u32 = 27;
 const FIRST_MASK: u32 = (1 << PACKETS_SHIFT) - 1;
-const BINS: usize = 16;
+/// The most SAH bins per axis ([`split`]).
+const MAX_BINS: usize = 32;
 /// Children per node.
 const W: usize = 8;
 const LEAF_MAX: usize = 4;
@@ -96,6 +99,8 @@ const LEAF_MAX: usize = 4;
 const LEAF_LIMIT: usize = 4 * LEAF_MAX;
 /// Subtrees of at least this many primitives are built in parallel.
 const PARALLEL: usize = 4096;
+/// Sets of at least this many primitives are binned in parallel.
+const PARALLEL_BINNING: usize = 32768;
 
 /// The hierarchy.
 pub struct Bvh {
@@ -112,9 +117,23 @@ fn area(lo: Vec3, hi: Vec3) -> f32 {
     d.x * d.y + d.y * d.z + d.z * d.x
 }
 
+/// The bin of a centre coordinate `c` among `B` bins from `c0` (`scale` bins per unit): the
+/// same IEEE operations as [`bin_lanes`] on one lane.
 #[inline(always)]
-fn bin_of(c: f32, c0: f32, scale: f32) -> usize {
-    (((c - c0) * scale) as usize).min(BINS - 1)
+fn bin_of<const B: usize>(c: f32, c0: f32, scale: f32) -> usize {
+    let at = ((c - c0) * scale).min((B - 1) as f32).max(0.0);
+    // SAFETY: `at` is in [0, B - 1] (`min` returns its operand that is not NaN).
+    unsafe { at.to_int_unchecked::<u32>() as usize }
+}
+
+/// [`bin_of`] on the three axes of `c` at once.
+#[inline(always)]
+fn bin_lanes<const B: usize>(c: Vec3A, c0: Vec3A, scale: Vec3A) -> [usize; 3] {
+    // `Vec3A::min` and `max` return their second operand where one is NaN, so the same
+    // results as `f32::min` and `max` here.
+    let at = ((c - c0) * scale).min(Vec3A::splat((B - 1) as f32)).max(Vec3A::ZERO);
+    // SAFETY: each lane is in [0, B - 1].
+    at.to_array().map(|a| unsafe { a.to_int_unchecked::<u32>() as usize })
 }
 
 /// Bounds of a set of primitives and of their centres.
@@ -140,16 +159,6 @@ impl Bounds {
         self.hi = self.hi.max(p.hi);
         self.clo = self.clo.min(p.c);
         self.chi = self.chi.max(p.c);
-    }
-
-    #[inline(always)]
-    fn merge(self, b: &Bounds) -> Bounds {
-        Bounds {
-            lo: self.lo.min(b.lo),
-            hi: self.hi.max(b.hi),
-            clo: self.clo.min(b.clo),
-            chi: self.chi.max(b.chi),
-        }
     }
 
     fn of(prims: &[Prim]) -> Bounds {
@@ -184,12 +193,12 @@ fn build_into(prims: &mut [Prim], bounds: Bounds, offset: u32, out: &mut Vec<BNo
     if count >= PARALLEL {
         let (a, b) = rayon::join(
             || {
-                let mut v = Vec::with_capacity(2 * l.len() / LEAF_MAX);
+                let mut v = Vec::with_capacity(2 * l.len());
                 build_into(l, lb, offset, &mut v);
                 v
             },
             || {
-                let mut v = Vec::with_capacity(2 * r.len() / LEAF_MAX);
+                let mut v = Vec::with_capacity(2 * r.len());
                 build_into(r, rb, offset + mid as u32, &mut v);
                 v
             },
@@ -204,47 +213,112 @@ fn build_into(prims: &mut [Prim], bounds: Bounds, offset: u32, out: &mut Vec<BNo
     }
 }
 
-/// The binned SAH split of `prims` (partitioned in place): where the right part starts and
-/// the two parts' bounds (from the bins), or None for a leaf.
-fn split(prims: &mut [Prim], bounds: &Bounds) -> Option<(usize, Bounds, Bounds)> {
-    let count = prims.len();
-    if count <= LEAF_MAX {
-        return None;
-    }
-    let (clo, chi) = (bounds.clo, bounds.chi);
-    let ext = chi - clo;
-    let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(BINS as f32) / ext, Vec3A::ZERO);
-    let mut bins = [[(Bounds::EMPTY, 0u32); BINS]; 3];
-    for p in prims.iter() {
-        // Per axis `(c - c0) * scale`, as `bin_of` computes it for the partition below.
-        let at = ((p.c - clo) * scale).to_array();
-        for (axis, bins) in bins.iter_mut().enumerate() {
-            let b = &mut bins[(at[axis] as usize).min(BINS - 1)];
-            b.0.grow(p);
-            b.1 += 1;
+/// A bin of the SAH: the bounds of its primitives' boxes and how many there are.
+#[derive(Copy, Clone)]
+struct Bin {
+    lo: Vec3A,
+    hi: Vec3A,
+    n: u32,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        lo: Vec3A::splat(f32::MAX),
+        hi: Vec3A::splat(f32::MIN),
+        n: 0,
+    };
+
+    #[inline(always)]
+    fn merge(self, b: &Bin) -> Bin {
+        Bin {
+            lo: self.lo.min(b.lo),
+            hi: self.hi.max(b.hi),
+            n: self.n + b.n,
         }
     }
+}
+
+/// Bins `prims` by their centres on `B` bins per axis (as [`bin_of`] places them): in
+/// parallel over chunks for large sets. Bounds merge by `min` and `max` and counts add, so the
+/// bins are the same whatever the chunks.
+fn bin<const B: usize>(prims: &[Prim], clo: Vec3A, scale: Vec3A) -> [[Bin; B]; 3] {
+    if prims.len() >= PARALLEL_BINNING {
+        use rayon::prelude::*;
+        let merge = |a: [[Bin; B]; 3], b: [[Bin; B]; 3]| -> [[Bin; B]; 3] {
+            std::array::from_fn(|x| std::array::from_fn(|i| a[x][i].merge(&b[x][i])))
+        };
+        return prims
+            .par_chunks(PARALLEL_BINNING / 2)
+            .map(|c| bin::<B>(c, clo, scale))
+            .reduce(|| [[Bin::EMPTY; B]; 3], merge);
+    }
+    let mut bins = [[Bin::EMPTY; B]; 3];
+    for p in prims {
+        let at = bin_lanes::<B>(p.c, clo, scale);
+        for (axis, bins) in bins.iter_mut().enumerate() {
+            let b = &mut bins[at[axis]];
+            b.lo = b.lo.min(p.lo);
+            b.hi = b.hi.max(p.hi);
+            b.n += 1;
+        }
+    }
+    bins
+}
+
+/// The binned SAH split of `prims` (partitioned in place): where the right part starts and
+/// the two parts' bounds (boxes from the bins, centres from the partition), or None for a
+/// leaf. The bins per axis grow with the count, as Embree's builder sets them (about
+/// `4 + count / 20`, at most 32): a few bins cost little where a split moves few triangles.
+fn split(prims: &mut [Prim], bounds: &Bounds) -> Option<(usize, Bounds, Bounds)> {
+    let n = prims.len();
+    if n <= LEAF_MAX {
+        None
+    } else if n < 80 {
+        split_on::<4>(prims, bounds)
+    } else if n < 240 {
+        split_on::<8>(prims, bounds)
+    } else if n < 560 {
+        split_on::<16>(prims, bounds)
+    } else {
+        split_on::<MAX_BINS>(prims, bounds)
+    }
+}
+
+/// [`split`] on `B` bins per axis.
+fn split_on<const B: usize>(prims: &mut [Prim], bounds: &Bounds) -> Option<(usize, Bounds, Bounds)> {
+    let count = prims.len();
+    let (clo, chi) = (bounds.clo, bounds.chi);
+    let ext = chi - clo;
+    let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(B as f32) / ext, Vec3A::ZERO);
+    let bins = bin::<B>(prims, clo, scale);
     let mut best = (f32::MAX, 0usize, 0usize);
     for (axis, bins) in bins.iter().enumerate() {
         if ext[axis] <= 0.0 {
             continue;
         }
-        let mut left = [(0.0f32, 0u32); BINS];
-        let (mut acc, mut n) = (Bounds::EMPTY, 0);
+        // The cost of each split: the left part's area times its count, from a sweep left to
+        // right, then the right part's from a sweep back.
+        let mut left = [(0.0f32, 0u32); B];
+        let mut acc = Bin::EMPTY;
         for (i, b) in bins.iter().enumerate() {
-            acc = acc.merge(&b.0);
-            n += b.1;
-            left[i] = (if n > 0 { acc.area() } else { 0.0 }, n);
+            acc = acc.merge(b);
+            left[i] = (
+                if acc.n > 0 {
+                    area(acc.lo.into(), acc.hi.into())
+                } else {
+                    0.0
+                },
+                acc.n,
+            );
         }
-        let (mut acc, mut n) = (Bounds::EMPTY, 0);
-        for i in (1..BINS).rev() {
-            acc = acc.merge(&bins[i].0);
-            n += bins[i].1;
+        let mut acc = Bin::EMPTY;
+        for i in (1..B).rev() {
+            acc = acc.merge(&bins[i]);
             let (la, ln) = left[i - 1];
-            if ln == 0 || n == 0 {
+            if ln == 0 || acc.n == 0 {
                 continue;
             }
-            let cost = la * ln as f32 + acc.area() * n as f32;
+            let cost = la * ln as f32 + area(acc.lo.into(), acc.hi.into()) * acc.n as f32;
             if cost < best.0 {
                 best = (cost, axis, i);
             }
@@ -252,15 +326,42 @@ fn split(prims: &mut [Prim], bounds: &Bounds) -> Option<(usize, Bounds, Bounds)>
     }
     let (cost, axis, at) = best;
     if cost < bounds.area() * count as f32 && cost < f32::MAX {
-        let mut i = 0;
-        for j in 0..count {
-            if bin_of(prims[j].c[axis], clo[axis], scale[axis]) < at {
-                prims.swap(i, j);
+        // The partition (from both ends, swapping only what lies on the wrong side),
+        // gathering each part's centre bounds on the way.
+        let empty = (Vec3A::splat(f32::MAX), Vec3A::splat(f32::MIN));
+        let (mut lc, mut rc) = (empty, empty);
+        let grow = |b: &mut (Vec3A, Vec3A), c: Vec3A| *b = (b.0.min(c), b.1.max(c));
+        let left = |p: &Prim| bin_of::<B>(p.c[axis], clo[axis], scale[axis]) < at;
+        let (mut i, mut j) = (0, count);
+        loop {
+            while i < j && left(&prims[i]) {
+                grow(&mut lc, prims[i].c);
                 i += 1;
             }
+            while i < j && !left(&prims[j - 1]) {
+                grow(&mut rc, prims[j - 1].c);
+                j -= 1;
+            }
+            if i == j {
+                break;
+            }
+            // `prims[i]` belongs right and `prims[j - 1]` left.
+            prims.swap(i, j - 1);
+            grow(&mut lc, prims[i].c);
+            grow(&mut rc, prims[j - 1].c);
+            i += 1;
+            j -= 1;
         }
-        let part = |r: std::ops::Range<usize>| bins[axis][r].iter().fold(Bounds::EMPTY, |a, b| a.merge(&b.0));
-        (i > 0 && i < count).then(|| (i, part(0..at), part(at..BINS)))
+        let part = |r: std::ops::Range<usize>, (clo, chi): (Vec3A, Vec3A)| {
+            let b = bins[axis][r].iter().fold(Bin::EMPTY, |a, b| a.merge(b));
+            Bounds {
+                lo: b.lo,
+                hi: b.hi,
+                clo,
+                chi,
+            }
+        };
+        (i > 0 && i < count).then(|| (i, part(0..at, lc), part(at..B, rc)))
     } else if count > LEAF_LIMIT {
         // No useful SAH split (e.g. identical centroids): split in the middle.
         let mid = count / 2;
@@ -307,7 +408,7 @@ impl Bvh {
                 }
             })
             .collect();
-        let mut bin = Vec::with_capacity(2 * n / LEAF_MAX + 1);
+        let mut bin = Vec::with_capacity(2 * n);
         let all = Bounds::of(&prims);
         build_into(&mut prims, all, 0, &mut bin);
         bvh.nodes.reserve(bin.len() / 3 + 1);
@@ -319,13 +420,22 @@ impl Bvh {
     /// The wide nodes from the binary tree `bin` (root 0), depth first.
     fn collapse(&mut self, bin: &[BNode], prims: &[Prim], tris: &[Tri]) {
         let kids = |b: usize| [b + 1, b + bin[b].first as usize];
-        // (binary node, wide node to fill in, lane): a child to make.
-        let root = if bin[0].count > 0 { vec![0] } else { kids(0).to_vec() };
-        let mut todo = vec![(root, usize::MAX, 0usize)];
-        while let Some((mut children, parent, lane)) = todo.pop() {
+        // (binary inner node whose subtree to make, wide node to fill in, lane); the root's
+        // parent is `usize::MAX`.
+        let mut todo = vec![(0usize, usize::MAX, 0usize)];
+        while let Some((of, parent, lane)) = todo.pop() {
+            let mut children = [0usize; W];
+            let mut n = if bin[of].count > 0 {
+                // A tree of one leaf: its root holds it.
+                children[0] = of;
+                1
+            } else {
+                children[..2].copy_from_slice(&kids(of));
+                2
+            };
             // Adopt the children of the largest inner child until there are W.
-            while children.len() < W {
-                let Some((k, _)) = children
+            while n < W {
+                let Some((k, _)) = children[..n]
                     .iter()
                     .enumerate()
                     .filter(|(_, &c)| bin[c].count == 0)
@@ -338,9 +448,12 @@ impl Bvh {
                     break;
                 };
                 let [l, r] = kids(children[k]);
+                children.copy_within(k + 1..n, k + 2);
                 children[k] = l;
-                children.insert(k + 1, r);
+                children[k + 1] = r;
+                n += 1;
             }
+            let children = &children[..n];
             let me = self.nodes.len();
             if parent != usize::MAX {
                 self.nodes[parent].child[lane] = me as u32;
@@ -373,7 +486,7 @@ impl Bvh {
             // Inner children, made in lane order (pushed in reverse).
             for (lane, &c) in children.iter().enumerate().rev() {
                 if bin[c].count == 0 {
-                    todo.push((kids(c).to_vec(), me, lane));
+                    todo.push((c, me, lane));
                 }
             }
         }
@@ -1401,8 +1514,9 @@ mod tests {
     fn the_tree_is_the_same_for_1_2_and_4_threads() {
         let mut r = SplitMix(9);
         let mut p = || Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 10.0 - 5.0;
-        // Enough triangles for the parallel levels, with shared centroids for the fall-back.
-        let mut tris = clustered(&mut p, 30_000, 0.05, 0);
+        // Enough triangles for the parallel levels and the parallel binning, with shared
+        // centroids for the fall-back.
+        let mut tris = clustered(&mut p, 2 * PARALLEL_BINNING as u32, 0.05, 0);
         tris.extend((0..64).map(|i| Tri {
             v: [Vec3::ZERO, Vec3::X, Vec3::Y],
             tag: 40_000 + i,
