@@ -590,9 +590,7 @@ impl Bvh {
     ) -> bool {
         let ray = WatertightRay::new(o, d);
         let r = Ray4::new(o, d, tmax, &ray);
-        let mut stack = [0u32; 64];
-        let mut overflow: Vec<u32> = Vec::new();
-        let mut sp = 0;
+        let mut stack = Stack::<u32>::new();
         let mut ni = 0u32;
         loop {
             let node = &self.nodes[ni as usize];
@@ -635,17 +633,13 @@ impl Bvh {
                     near[k] = (tn[lane], node.child[lane]);
                     k += 1;
                 }
-                ni = push_farthest_first(&mut near[..k], &mut stack, &mut sp, &mut overflow).expect("two or more");
+                ni = push_farthest_first(&mut near[..k], &mut stack).expect("two or more");
                 continue;
             }
-            ni = if let Some(n) = overflow.pop() {
-                n
-            } else if sp > 0 {
-                sp -= 1;
-                stack[sp]
-            } else {
+            let Some(next) = stack.pop() else {
                 return false;
             };
+            ni = next;
         }
     }
 
@@ -736,9 +730,7 @@ impl Bvh {
     ) -> u32 {
         let all = (1u32 << rays.len()) - 1;
         let mut done = 0u32;
-        let mut stack = [(0u32, 0u32); 64];
-        let mut overflow: Vec<(u32, u32)> = Vec::new();
-        let mut sp = 0;
+        let mut stack = Stack::<(u32, u32)>::new();
         let (mut ni, mut active) = (0u32, all);
         loop {
             active &= !done;
@@ -786,19 +778,15 @@ impl Bvh {
                 }
                 // The nearest inner child next (by its first ray's entry), the others onto
                 // the stack, farthest first.
-                if let Some(e) = push_farthest_first(&mut next[..k], &mut stack, &mut sp, &mut overflow) {
+                if let Some(e) = push_farthest_first(&mut next[..k], &mut stack) {
                     (ni, active) = e;
                     continue;
                 }
             }
-            (ni, active) = if let Some(e) = overflow.pop() {
-                e
-            } else if sp > 0 {
-                sp -= 1;
-                stack[sp]
-            } else {
+            let Some(e) = stack.pop() else {
                 return done;
             };
+            (ni, active) = e;
         }
     }
 }
@@ -886,16 +874,53 @@ impl Soa {
     }
 }
 
+/// The traversal stack: 64 entries in place (left uninitialised: a ray rarely needs more
+/// than a few), and the rest, if ever, on the heap.
+struct Stack<T: Copy> {
+    items: [std::mem::MaybeUninit<T>; 64],
+    len: usize,
+    overflow: Vec<T>,
+}
+
+impl<T: Copy> Stack<T> {
+    #[inline(always)]
+    fn new() -> Self {
+        Stack {
+            items: [std::mem::MaybeUninit::uninit(); 64],
+            len: 0,
+            overflow: Vec::new(),
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, v: T) {
+        if self.len < self.items.len() {
+            self.items[self.len].write(v);
+            self.len += 1;
+        } else {
+            self.overflow.push(v);
+        }
+    }
+
+    /// The last pushed (the overflow holds the latest pushes once the array is full).
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        if let Some(v) = self.overflow.pop() {
+            return Some(v);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: the entries below `len` were written by `push`.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
+
 /// Sorts `next` (entry distance, what to visit; at most [`W`]) farthest first by insertion,
-/// pushes all but the nearest onto the stack (past its end, onto `overflow`) and returns the
-/// nearest, which is visited next.
+/// pushes all but the nearest onto the stack and returns the nearest, which is visited next.
 #[inline(always)]
-fn push_farthest_first<T: Copy>(
-    next: &mut [(f32, T)],
-    stack: &mut [T; 64],
-    sp: &mut usize,
-    overflow: &mut Vec<T>,
-) -> Option<T> {
+fn push_farthest_first<T: Copy>(next: &mut [(f32, T)], stack: &mut Stack<T>) -> Option<T> {
     for i in 1..next.len() {
         let mut j = i;
         while j > 0 && next[j - 1].0 < next[j].0 {
@@ -905,12 +930,7 @@ fn push_farthest_first<T: Copy>(
     }
     let (last, rest) = next.split_last()?;
     for &(_, c) in rest {
-        if *sp < stack.len() {
-            stack[*sp] = c;
-            *sp += 1;
-        } else {
-            overflow.push(c);
-        }
+        stack.push(c);
     }
     Some(last.1)
 }
@@ -1508,6 +1528,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The stack gives back what was pushed, last first, past its 64 places too.
+    #[test]
+    fn the_stack_is_last_in_first_out_past_its_array() {
+        let mut s = Stack::<u32>::new();
+        assert_eq!(s.pop(), None);
+        for round in 0..2 {
+            for v in 0..150 {
+                s.push(v + round);
+            }
+            for v in (0..150).rev() {
+                assert_eq!(s.pop(), Some(v + round));
+            }
+            assert_eq!(s.pop(), None);
+        }
+        // Interleaved around the array's end.
+        for v in 0..64 {
+            s.push(v);
+        }
+        s.push(100);
+        assert_eq!(s.pop(), Some(100));
+        s.push(101);
+        s.push(102);
+        assert_eq!((s.pop(), s.pop(), s.pop()), (Some(102), Some(101), Some(63)));
     }
 
     #[test]
