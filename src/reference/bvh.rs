@@ -886,7 +886,7 @@ impl<T: Copy> Stack<T> {
     #[inline(always)]
     fn new() -> Self {
         Stack {
-            items: [std::mem::MaybeUninit::uninit(); 64],
+            items: [const { std::mem::MaybeUninit::uninit() }; 64],
             len: 0,
             overflow: Vec::new(),
         }
@@ -1197,13 +1197,14 @@ impl Ray4 {
         // Lane by lane the IEEE reciprocal, in one vector division.
         let inv = Vec3::from(Vec3A::from(d).recip());
         let [kx, ky, kz] = ray.k;
+        let oa = o.to_array();
         Ray4 {
             o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
             inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
             near: std::array::from_fn(|a| if inv[a].is_sign_negative() { 3 + a } else { a }),
             far: std::array::from_fn(|a| if inv[a].is_sign_negative() { a } else { 3 + a }),
             tmax: F4::splat(tmax),
-            ok: [F4::splat(o[kx]), F4::splat(o[ky]), F4::splat(o[kz])],
+            ok: [F4::splat(oa[kx]), F4::splat(oa[ky]), F4::splat(oa[kz])],
             s: [F4::splat(ray.s.x), F4::splat(ray.s.y), F4::splat(ray.s.z)],
         }
     }
@@ -1292,11 +1293,15 @@ impl WatertightRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // The next two axes after `kz`, swapped when `d[kz]` is negative (the winding).
+        const NEXT: [usize; 3] = [1, 2, 0];
+        const AFTER: [usize; 3] = [2, 0, 1];
+        let d = d.to_array();
+        let (kx, ky) = if d[kz] < 0.0 {
+            (AFTER[kz], NEXT[kz])
+        } else {
+            (NEXT[kz], AFTER[kz])
+        };
         // `d[kx] / d[kz]`, `d[ky] / d[kz]` and `1 / d[kz]` as one vector division (each lane
         // is the IEEE quotient, as three scalar divisions would give).
         let s = Vec3A::new(d[kx], d[ky], 1.0) / Vec3A::splat(d[kz]);
