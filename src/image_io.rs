@@ -58,17 +58,19 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
     check_float_image(path, w, h, channels, data)?;
     let (wu, hu) = (w as usize, h as usize);
     let err = |e: exr::error::Error| Error::io(path, "cannot write", e);
+    // Compressed one block after another: in parallel, the blocks would be written in the
+    // order they finish, and the same image would not always be the same bytes.
     if channels == 3 {
-        exr::prelude::write_rgb_file(path, wu, hu, |x, y| {
-            let i = (y * wu + x) * 3;
+        let ch = SpecificChannels::rgb(|p: Vec2<usize>| {
+            let i = (p.y() * wu + p.x()) * 3;
             (data[i], data[i + 1], data[i + 2])
-        })
-        .map_err(err)
+        });
+        Image::from_channels((wu, hu), ch).write().non_parallel().to_file(path).map_err(err)
     } else {
         let ch = SpecificChannels::build()
             .with_channel::<f32>("Y")
             .with_pixel_fn(|p: Vec2<usize>| (data[p.y() * wu + p.x()],));
-        Image::from_channels((wu, hu), ch).write().to_file(path).map_err(err)
+        Image::from_channels((wu, hu), ch).write().non_parallel().to_file(path).map_err(err)
     }
 }
 
@@ -86,6 +88,29 @@ fn check_float_image(path: &Path, w: u32, h: u32, channels: usize, data: &[f32])
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The same image is the same bytes, write after write (blocks compressed in parallel
+    /// would land in the order they finish).
+    #[test]
+    fn exr_files_are_the_same_bytes_every_time() {
+        let dir = std::env::temp_dir().join(format!("penumbra-exr-same-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (w, h) = (300u32, 200u32);
+        for channels in [1, 3] {
+            let data: Vec<f32> = (0..w as usize * h as usize * channels)
+                .map(|i| ((i * 2654435761) % 1000) as f32 / 999.0)
+                .collect();
+            let first = dir.join("first.exr");
+            write_exr(&first, w, h, channels, &data).unwrap();
+            let want = std::fs::read(&first).unwrap();
+            for k in 0..6 {
+                let p = dir.join(format!("again{k}.exr"));
+                write_exr(&p, w, h, channels, &data).unwrap();
+                assert!(std::fs::read(&p).unwrap() == want, "{channels} channels: write {k} differs");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn exr_reads_back_bit_for_bit() {
