@@ -65,12 +65,20 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
             let i = (p.y() * wu + p.x()) * 3;
             (data[i], data[i + 1], data[i + 2])
         });
-        Image::from_channels((wu, hu), ch).write().non_parallel().to_file(path).map_err(err)
+        Image::from_channels((wu, hu), ch)
+            .write()
+            .non_parallel()
+            .to_file(path)
+            .map_err(err)
     } else {
         let ch = SpecificChannels::build()
             .with_channel::<f32>("Y")
             .with_pixel_fn(|p: Vec2<usize>| (data[p.y() * wu + p.x()],));
-        Image::from_channels((wu, hu), ch).write().non_parallel().to_file(path).map_err(err)
+        Image::from_channels((wu, hu), ch)
+            .write()
+            .non_parallel()
+            .to_file(path)
+            .map_err(err)
     }
 }
 
@@ -106,7 +114,10 @@ mod tests {
             for k in 0..6 {
                 let p = dir.join(format!("again{k}.exr"));
                 write_exr(&p, w, h, channels, &data).unwrap();
-                assert!(std::fs::read(&p).unwrap() == want, "{channels} channels: write {k} differs");
+                assert!(
+                    std::fs::read(&p).unwrap() == want,
+                    "{channels} channels: write {k} differs"
+                );
             }
         }
         std::fs::remove_dir_all(&dir).ok();

@@ -2,7 +2,7 @@
 //! inside the cascade that sees it, stable fitting, seams and their blend band, bad input;
 //! SDSM (cascades over the depths seen): its tight range and its latency failure.
 
-mod common;
+use crate::common;
 use penumbra::frame::{self, Frame};
 use penumbra::pipeline::Pipeline;
 use penumbra::run::RunResult;

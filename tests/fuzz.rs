@@ -7,7 +7,7 @@
 //! corpus (the small scene as `.gltf` text and as `.glb`) with fixed seeds, so CI replays the
 //! same cases every run; `--ignored` runs many more from fresh seeds.
 
-mod common;
+use crate::common;
 
 use penumbra::pipeline::Pipeline;
 use penumbra::report;

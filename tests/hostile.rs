@@ -1,7 +1,7 @@
 //! Hostile but realistic input through the CLI: each case gets a clear error naming what was
 //! wrong (or a documented, correct behaviour), never a panic, never garbage.
 
-mod common;
+use crate::common;
 use common::cli;
 
 fn scene(name: &str, body: &str) -> String {

@@ -1,7 +1,7 @@
 //! Pipeline invariants: watertightness, conservative coverage against exact tests, fragment
 //! lists, stencil counting, clipping and depth clamp, blending, bad input, determinism.
 
-mod common;
+use crate::common;
 use common::{fan, fan_covers, jittered_grid, orient};
 use glam::{Vec3, Vec4};
 use penumbra::bench::SplitMix;

@@ -1,7 +1,7 @@
 //! What penumbra writes for users and other tools: the sweep's files (sharded and merged
 //! equal to one run), the report page, exports, float images and glTF scenes.
 
-mod common;
+use crate::common;
 use common::cli;
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 //! tests of each sample's cell, depth on the plane at the warped positions, the same output
 //! for 1, 2 and 4 threads, bad tables refused.
 
-mod common;
+use crate::common;
 use common::{fan, fan_covers, jittered_grid, orient, quads};
 use glam::Vec4;
 use penumbra::bench::SplitMix;

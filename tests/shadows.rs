@@ -1,7 +1,7 @@
 //! Techniques against the reference on the fixture scenes, their known failures, and the
 //! registry's and the CLI's handling of bad input.
 
-mod common;
+use crate::common;
 use common::cli;
 use penumbra::frame;
 use penumbra::metrics::{compare, compare_scalar};

@@ -4,7 +4,7 @@
 //! LiSPSM's, bad input; shimmering under a moving sun for the plain map, the warps and the
 //! cascades.
 
-mod common;
+use crate::common;
 use penumbra::frame;
 use penumbra::pipeline::Pipeline;
 use penumbra::run::RunResult;
