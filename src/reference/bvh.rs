@@ -5,8 +5,9 @@
 //!   bins per axis, more for more primitives, as Embree's builder chooses them), in parallel
 //!   with `rayon::join` below the top levels and over chunks of the primitives for the
 //!   largest nodes' bins. The partition gathers each part's centre bounds, so the bins hold
-//!   only boxes and counts. Every split depends on the primitives alone, and subtrees are laid out depth first with relative child offsets,
-//!   so the tree is the same bytes for any thread count ([`Bvh::digest`], tested). The binary
+//!   only boxes and counts. Every split depends on the primitives alone, and subtrees are
+//!   laid out depth first with relative child offsets, so the tree is the same bytes for any
+//!   thread count ([`Bvh::digest`], tested). The binary
 //!   tree is then collapsed into 8-wide nodes (each node adopts the children of its largest
 //!   inner child until it has eight), whose boxes are stored as structure of arrays, and
 //!   whose leaves are packets of up to 4 triangles, also as structure of arrays. Eight lanes
@@ -117,23 +118,26 @@ fn area(lo: Vec3, hi: Vec3) -> f32 {
     d.x * d.y + d.y * d.z + d.z * d.x
 }
 
-/// The bin of a centre coordinate `c` among `B` bins from `c0` (`scale` bins per unit): the
-/// same IEEE operations as [`bin_lanes`] on one lane.
+/// The bin of a centre coordinate `c` among `B` bins from `c0` (`scale` bins per unit).
 #[inline(always)]
 fn bin_of<const B: usize>(c: f32, c0: f32, scale: f32) -> usize {
-    let at = ((c - c0) * scale).min((B - 1) as f32).max(0.0);
-    // SAFETY: `at` is in [0, B - 1] (`min` returns its operand that is not NaN).
-    unsafe { at.to_int_unchecked::<u32>() as usize }
+    bin_at::<B>((c - c0) * scale)
 }
 
-/// [`bin_of`] on the three axes of `c` at once.
+/// [`bin_of`] on the three axes of `c` at once: the same IEEE operations lane by lane.
 #[inline(always)]
 fn bin_lanes<const B: usize>(c: Vec3A, c0: Vec3A, scale: Vec3A) -> [usize; 3] {
-    // `Vec3A::min` and `max` return their second operand where one is NaN, so the same
-    // results as `f32::min` and `max` here.
-    let at = ((c - c0) * scale).min(Vec3A::splat((B - 1) as f32)).max(Vec3A::ZERO);
-    // SAFETY: each lane is in [0, B - 1].
-    at.to_array().map(|a| unsafe { a.to_int_unchecked::<u32>() as usize })
+    ((c - c0) * scale).to_array().map(bin_at::<B>)
+}
+
+/// The bin at `at` bins from the first, clamped to the `B` bins. `f32::max` and `min` return
+/// their operand that is not NaN (NaN comes from a denormal extent's infinite scale), so the
+/// value converted is always in `[0, B - 1]`.
+#[inline(always)]
+fn bin_at<const B: usize>(at: f32) -> usize {
+    let at = at.max(0.0).min((B - 1) as f32);
+    // SAFETY: `at` is finite and in [0, B - 1] (above), which a `u32` holds.
+    unsafe { at.to_int_unchecked::<u32>() as usize }
 }
 
 /// Bounds of a set of primitives and of their centres.
@@ -1533,6 +1537,47 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Centres that differ by denormal amounts (an extent whose bin scale is infinite, so
+    /// `0 * inf` bin positions) and by huge ones still give a tree that finds every hit: the
+    /// bins and the partition place each primitive alike.
+    #[test]
+    fn denormal_and_huge_extents_match_brute_force() {
+        // Triangles in the planes x = 0, x = tiny and x = 2 tiny: their centres' extent on x
+        // is denormal, its bin scale infinite.
+        let tiny = f32::from_bits(1);
+        let mut tris: Vec<Tri> = (0..120u32)
+            .map(|i| {
+                let x = (i % 3) as f32 * tiny;
+                let s = 0.01 * (i / 3) as f32;
+                Tri {
+                    v: [Vec3::new(x, s, s), Vec3::new(x, 1.0 + s, s), Vec3::new(x, s, 1.0 + s)],
+                    tag: i,
+                }
+            })
+            .collect();
+        tris.extend((0..40u32).map(|i| {
+            let c = Vec3::new(if i % 2 == 0 { 3e38 } else { -3e38 }, i as f32, 0.0);
+            Tri {
+                v: [c, c + Vec3::Y, c + Vec3::Z],
+                tag: 1000 + i,
+            }
+        }));
+        let bvh = Bvh::build(tris.clone());
+        assert_eq!(bvh.len(), tris.len());
+        for (o, d) in [
+            (Vec3::new(-1.0, 0.3, 0.3), Vec3::X),
+            (Vec3::new(1.0, 0.45, 0.2), -Vec3::X),
+            (Vec3::new(0.0, 0.5, 5.0), -Vec3::Z),
+            (Vec3::new(0.0, 0.5, 0.5), Vec3::X),
+            (Vec3::new(0.0, 0.5, 0.5), Vec3::new(1.0, 0.0, 0.0001).normalize()),
+        ] {
+            assert_brute_force(&bvh, &tris, o, d, f32::INFINITY);
+        }
+        // The ray along x through (0.3, 0.3) crosses the three planes of every shift up to 0.3
+        // (the last on its edge).
+        assert!(assert_brute_force(&bvh, &tris, Vec3::new(-1.0, 0.3, 0.3), Vec3::X, 10.0) >= 90);
     }
 
     /// The stack gives back what was pushed, last first, past its 64 places too.
