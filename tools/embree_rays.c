@@ -8,8 +8,11 @@
  * consecutive rays (rtcOccluded8/16: the exported shadow rays are in pixel order, so a packet
  * is 8 or 16 neighbouring pixels of a row).
  * Embree 3 (-DEMBREE3, with Debian's <embree3/rtcore.h>): single rays only.
+ * `robust` builds the scene with RTC_SCENE_FLAG_ROBUST (robust traversal, no optimisation
+ * that reduces arithmetic accuracy: the Embree mode closest to penumbra's reference, whose
+ * traversal is always robust and whose triangle test is watertight).
  *
- * usage: embree_rays DIR THREADS REPS [1|8|16]
+ * usage: embree_rays DIR THREADS REPS [1|8|16] [robust]
  * prints: build_ms, mrays_per_s (median of REPS), occluded count of one repetition. */
 #include <pthread.h>
 #include <stdio.h>
@@ -30,6 +33,7 @@ typedef struct RTCDeviceTy *RTCDevice;
 typedef struct RTCSceneTy *RTCScene;
 typedef struct RTCGeometryTy *RTCGeometry;
 enum { GEOMETRY_TRIANGLE = 0, BUFFER_INDEX = 0, BUFFER_VERTEX = 1, FORMAT_UINT3 = 0x5003, FORMAT_FLOAT3 = 0x9003 };
+enum { RTC_SCENE_FLAG_ROBUST = 1 << 2 };
 struct __attribute__((aligned(16))) Ray1 {
     float org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar;
     unsigned mask, id, flags;
@@ -46,6 +50,7 @@ void *rtcSetNewGeometryBuffer(RTCGeometry g, int type, unsigned slot, int format
 void rtcCommitGeometry(RTCGeometry g);
 unsigned rtcAttachGeometry(RTCScene scene, RTCGeometry g);
 void rtcReleaseGeometry(RTCGeometry g);
+void rtcSetSceneFlags(RTCScene scene, int flags);
 void rtcCommitScene(RTCScene scene);
 void rtcReleaseScene(RTCScene scene);
 void rtcOccluded1(RTCScene scene, struct Ray1 *ray, void *args);
@@ -135,11 +140,13 @@ static int cmp(const void *a, const void *b) {
 }
 
 int main(int argc, char **argv) {
-    if (argc < 4) { fprintf(stderr, "usage: %s DIR THREADS REPS [1|8|16]\n", argv[0]); return 2; }
+    if (argc < 4) { fprintf(stderr, "usage: %s DIR THREADS REPS [1|8|16] [robust]\n", argv[0]); return 2; }
     const char *dir = argv[1];
     threads = atoi(argv[2]);
     int reps = atoi(argv[3]);
     width = argc > 4 ? atoi(argv[4]) : 1;
+    int robust = argc > 5 && strcmp(argv[5], "robust") == 0;
+    if (argc > 6 || (argc > 5 && !robust)) { fprintf(stderr, "bad arguments\n"); return 2; }
 #ifdef EMBREE3
     if (width != 1) { fprintf(stderr, "Embree 3: single rays only\n"); return 2; }
 #endif
@@ -164,6 +171,7 @@ int main(int argc, char **argv) {
     for (int k = 0; k < 3; k++) {
         double t0 = now();
         scene = rtcNewScene(dev);
+        if (robust) rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
         RTCGeometry g = rtcNewGeometry(dev, GEOMETRY_TRIANGLE);
         float *vb = rtcSetNewGeometryBuffer(g, BUFFER_VERTEX, 0, FORMAT_FLOAT3, 3 * sizeof(float), 3 * ntri);
         unsigned *ib = rtcSetNewGeometryBuffer(g, BUFFER_INDEX, 0, FORMAT_UINT3, 3 * sizeof(unsigned), ntri);
