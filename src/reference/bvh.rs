@@ -240,6 +240,10 @@ impl Bin {
             n: self.n + b.n,
         }
     }
+
+    fn area(&self) -> f32 {
+        area(self.lo.into(), self.hi.into())
+    }
 }
 
 /// Bins `prims` by their centres on `B` bins per axis (as [`bin_of`] places them): in
@@ -306,14 +310,7 @@ fn split_on<const B: usize>(prims: &mut [Prim], bounds: &Bounds) -> Option<(usiz
         let mut acc = Bin::EMPTY;
         for (i, b) in bins.iter().enumerate() {
             acc = acc.merge(b);
-            left[i] = (
-                if acc.n > 0 {
-                    area(acc.lo.into(), acc.hi.into())
-                } else {
-                    0.0
-                },
-                acc.n,
-            );
+            left[i] = (if acc.n > 0 { acc.area() } else { 0.0 }, acc.n);
         }
         let mut acc = Bin::EMPTY;
         for i in (1..B).rev() {
@@ -322,7 +319,7 @@ fn split_on<const B: usize>(prims: &mut [Prim], bounds: &Bounds) -> Option<(usiz
             if ln == 0 || acc.n == 0 {
                 continue;
             }
-            let cost = la * ln as f32 + area(acc.lo.into(), acc.hi.into()) * acc.n as f32;
+            let cost = la * ln as f32 + acc.area() * acc.n as f32;
             if cost < best.0 {
                 best = (cost, axis, i);
             }
