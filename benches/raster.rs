@@ -113,11 +113,11 @@ fn techniques(c: &mut Criterion) {
         ("opacity-maps", "opacity-maps", vec![]),
         ("deep-shadow-map", "deep-shadow-map", vec![]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     // The reference's hard visibility of the same pixels (the third way to exact hard shadows).
-    let mut r = shadow::create("reference", &[("area".into(), "false".into())]).unwrap();
+    let mut r = shadow::registry::create("reference", &[("area".into(), "false".into())]).unwrap();
     g.bench_function("reference-hard", |b| b.iter(|| r.visibility(&p, &f).unwrap()));
     g.finish();
 }
@@ -141,7 +141,7 @@ fn volumetric(c: &mut Criterion) {
         ("deep-shadow-map", "deep-shadow-map", vec![size()]),
         ("transparency-map", "transparency-map", vec![size()]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         t.visibility(&p, &f).unwrap();
         let frags = t
             .counters()
@@ -177,7 +177,7 @@ fn soft(c: &mut Criterion) {
         ),
         ("chs", "chs", vec![kv("angle", "2")]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();
@@ -197,7 +197,7 @@ fn soft(c: &mut Criterion) {
         ("pvm", "pvm", vec![]),
         ("pvmf", "pvmf", vec![]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();
@@ -214,7 +214,7 @@ fn soft(c: &mut Criterion) {
         ("pvm", "pvm", vec![]),
         ("pvmf", "pvmf", vec![]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();
@@ -238,7 +238,7 @@ fn screen(c: &mut Criterion) {
         ("screen-space-32", "screen-space", vec![kv("steps", "32")]),
         ("contact-map", "contact-map", vec![]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();
@@ -252,7 +252,7 @@ fn screen(c: &mut Criterion) {
         ("shadow-map", "shadow-map", vec![]),
         ("terrain-height-512", "terrain-height", vec![]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();
@@ -282,7 +282,7 @@ fn filtered(c: &mut Criterion) {
         ("msm", "msm", vec![size()]),
         ("convolution-8", "convolution", vec![size()]),
     ] {
-        let mut t = shadow::create(name, &sets).unwrap();
+        let mut t = shadow::registry::create(name, &sets).unwrap();
         g.bench_function(id, |b| b.iter(|| t.visibility(&p, &f).unwrap()));
     }
     g.finish();

@@ -19,7 +19,7 @@ fn main() -> Result<(), Error> {
     let scene = scene::file::load(Path::new(scene_path))?;
     let p = Pipeline::new(0)?;
     let f = frame::frame(&p, &scene, 0, 0)?;
-    let mut t = shadow::create(technique, &[])?;
+    let mut t = shadow::registry::create(technique, &[])?;
     let v = t.visibility(&p, &f)?;
     image_io::write_png(Path::new(out), &frame::shade(&f, &v))?;
 

@@ -18,7 +18,7 @@ fn main() -> Result<(), Error> {
     let scene = scene::file::load(Path::new(scene_path))?;
     let p = Pipeline::new(0)?;
     let f = frame::frame(&p, &scene, 0, 0)?;
-    let mut t = shadow::create(technique, &[])?;
+    let mut t = shadow::registry::create(technique, &[])?;
     t.visibility(&p, &f)?;
     for (pass, ms) in t.timings() {
         println!("pass {pass:<24} {ms:.3} ms");

@@ -42,8 +42,8 @@ pub enum FrameMode {
 }
 
 impl std::str::FromStr for FrameMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = crate::pipeline::state::UnknownChoice;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
         let modes = [
             ("depth", FrameMode::Depth),
             ("pcf2", FrameMode::Pcf2),
@@ -150,7 +150,7 @@ pub const PCSS_PENUMBRA_SCALE: f32 = 400.0;
 /// * 400, 1, 16)` texels and 16 hardware 2x2 comparisons against `z` on the same disk scaled
 /// to `r`, averaged. `tools/llvmpipe_bench.py` runs the same shader in GLSL.
 ///
-/// [`POISSON16`]: crate::shadow::map::kernel::POISSON16
+/// [`POISSON16`]: crate::shadow::sample::kernel::POISSON16
 #[inline]
 pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
     pcss_shadow4(map, Vec4::splat(uv.x), Vec4::splat(uv.y), Vec4::splat(z)).x
@@ -162,9 +162,9 @@ pub fn pcss_shadow(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {
 /// written tap by tap, is the test's `plain_pcss`.)
 #[inline(always)]
 pub fn pcss_shadow4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4) -> Vec4 {
+    use crate::pipeline::lanes::floor4;
     use crate::pipeline::sampler::texels4;
-    use crate::pipeline::wide::floor4;
-    use crate::shadow::map::kernel::{bilinear_compare4, POISSON16};
+    use crate::shadow::sample::kernel::{bilinear_compare4, POISSON16};
     let size = map.width() as f32;
     let reference = z - Vec4::splat(PCSS_SEARCH_BIAS);
     let k = PCSS_SEARCH_TEXELS / size;
@@ -650,7 +650,7 @@ pub fn depth_pass_at(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shadow::map::kernel::POISSON16;
+    use crate::shadow::sample::kernel::POISSON16;
 
     /// The frame's PCSS shader written plainly from its specification, one tap at a time.
     fn plain_pcss(map: &Surface<f32>, uv: Vec2, z: f32) -> f32 {

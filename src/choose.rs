@@ -12,6 +12,7 @@ use crate::report::chart::pareto;
 use crate::run::RunResult;
 use crate::scene::{AreaShape, LightKind, Scene, SceneClass};
 use crate::shadow;
+use crate::Error;
 
 /// A technique setting to run: the technique and its `key=value` settings.
 #[derive(Clone, Debug, PartialEq)]
@@ -49,7 +50,7 @@ pub fn analyse(scene: &Scene, frame: Option<&Frame>, all: bool) -> Analysis {
         facts: facts(scene, frame),
         ..Analysis::default()
     };
-    for t in shadow::registry() {
+    for t in shadow::registry::registry() {
         if t.name == "reference" {
             continue;
         }
@@ -68,7 +69,7 @@ pub fn analyse(scene: &Scene, frame: Option<&Frame>, all: bool) -> Analysis {
         for set in t.sweep.iter().chain(extended) {
             a.runs.push(Candidate {
                 technique: t.name,
-                sets: shadow::owned_sets(set),
+                sets: shadow::registry::owned_sets(set),
             });
         }
     }
@@ -208,16 +209,30 @@ impl Goal {
         })
     }
 
-    /// Checks the goal's number: finite and above 0 (a budget) or at least 0 (an error).
-    pub fn check(self) -> Result<Goal, String> {
+    /// Checks the goal's number: finite and above 0 (a budget) or at least 0 (an error). The
+    /// error is an [`Error::Option`] whose key is `max-error` or `budget-ms` and whose message
+    /// says what the number must be.
+    pub fn check(self) -> Result<Goal, Error> {
         match self {
             Goal::MaxError(e) if e.is_finite() && e >= 0.0 => Ok(self),
-            Goal::MaxError(e) => Err(format!("--max-error {e}: an error is a finite number, 0 or more")),
+            Goal::MaxError(e) => Err(Error::option("max-error", e, "an error is a finite number, 0 or more")),
             Goal::BudgetMs(t) if t.is_finite() && t > 0.0 => Ok(self),
-            Goal::BudgetMs(t) => Err(format!(
-                "--budget-ms {t}: a time budget is a finite number of milliseconds above 0"
+            Goal::BudgetMs(t) => Err(Error::option(
+                "budget-ms",
+                t,
+                "a time budget is a finite number of milliseconds above 0",
             )),
         }
+    }
+}
+
+/// Why [`choose`] picked nothing: no run meets the goal. It says so, naming the closest run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NoPick(pub String);
+
+impl std::fmt::Display for NoPick {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
     }
 }
 
@@ -227,7 +242,7 @@ pub struct Choice {
     /// The Pareto front (no other run both faster and more accurate), fastest first.
     pub front: Vec<usize>,
     /// The pick, or why there is none (nothing meets the goal: the closest run named).
-    pub pick: Result<usize, String>,
+    pub pick: Result<usize, NoPick>,
     /// The next two runs that meet the goal, best first after the pick.
     pub alternatives: Vec<usize>,
 }
@@ -285,7 +300,7 @@ pub fn choose(runs: &[RunResult], goal: Goal) -> Choice {
     if ok.is_empty() {
         return Choice {
             front,
-            pick: Err(why_not),
+            pick: Err(NoPick(why_not)),
             alternatives: Vec::new(),
         };
     }
@@ -337,12 +352,15 @@ mod tests {
         let c = choose(&runs, Goal::MaxError(0.001));
         assert_eq!(
             c.pick,
-            Err("nothing within 0.001; the most accurate is d at 0.2000 (4.000 ms)".into())
+            Err(NoPick(
+                "nothing within 0.001; the most accurate is d at 0.2000 (4.000 ms)".into()
+            ))
         );
         let c = choose(&runs, Goal::BudgetMs(0.1));
         assert!(c
             .pick
             .unwrap_err()
+            .0
             .starts_with("nothing runs within 0.1 ms; the fastest is a at 1.000 ms"));
     }
 

@@ -285,6 +285,36 @@ impl From<PipelineError> for Error {
     }
 }
 
+/// Why a value was refused, as the end of a sentence ("is not a number", "is not finite"):
+/// the caller puts what it names before it (a technique's option, a scene's field) when it
+/// makes an [`Error`] of it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Reason(pub String);
+
+impl std::fmt::Display for Reason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl From<&str> for Reason {
+    fn from(s: &str) -> Reason {
+        Reason(s.to_string())
+    }
+}
+
+impl From<String> for Reason {
+    fn from(s: String) -> Reason {
+        Reason(s)
+    }
+}
+
+impl From<Reason> for String {
+    fn from(r: Reason) -> String {
+        r.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -109,28 +109,8 @@ pub use frame::Frame;
 pub use pipeline::{Pipeline, PipelineError};
 pub use reference::{Reference, ReferenceOptions};
 pub use scene::Scene;
-pub use shadow::{create, registry, ShadowTechnique};
+pub use shadow::registry::{create, registry};
+pub use shadow::ShadowTechnique;
 pub use visibility::Visibility;
 
-/// Every technique's type, and its module with its `Options`, under one name: build one in
-/// code with `techniques::ShadowMap::new(techniques::shadow_map::Options { .. })`, or by name
-/// with [`create`].
-pub mod techniques {
-    pub use crate::reference::ReferenceOptions;
-    pub use crate::shadow::exact::hybrid::{self, Hybrid};
-    pub use crate::shadow::exact::izb::{self, Izb};
-    pub use crate::shadow::map::chs::{self, Chs};
-    pub use crate::shadow::map::multi_sample::{self, MultiSample};
-    pub use crate::shadow::map::pcss::{self, Pcss};
-    pub use crate::shadow::map::shadow_map::{self, ShadowMap};
-    pub use crate::shadow::penumbra::pvm::{self, Pvm};
-    pub use crate::shadow::penumbra::pvmf::{self, Pvmf};
-    pub use crate::shadow::planar::cookie::{self, Cookie};
-    pub use crate::shadow::planar::projected::{self, Planar};
-    pub use crate::shadow::reference::{self as reference_technique, RefTechnique};
-    pub use crate::shadow::volume::shadow_volume::{self, ShadowVolume};
-    pub use crate::shadow::volumetric::avsm::{self, Avsm};
-    pub use crate::shadow::volumetric::deep_shadow_map::{self, DeepShadowMap};
-    pub use crate::shadow::volumetric::opacity_maps::{self, OpacityMaps};
-    pub use crate::shadow::volumetric::transparency_map::{self, TransparencyMap};
-}
+pub use shadow::registry::techniques;

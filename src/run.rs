@@ -364,7 +364,7 @@ pub fn render_prepared_with_progress(
     let mut pass_times = Vec::new();
     let mut notes = Vec::new();
     let mut path = Vec::new();
-    let mut t = shadow::create(name, sets)?;
+    let mut t = shadow::registry::create(name, sets)?;
     let mut flicker = metrics::Flicker::default();
     // The previous frame's technique, reference and mask (for flicker): one frame is kept.
     // (Kept frames' reference and mask are borrowed; a streamed frame's are moved in.)

@@ -60,7 +60,7 @@ fn with_cascades(scene: &str, sets: &[(&str, &str)], check: impl Fn(&Frame, &[f3
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let frames = s.frame_count();
-    let mut t = shadow::create("csm", &owned(sets)).unwrap();
+    let mut t = shadow::registry::create("csm", &owned(sets)).unwrap();
     for i in 0..frames {
         let f = frame::frame(&p, &s, 0, i).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
@@ -166,7 +166,7 @@ fn the_blend_band_mixes_the_next_cascade() {
     };
     for blend in ["linear", "dither"] {
         let sets = owned(&[("filter", "pcf2"), ("band", "0.3"), ("blend", blend)]);
-        let mut t = shadow::create("csm", &sets).unwrap();
+        let mut t = shadow::registry::create("csm", &sets).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
         let (mut banded, mut mixed) = (0, 0);
         for i in (0..v.len()).step_by(7) {
@@ -212,16 +212,22 @@ fn cascades_refuse_bad_settings_and_other_lights() {
         ("split", "cubic", "is not one of uniform, log, practical"),
         ("fit", "receivers", "is unknown"),
     ] {
-        let e = shadow::create("csm", &owned(&[(k, v)])).err().unwrap().to_string();
+        let e = shadow::registry::create("csm", &owned(&[(k, v)]))
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("csm") && e.contains(k) && e.contains(msg), "{k}={v}: {e}");
     }
     // A point light: an error that names the light and what covers it.
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/point_casters.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let info = shadow::registry().into_iter().find(|t| t.name == "csm").unwrap();
+    let info = shadow::registry::registry()
+        .into_iter()
+        .find(|t| t.name == "csm")
+        .unwrap();
     assert!(!info.applies_to(&s));
-    let e = shadow::create("csm", &[])
+    let e = shadow::registry::create("csm", &[])
         .unwrap()
         .visibility(&p, &f)
         .err()
@@ -232,7 +238,7 @@ fn cascades_refuse_bad_settings_and_other_lights() {
     let text = "[camera]\nposition = [0, 2, 5]\ntarget = [0, 2, 10]\nresolution = [32, 24]\n\n[[light]]\ntype = \"directional\"\ndirection = [0.2, -1, 0.1]\n\n[[object]]\nmesh = \"plane\"\nsize = 4\n";
     let s = penumbra::scene::file::parse(text, Path::new("away.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let v = shadow::create("csm", &[])
+    let v = shadow::registry::create("csm", &[])
         .unwrap()
         .visibility(&p, &f)
         .unwrap()
@@ -249,7 +255,7 @@ fn cascades_are_identical_for_1_2_4_threads() {
             .map(|&n| {
                 let p = Pipeline::new(n).unwrap();
                 let f = frame::frame(&p, &s, 0, 0).unwrap();
-                shadow::create("csm", &owned(sets))
+                shadow::registry::create("csm", &owned(sets))
                     .unwrap()
                     .visibility(&p, &f)
                     .unwrap()
@@ -265,7 +271,7 @@ fn cascades_report_their_passes_counters_and_stages() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/long_view.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("csm", &[]).unwrap();
+    let mut t = shadow::registry::create("csm", &[]).unwrap();
     t.visibility(&p, &f).unwrap();
     let passes: Vec<&str> = t.timings().iter().map(|t| t.0).collect();
     assert_eq!(
@@ -336,9 +342,9 @@ fn a_filtered_map_takes_cascades() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/point_casters.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("vsm", &owned(&[("cascades", "4")])).unwrap();
+    let mut t = shadow::registry::create("vsm", &owned(&[("cascades", "4")])).unwrap();
     let v = t.visibility(&p, &f).unwrap();
-    let mut plain = shadow::create("vsm", &[]).unwrap();
+    let mut plain = shadow::registry::create("vsm", &[]).unwrap();
     assert_eq!(v.hash(), plain.visibility(&p, &f).unwrap().hash());
     assert!(t.notes().iter().any(|n| n.contains("cascades=4")), "{:?}", t.notes());
 }
@@ -349,7 +355,7 @@ fn wrong_per_frame(scene: &str, technique: &str, sets: &[(&str, &str)]) -> Vec<f
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let reference = penumbra::reference::Reference::new(&s);
-    let mut t = shadow::create(technique, &owned(sets)).unwrap();
+    let mut t = shadow::registry::create(technique, &owned(sets)).unwrap();
     (0..s.frame_count())
         .map(|i| {
             let f = frame::frame(&p, &s, 0, i).unwrap();
@@ -406,7 +412,10 @@ fn sdsm_tightens_the_cascades_to_the_depths_seen() {
     let view = result("street", "sdsm", &[("partition", "view"), ("split", "practical")]);
     assert_eq!(view.errors.wrong_pct, csm.errors.wrong_pct);
     for (k, v) in [("latency", "2"), ("partition", "sky")] {
-        let e = shadow::create("sdsm", &owned(&[(k, v)])).err().unwrap().to_string();
+        let e = shadow::registry::create("sdsm", &owned(&[(k, v)]))
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains(k), "{e}");
     }
 }
@@ -465,7 +474,7 @@ fn seams_jump_without_the_blend_band() {
             ("receiver", "true"),
             ("band", band),
         ]);
-        let mut t = shadow::create("csm", &sets).unwrap();
+        let mut t = shadow::registry::create("csm", &sets).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
         (v, t.light_views())
     };

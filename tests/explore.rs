@@ -160,7 +160,7 @@ fn a_pixels_steps_are_inspects_and_its_result_is_the_image() {
         .iter()
         .map(|t| t["name"].as_str().unwrap())
         .collect();
-    let reg: Vec<&str> = penumbra::shadow::registry().iter().map(|t| t.name).collect();
+    let reg: Vec<&str> = penumbra::shadow::registry::registry().iter().map(|t| t.name).collect();
     assert_eq!(names, reg);
     assert_eq!(info["technique"], "pcss");
 

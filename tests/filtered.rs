@@ -30,7 +30,7 @@ fn reference(p: &Pipeline, name: &str, f: &Frame) -> Vec<f32> {
 
 /// `technique` with `sets` on `f`: its visibility and its notes.
 fn run(p: &Pipeline, f: &Frame, technique: &str, sets: &[(&str, &str)]) -> (Vec<f32>, Vec<String>) {
-    let mut t = shadow::create(technique, &pairs(sets)).unwrap();
+    let mut t = shadow::registry::create(technique, &pairs(sets)).unwrap();
     let v = t.visibility(p, f).unwrap();
     assert!(!t.stages(p, f).unwrap().is_empty(), "{technique} lists its stages");
     (v.to_scalar(), t.notes())
@@ -319,7 +319,7 @@ fn every_filtered_technique_is_identical_for_1_2_4_threads() {
             .map(|&n| {
                 let p = Pipeline::new(n).unwrap();
                 let f = frame::frame(&p, &s, 0, 0).unwrap();
-                let mut tech = shadow::create(t, &pairs(set)).unwrap();
+                let mut tech = shadow::registry::create(t, &pairs(set)).unwrap();
                 tech.visibility(&p, &f).unwrap().hash()
             })
             .collect();
@@ -368,7 +368,7 @@ fn bad_filtered_options_are_errors_naming_the_option_and_the_limit() {
             "is not one of none, box, gaussian, mips, sat",
         ),
     ] {
-        let e = shadow::create(t, &pairs(&set))
+        let e = shadow::registry::create(t, &pairs(&set))
             .err()
             .unwrap_or_else(|| panic!("{t} {set:?} accepted"));
         let msg = e.to_string();

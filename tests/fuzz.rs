@@ -90,7 +90,7 @@ fn check_render(s: &Scene) {
         return;
     };
     for name in ["shadow-volume", "shadow-map"] {
-        let mut t = shadow::create(
+        let mut t = shadow::registry::create(
             name,
             &[("size".into(), "64".into())]
                 .into_iter()
@@ -156,7 +156,7 @@ fn mutate(seed: &[(u8, u16, u8)]) -> String {
 }
 
 fn option_case(technique: usize, key: &str, value: &str) {
-    let reg = shadow::registry();
+    let reg = shadow::registry::registry();
     let t = &reg[technique % reg.len()];
     let keys: Vec<&str> = t.options.iter().map(|o| o.key).collect();
     let key = if key.is_empty() || keys.is_empty() {
@@ -164,7 +164,7 @@ fn option_case(technique: usize, key: &str, value: &str) {
     } else {
         keys[key.len() % keys.len()].to_string()
     };
-    match shadow::create(t.name, &[(key.clone(), value.to_string())]) {
+    match shadow::registry::create(t.name, &[(key.clone(), value.to_string())]) {
         Ok(_) => {}
         Err(e) => {
             let e = e.to_string();

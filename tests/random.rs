@@ -42,7 +42,10 @@ fn hard_wrong(s: &Scene, technique: &str) -> f64 {
         ..Default::default()
     };
     let rv = p.install(|| r.visibility(f.points(), f.width() as usize, &f.light, &opts));
-    let v = shadow::create(technique, &[]).unwrap().visibility(&p, &f).unwrap();
+    let v = shadow::registry::create(technique, &[])
+        .unwrap()
+        .visibility(&p, &f)
+        .unwrap();
     compare_scalar(&v.to_scalar(), &rv.to_scalar(), &f.metric_mask()).wrong_pct
 }
 
@@ -58,7 +61,10 @@ fn hard_wrong_off_terminator(s: &Scene, technique: &str) -> (f64, f64) {
         ..Default::default()
     };
     let rv = p.install(|| r.visibility(f.points(), f.width() as usize, &f.light, &opts));
-    let v = shadow::create(technique, &[]).unwrap().visibility(&p, &f).unwrap();
+    let v = shadow::registry::create(technique, &[])
+        .unwrap()
+        .visibility(&p, &f)
+        .unwrap();
     let (facing, term) = (f.metric_mask(), f.terminator_mask());
     let mask: Vec<bool> = facing.iter().zip(&term).map(|(&m, &t)| m && !t).collect();
     let count = |m: &[bool]| m.iter().filter(|&&b| b).count() as f64;
@@ -170,7 +176,7 @@ fn errors(s: &Scene, runs: &[(&str, &[(&str, &str)])]) -> Vec<penumbra::metrics:
     runs.iter()
         .map(|(t, sets)| {
             let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            let v = shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap();
+            let v = shadow::registry::create(t, &sets).unwrap().visibility(&p, &f).unwrap();
             penumbra::metrics::compare(&v, &rv, &mask)
         })
         .collect()
@@ -216,7 +222,7 @@ fn multi_sample_volumes_equal_the_reference_at_the_same_light_points() {
             ("method".into(), "volumes".into()),
             ("samples".into(), samples.to_string()),
         ];
-        let v = shadow::create("multi-sample", &sets)
+        let v = shadow::registry::create("multi-sample", &sets)
             .unwrap()
             .visibility(&p, &f)
             .unwrap()
@@ -325,7 +331,7 @@ fn volumetric_techniques_converge() {
         let mask = f.metric_mask();
         let run = |t: &str, sets: &[(&str, &str)]| {
             let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap()
+            shadow::registry::create(t, &sets).unwrap().visibility(&p, &f).unwrap()
         };
         let dsm = run("deep-shadow-map", &[("tolerance", "0.000001"), ("filter", "nearest")]);
         let avsm: Vec<f64> = [4, 8, 16, 32]
@@ -391,8 +397,8 @@ fn every_technique_on_every_scene() {
         let f = frame::frame(&two, &s, 0, 0).unwrap();
         let f1 = frame::frame(&one, &s, 0, 0).unwrap();
         let (w, h) = (f.width(), f.height());
-        for info in shadow::registry().into_iter().filter(|t| t.applies_to(&s)) {
-            let mut t = shadow::create(info.name, &[]).unwrap();
+        for info in shadow::registry::registry().into_iter().filter(|t| t.applies_to(&s)) {
+            let mut t = shadow::registry::create(info.name, &[]).unwrap();
             let v = t.visibility(&two, &f).unwrap();
             let name = format!("seed {seed}, {}", info.name);
             for i in 0..v.len() {
@@ -423,7 +429,10 @@ fn every_technique_on_every_scene() {
                 );
                 checked += 1;
             }
-            let v1 = shadow::create(info.name, &[]).unwrap().visibility(&one, &f1).unwrap();
+            let v1 = shadow::registry::create(info.name, &[])
+                .unwrap()
+                .visibility(&one, &f1)
+                .unwrap();
             assert_eq!(v.hash(), v1.hash(), "{name}: 2 threads and 1 differ");
             if print() {
                 eprintln!("{name}: {checked} pixels inspected");

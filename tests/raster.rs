@@ -633,12 +633,12 @@ fn stencil_ops_and_masks() {
 fn blend_modes_and_color_mask() {
     let s = Vec4::new(0.5, 0.25, 1.0, 0.5);
     let d = Vec4::new(0.5, 1.0, 0.0, 1.0);
-    assert_eq!(fragment::blend(BlendMode::Replace, s, d), s);
-    assert_eq!(fragment::blend(BlendMode::Add, s, d), s + d);
-    assert_eq!(fragment::blend(BlendMode::Multiply, s, d), s * d);
-    assert_eq!(fragment::blend(BlendMode::Min, s, d), s.min(d));
-    assert_eq!(fragment::blend(BlendMode::Max, s, d), s.max(d));
-    assert_eq!(fragment::blend(BlendMode::Alpha, s, d), Vec4::new(0.5, 0.625, 0.5, 1.0));
+    assert_eq!(program::blend(BlendMode::Replace, s, d), s);
+    assert_eq!(program::blend(BlendMode::Add, s, d), s + d);
+    assert_eq!(program::blend(BlendMode::Multiply, s, d), s * d);
+    assert_eq!(program::blend(BlendMode::Min, s, d), s.min(d));
+    assert_eq!(program::blend(BlendMode::Max, s, d), s.max(d));
+    assert_eq!(program::blend(BlendMode::Alpha, s, d), Vec4::new(0.5, 0.625, 0.5, 1.0));
     let verts = [
         Vec4::new(-1.0, -1.0, 0.5, 1.0),
         Vec4::new(3.0, -1.0, 0.5, 1.0),

@@ -388,7 +388,7 @@ fn a_technique_left_out_of_a_scene_is_skipped_not_missing() {
     sweep(&[], &whole);
     let rows = rows_without_timings(&whole.join("results.csv"));
     let terrain_rows = rows.iter().filter(|r| r.iter().any(|c| c == "terrain-height")).count();
-    let sets = penumbra::shadow::registry()
+    let sets = penumbra::shadow::registry::registry()
         .into_iter()
         .find(|t| t.name == "terrain-height")
         .unwrap()
@@ -650,7 +650,10 @@ fn choose_picks_the_cheapest_setting_within_the_goal() {
     // Under the sun, with every object opaque, a technique runs when it models nothing more
     // than a hard shadow (and works on the scene); the others are listed as skipped.
     let parsed = penumbra::scene::file::parse(HARD, &scene).unwrap();
-    for t in penumbra::shadow::registry().iter().filter(|t| t.name != "reference") {
+    for t in penumbra::shadow::registry::registry()
+        .iter()
+        .filter(|t| t.name != "reference")
+    {
         let ran = runs.iter().any(|r| r["technique"] == t.name);
         assert_eq!(ran, t.models.is_empty() && t.applies_to(&parsed), "{}", t.name);
         assert_eq!(skipped.contains(&t.name), !ran, "{}", t.name);

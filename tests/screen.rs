@@ -17,7 +17,7 @@ fn scene(name: &str) -> Scene {
 /// The technique's visibility on `frame`.
 fn run(p: &Pipeline, f: &Frame, technique: &str, sets: &[(&str, &str)]) -> Vec<f32> {
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let mut t = shadow::create(technique, &sets).unwrap();
+    let mut t = shadow::registry::create(technique, &sets).unwrap();
     let v = t.visibility(p, f).unwrap();
     assert!(!t.stages(p, f).unwrap().is_empty(), "{technique} lists its stages");
     (0..v.len()).map(|i| v.value(i)).collect()
@@ -258,7 +258,7 @@ fn occlusion_heights_match_exact_ray_casting() {
     let s = scene("terrain");
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let sets = vec![("grid".to_string(), "128".to_string())];
-    let mut t = shadow::create("terrain-height", &sets).unwrap();
+    let mut t = shadow::registry::create("terrain-height", &sets).unwrap();
     t.visibility(&p, &f).unwrap();
     let stages = t.stages(&p, &f).unwrap();
     let get = |name: &str| match stages.iter().find(|s| s.name() == name) {
@@ -290,7 +290,7 @@ fn a_sun_below_the_horizon_shadows_everything() {
     let mut s = scene("terrain");
     s.lights[0].direction = glam::Vec3::new(-1.0, 0.2, -0.3).normalize();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("terrain-height", &[]).unwrap();
+    let mut t = shadow::registry::create("terrain-height", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     let covered: Vec<f32> = (0..v.len()).map(|i| v.value(i)).filter(|v| !v.is_nan()).collect();
     assert!(!covered.is_empty() && covered.iter().all(|&v| v == 0.0));
@@ -308,7 +308,7 @@ fn bad_input_is_a_clear_error() {
         ("terrain-height", "grid", "0", "outside [2, 8192]"),
         ("terrain-height", "iterations", "1000", "outside [0, 40]"),
     ] {
-        let e = shadow::create(technique, &[(key.to_string(), value.to_string())])
+        let e = shadow::registry::create(technique, &[(key.to_string(), value.to_string())])
             .err()
             .unwrap_or_else(|| panic!("{technique} {key}={value} accepted"))
             .to_string();
@@ -318,13 +318,13 @@ fn bad_input_is_a_clear_error() {
     let p = Pipeline::new(2).unwrap();
     let s = scene("contact");
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("terrain-height", &[]).unwrap();
+    let mut t = shadow::registry::create("terrain-height", &[]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap().to_string();
     assert!(
         e.contains("terrain-height") && e.contains("heightfield") && e.contains("ground, box"),
         "{e}"
     );
-    assert!(!shadow::registry()
+    assert!(!shadow::registry::registry()
         .iter()
         .find(|t| t.name == "terrain-height")
         .unwrap()
@@ -350,7 +350,7 @@ fn screen_techniques_are_the_same_for_any_thread_count() {
             .map(|&n| {
                 let p = Pipeline::new(n).unwrap();
                 let f = frame::frame(&p, &s, 0, 0).unwrap();
-                let mut t = shadow::create(technique, &[]).unwrap();
+                let mut t = shadow::registry::create(technique, &[]).unwrap();
                 t.visibility(&p, &f).unwrap().hash()
             })
             .collect();
@@ -365,7 +365,7 @@ fn occlusion_heights_follow_the_sun() {
     let p = Pipeline::new(2).unwrap();
     let heights = |s: &Scene| {
         let f = frame::frame(&p, s, 0, 0).unwrap();
-        let mut t = shadow::create("terrain-height", &[("grid".to_string(), "256".to_string())]).unwrap();
+        let mut t = shadow::registry::create("terrain-height", &[("grid".to_string(), "256".to_string())]).unwrap();
         t.visibility(&p, &f).unwrap();
         let stages = t.stages(&p, &f).unwrap();
         match stages.iter().find(|s| s.name() == "occlusion_above_surface") {

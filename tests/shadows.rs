@@ -25,7 +25,7 @@ fn with_reference<T>(
     let key = run::reference_key(&text, &f, 0, &Default::default());
     let (r, _, _) = run::reference(&p, &f, key, None).unwrap();
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let mut t = shadow::create(technique, &sets).unwrap();
+    let mut t = shadow::registry::create(technique, &sets).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     assert!(!t.stages(&p, &f).unwrap().is_empty(), "{technique} lists its stages");
     then(&v, &r, &f)
@@ -110,7 +110,10 @@ fn hard_techniques_miss_the_penumbra_and_translucency() {
 fn registry_rejects_unknown_names_and_bad_values() {
     let bad = |name: &str, sets: &[(&str, &str)]| {
         let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        shadow::create(name, &sets).err().expect("must be an error").to_string()
+        shadow::registry::create(name, &sets)
+            .err()
+            .expect("must be an error")
+            .to_string()
     };
     assert!(bad("shadow-mop", &[]).contains("unknown technique 'shadow-mop' (known: reference, shadow-map"));
     assert!(bad("shadow-map", &[("sise", "1")]).contains("option sise=1 is unknown (options: size, format"));
@@ -119,7 +122,7 @@ fn registry_rejects_unknown_names_and_bad_values() {
     assert!(bad("shadow-map", &[("filter", "gauss")]).contains("not one of none, pcf2"));
     // Callers match on what went wrong: the technique and the key are fields.
     let sets = [("size".to_string(), "0".to_string())];
-    match shadow::create("pcss", &sets).err() {
+    match shadow::registry::create("pcss", &sets).err() {
         Some(penumbra::Error::Option {
             technique, key, value, ..
         }) => {
@@ -131,16 +134,16 @@ fn registry_rejects_unknown_names_and_bad_values() {
         e => panic!("not an option error: {e:?}"),
     }
     assert!(matches!(
-        shadow::create("nope", &[]),
+        shadow::registry::create("nope", &[]),
         Err(penumbra::Error::Technique { .. })
     ));
-    assert!(shadow::parse_sets(&["size".into()]).is_err());
-    for t in shadow::registry() {
+    assert!(shadow::registry::parse_sets(&["size".into()]).is_err());
+    for t in shadow::registry::registry() {
         assert!(!t.sweep.is_empty(), "{} declares sweep sets", t.name);
         for set in t.sweep.iter().chain(t.extended) {
             let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
             assert!(
-                shadow::create(t.name, &sets).is_ok(),
+                shadow::registry::create(t.name, &sets).is_ok(),
                 "{} sweep set {set:?} is valid",
                 t.name
             );
@@ -344,7 +347,7 @@ fn fitting_lists_the_fitted_frustum_and_improves_long_views() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/long_view.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("shadow-map", &[("fit".into(), "receivers".into())]).unwrap();
+    let mut t = shadow::registry::create("shadow-map", &[("fit".into(), "receivers".into())]).unwrap();
     t.visibility(&p, &f).unwrap();
     let names: Vec<String> = t.stages(&p, &f).unwrap().iter().map(|s| s.name().to_string()).collect();
     assert_eq!(names, ["depth_map0", "fitted_frustum", "texel_footprint"]);
@@ -368,7 +371,7 @@ fn point_light_inside_a_caster_shadows_everything_outside() {
     let s = penumbra::scene::file::parse(text, Path::new("inside.toml")).unwrap();
     let p = Pipeline::new(2).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("shadow-map", &[]).unwrap();
+    let mut t = shadow::registry::create("shadow-map", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     let (r, _, _) = run::reference(&p, &f, 0, None).unwrap();
     let mask = f.metric_mask();
@@ -470,7 +473,7 @@ fn broken_meshes_are_reported_and_still_shadow_exactly() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new(&scene)).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("shadow-volume", &[]).unwrap();
+    let mut t = shadow::registry::create("shadow-volume", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     let notes = t.notes().join("\n");
     for what in [
@@ -513,7 +516,7 @@ fn auto_mode_picks_z_fail_only_when_the_near_plane_may_be_shadowed() {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         assert_eq!(shadow::volume::shadow_volume::zpass_is_safe(&f), zpass, "{scene}");
-        let mut t = shadow::create("shadow-volume", &[]).unwrap();
+        let mut t = shadow::registry::create("shadow-volume", &[]).unwrap();
         t.visibility(&p, &f).unwrap();
         let name = t.stages(&p, &f).unwrap()[0].name().to_string();
         assert_eq!(
@@ -554,7 +557,7 @@ fn run_hard(scene: &str, technique: &str, sets: &[(&str, &str)]) -> (Vec<f32>, V
     };
     let rv = p.install(|| r.visibility(f.points(), f.width() as usize, &f.light, &opts));
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let mut t = shadow::create(technique, &sets).unwrap();
+    let mut t = shadow::registry::create(technique, &sets).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     (
         v.to_scalar(),
@@ -626,7 +629,7 @@ fn planar_casters_beyond_the_light_cast_nothing() {
         ("nothing", "option receiver=nothing names no object of the scene"),
         ("post", "not planar"),
     ] {
-        let mut t = shadow::create("planar", &[("receiver".into(), r.into())]).unwrap();
+        let mut t = shadow::registry::create("planar", &[("receiver".into(), r.into())]).unwrap();
         let e = t.visibility(&p, &f).err().unwrap().to_string();
         assert!(e.contains(what), "{e}");
     }
@@ -661,7 +664,7 @@ fn cookies_cannot_self_shadow_and_shadow_backwards() {
     let p = Pipeline::new(1).unwrap();
     let s = load(Path::new("fixtures/scenes/cookie.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("cookie", &[("occluders".into(), "upper, nope".into())]).unwrap();
+    let mut t = shadow::registry::create("cookie", &[("occluders".into(), "upper, nope".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap().to_string();
     assert!(
         e.contains("occluders=nope names no object") && e.contains("shelf"),
@@ -780,7 +783,7 @@ fn coloured_glass_gives_a_colour_reference_that_no_scalar_technique_matches() {
         c.max_element() > 0.0 && c.max_element() < 0.2
     }));
     // A scalar technique's best single value per pixel still misses the channels.
-    let mut t = shadow::create("shadow-volume", &[]).unwrap();
+    let mut t = shadow::registry::create("shadow-volume", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     assert!(!v.is_rgb());
     let e = compare(&v, &r, &f.metric_mask());
@@ -810,12 +813,12 @@ fn inspect_agrees_with_the_image_at_many_pixels() {
         let s = load(path).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let (w, h) = (f.width(), f.height());
-        for info in shadow::registry().into_iter().filter(|t| t.applies_to(&s)) {
+        for info in shadow::registry::registry().into_iter().filter(|t| t.applies_to(&s)) {
             let sets: Vec<(String, String)> = info.sweep[0]
                 .iter()
                 .map(|(k, v)| (k.to_string(), v.to_string()))
                 .collect();
-            let mut t = shadow::create(info.name, &sets).unwrap();
+            let mut t = shadow::registry::create(info.name, &sets).unwrap();
             let v = t.visibility(&p, &f).unwrap();
             let coarse = matches!(info.name, "multi-sample" | "izb" | "hybrid");
             let (dx, dy) = if coarse { (29, 29) } else { (1, 1) };
@@ -860,10 +863,10 @@ fn inspect_explains_a_pixel_for_every_technique() {
     // equal to the image's value there.
     let (x, y) = (f.width() / 2, f.height() * 3 / 4);
     assert!(f.point(x, y).is_some());
-    for info in shadow::registry().into_iter().filter(|t| t.applies_to(&s)) {
+    for info in shadow::registry::registry().into_iter().filter(|t| t.applies_to(&s)) {
         for set in info.sweep.iter().take(2) {
             let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            let mut t = shadow::create(info.name, &sets).unwrap();
+            let mut t = shadow::registry::create(info.name, &sets).unwrap();
             let v = t.visibility(&p, &f).unwrap();
             let steps = t.inspect(&f, x, y);
             let last = steps.last().unwrap_or_else(|| panic!("{} explains nothing", info.name));
@@ -1051,7 +1054,7 @@ fn izb_with_sub_pixel_samples_is_exact_at_its_samples_and_anti_aliases_edges() {
 fn izb_input_errors_and_a_light_no_sample_faces() {
     let bad = |sets: &[(&str, &str)]| {
         let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        shadow::create("izb", &sets)
+        shadow::registry::create("izb", &sets)
             .err()
             .expect("must be an error")
             .to_string()
@@ -1063,7 +1066,7 @@ fn izb_input_errors_and_a_light_no_sample_faces() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/contact.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("izb", &[("capacity".into(), "1000".into())]).unwrap();
+    let mut t = shadow::registry::create("izb", &[("capacity".into(), "1000".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap();
     assert!(
         matches!(e, penumbra::Error::Budget { resource: penumbra::Resource::Entries, limit: 1000, needed, .. } if needed > 1000),
@@ -1077,7 +1080,7 @@ fn izb_input_errors_and_a_light_no_sample_faces() {
     let text = "[camera]\nposition = [0, 3, 6]\ntarget = [0, 0, 0]\nresolution = [64, 48]\n\n[[light]]\ntype = \"directional\"\ndirection = [0.2, 1, 0.1]\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\n";
     let s = penumbra::scene::file::parse(text, Path::new("below.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("izb", &[]).unwrap();
+    let mut t = shadow::registry::create("izb", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap().to_scalar();
     let covered: Vec<f32> = v.iter().copied().filter(|x| !x.is_nan()).collect();
     assert!(covered.len() > 1000 && covered.iter().all(|&x| x == 0.0));
@@ -1091,7 +1094,7 @@ fn izb_is_identical_for_1_2_4_threads() {
     let run = |threads: usize| {
         let p = Pipeline::new(threads).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        let mut t = shadow::create("izb", &[("samples".into(), "4".into())]).unwrap();
+        let mut t = shadow::registry::create("izb", &[("samples".into(), "4".into())]).unwrap();
         let v = t.visibility(&p, &f).unwrap();
         (v.hash(), t.counters().iter().map(|c| c.1.to_bits()).collect::<Vec<_>>())
     };
@@ -1139,7 +1142,10 @@ fn visibility_of(
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    shadow::create(technique, &sets).unwrap().visibility(&p, &f).unwrap()
+    shadow::registry::create(technique, &sets)
+        .unwrap()
+        .visibility(&p, &f)
+        .unwrap()
 }
 
 #[test]
@@ -1199,7 +1205,7 @@ fn avsm_without_transparent_casters_is_the_shadow_map() {
 #[test]
 fn avsm_rejects_bad_node_counts_and_is_identical_for_any_thread_count() {
     for n in ["0", "65"] {
-        let e = shadow::create("avsm", &[("nodes".into(), n.into())])
+        let e = shadow::registry::create("avsm", &[("nodes".into(), n.into())])
             .err()
             .unwrap()
             .to_string();
@@ -1217,7 +1223,10 @@ fn rmse_on(scene: &str, technique: &str, pick: &dyn Fn(&str) -> bool) -> f64 {
     let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let (r, _, _) = run::reference(&p, &f, 0, None).unwrap();
-    let v = shadow::create(technique, &[]).unwrap().visibility(&p, &f).unwrap();
+    let v = shadow::registry::create(technique, &[])
+        .unwrap()
+        .visibility(&p, &f)
+        .unwrap();
     let objs = f.gbuffer.object.data();
     let mask: Vec<bool> = f
         .metric_mask()
@@ -1328,7 +1337,7 @@ fn opacity_maps_band_between_slices_and_deep_opacity_maps_need_fewer() {
         );
     }
     for n in ["0", "65"] {
-        let err = shadow::create("opacity-maps", &[("slices".into(), n.into())])
+        let err = shadow::registry::create("opacity-maps", &[("slices".into(), n.into())])
             .err()
             .unwrap()
             .to_string();
@@ -1387,12 +1396,12 @@ fn deep_shadow_maps_match_the_transmittance_and_bound_avsm() {
     }
     // Bad input: a tolerance outside (0, 1), a pool too small (the error says how large).
     for t in ["0", "1"] {
-        assert!(shadow::create("deep-shadow-map", &[("tolerance".into(), t.into())]).is_err());
+        assert!(shadow::registry::create("deep-shadow-map", &[("tolerance".into(), t.into())]).is_err());
     }
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/smoke.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), "1000".into())]).unwrap();
+    let mut t = shadow::registry::create("deep-shadow-map", &[("capacity".into(), "1000".into())]).unwrap();
     let e = t.visibility(&p, &f).err().unwrap();
     assert!(e.to_string().contains("(option capacity): "), "{e}");
     // The number the error names is enough, and one fewer is not: the pool never holds more
@@ -1407,12 +1416,12 @@ fn deep_shadow_maps_match_the_transmittance_and_bound_avsm() {
         e => panic!("not the fragment budget: {e:?}"),
     };
     let needed = n.to_string();
-    let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), needed.clone())]).unwrap();
+    let mut t = shadow::registry::create("deep-shadow-map", &[("capacity".into(), needed.clone())]).unwrap();
     t.visibility(&p, &f).unwrap();
     let counter = |t: &dyn shadow::ShadowTechnique, name: &str| t.counters().iter().find(|c| c.0 == name).unwrap().1;
     assert_eq!(counter(&*t, "fragments") as u64, n);
     assert!(counter(&*t, "peak bytes") >= counter(&*t, "fragment-list bytes"));
-    let mut t = shadow::create("deep-shadow-map", &[("capacity".into(), (n - 1).to_string())]).unwrap();
+    let mut t = shadow::registry::create("deep-shadow-map", &[("capacity".into(), (n - 1).to_string())]).unwrap();
     assert!(t.visibility(&p, &f).is_err());
 }
 
@@ -1466,7 +1475,7 @@ fn min_max_hierarchy_gives_the_same_image_with_fewer_taps() {
                 } else {
                     ("receiver", "true")
                 };
-                let mut t = shadow::create(
+                let mut t = shadow::registry::create(
                     "shadow-map",
                     &[
                         ("filter".into(), filter.into()),
@@ -1514,7 +1523,7 @@ fn bad_kernel_options_are_errors() {
         ("taps", "257", "outside [1, 256]"),
         ("kernel", "0", "outside"),
     ] {
-        let e = shadow::create(
+        let e = shadow::registry::create(
             "shadow-map",
             &[("filter".into(), "poisson".into()), (k.into(), v.into())],
         )
@@ -1523,7 +1532,7 @@ fn bad_kernel_options_are_errors() {
         .to_string();
         assert!(e.contains(says), "{k}={v}: {e}");
     }
-    let e = shadow::create(
+    let e = shadow::registry::create(
         "shadow-map",
         &[
             ("filter".into(), "grid".into()),
@@ -1609,7 +1618,11 @@ fn pcss_is_the_hard_map_without_a_light_width_and_softens_with_one() {
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let hash = |t: &str, sets: &[(&str, &str)]| {
             let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap().hash()
+            shadow::registry::create(t, &sets)
+                .unwrap()
+                .visibility(&p, &f)
+                .unwrap()
+                .hash()
         };
         // Light width 0 (contact), a point light (point_casters) and a directional light
         // without an angle (grazing) are all the 2x2-PCF shadow map.
@@ -1640,7 +1653,7 @@ fn pcss_hierarchy_gives_the_same_image_with_fewer_taps() {
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         for (disk, receiver) in [("poisson", "false"), ("spiral", "false"), ("poisson", "true")] {
             let run = |h: &str| {
-                let mut t = shadow::create(
+                let mut t = shadow::registry::create(
                     "pcss",
                     &[
                         ("disk".into(), disk.into()),
@@ -1735,10 +1748,10 @@ fn multi_sample_area_light_converges_to_the_reference() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/point_casters.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("multi-sample", &[]).unwrap();
+    let mut t = shadow::registry::create("multi-sample", &[]).unwrap();
     let v = t.visibility(&p, &f).unwrap();
     assert_eq!(counter(&*t, "samples"), 1.0);
-    let hard = shadow::create(
+    let hard = shadow::registry::create(
         "shadow-map",
         &[("filter".into(), "pcf2".into()), ("size".into(), "1024".into())],
     )
@@ -1759,7 +1772,10 @@ fn bad_soft_shadow_options_are_errors() {
         ("multi-sample", "samples", "0", "outside [1, 1024]"),
         ("multi-sample", "method", "rays", "not one of maps, volumes"),
     ] {
-        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap().to_string();
+        let e = shadow::registry::create(t, &[(k.into(), v.into())])
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains(says) && e.contains(t), "{t} {k}={v}: {e}");
     }
 }
@@ -1794,14 +1810,18 @@ fn chs_matches_the_area_light_better_than_pcss_and_is_the_hard_map_without_a_wid
     let f = frame::frame(&p, &s, 0, 0).unwrap();
     let hash = |t: &str, sets: &[(&str, &str)]| {
         let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-        shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap().hash()
+        shadow::registry::create(t, &sets)
+            .unwrap()
+            .visibility(&p, &f)
+            .unwrap()
+            .hash()
     };
     assert_eq!(
         hash("chs", &[("light", "0")]),
         hash("shadow-map", &[("filter", "pcf2"), ("receiver", "true")])
     );
     for (k, v) in [("kernel", "0"), ("kernel", "16"), ("light", "-1")] {
-        let e = shadow::create("chs", &[(k.into(), v.into())])
+        let e = shadow::registry::create("chs", &[(k.into(), v.into())])
             .err()
             .unwrap()
             .to_string();
@@ -1852,7 +1872,7 @@ fn hybrid_is_exact_near_contact_and_leaks_nowhere() {
     let leak = errors("contact", "pcss", &[("units", "100000")]).wrong_pct;
     let fixed = errors("contact", "hybrid", &[("units", "100000")]).wrong_pct;
     assert!(leak > 3.0 && fixed < 0.05, "pcss {leak} %, hybrid {fixed} %");
-    let e = shadow::create("hybrid", &[("from".into(), "5".into()), ("to".into(), "2".into())])
+    let e = shadow::registry::create("hybrid", &[("from".into(), "5".into()), ("to".into(), "2".into())])
         .err()
         .unwrap()
         .to_string();
@@ -1882,7 +1902,11 @@ fn penumbra_volumes_without_a_radius_are_the_hard_map() {
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let hash = |t: &str, sets: &[(&str, &str)]| {
             let sets: Vec<(String, String)> = sets.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            shadow::create(t, &sets).unwrap().visibility(&p, &f).unwrap().hash()
+            shadow::registry::create(t, &sets)
+                .unwrap()
+                .visibility(&p, &f)
+                .unwrap()
+                .hash()
         };
         // contact has a disk light (radius 0 by `light=0`), point_casters a point light.
         let zero: &[(&str, &str)] = if scene == "contact" { &[("light", "0")] } else { &[] };
@@ -1953,7 +1977,7 @@ fn pvmf_min_max_chains_skip_taps_and_change_nothing() {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let run = |h: &str| {
-            let mut t = shadow::create("pvmf", &[("hierarchy".to_string(), h.to_string())]).unwrap();
+            let mut t = shadow::registry::create("pvmf", &[("hierarchy".to_string(), h.to_string())]).unwrap();
             let v = t.visibility(&p, &f).unwrap();
             let taps = t.counters().iter().find(|(n, _)| *n == "taps").map(|c| c.1).unwrap();
             (v.hash(), taps)
@@ -1985,7 +2009,10 @@ fn pvmf_without_jitter_bands_where_edges_cross_its_grid() {
                 ("blur".to_string(), "0".to_string()),
                 ("jitter".to_string(), jitter.to_string()),
             ];
-            let v = shadow::create("pvmf", &sets).unwrap().visibility(&p, &f).unwrap();
+            let v = shadow::registry::create("pvmf", &sets)
+                .unwrap()
+                .visibility(&p, &f)
+                .unwrap();
             penumbra::metrics::banding(&v, &r, &mask, f.gbuffer.object.data(), f.width() as usize)
         };
         let (off, on) = (bands("false"), bands("true"));
@@ -2065,10 +2092,16 @@ fn bad_penumbra_volume_options_are_errors() {
         ("pvmf", "layer", "id", "stores no depth"),
         ("pvmf", "ids", "bone", "not one of object, group, none"),
     ] {
-        let e = shadow::create(t, &[(k.into(), v.into())]).err().unwrap().to_string();
+        let e = shadow::registry::create(t, &[(k.into(), v.into())])
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains(says) && e.contains(t), "{t} {k}={v}: {e}");
     } // `penumbra list` prints the interval that is checked (it printed [0, 1] for spread).
-    let info = shadow::registry().into_iter().find(|t| t.name == "pvmf").unwrap();
+    let info = shadow::registry::registry()
+        .into_iter()
+        .find(|t| t.name == "pvmf")
+        .unwrap();
     let spread = info.options.iter().find(|o| o.key == "spread").unwrap();
     assert!(spread.ty.ends_with("in (0, 1]"), "{}", spread.ty);
 }

@@ -23,14 +23,14 @@ fn hashes() -> Vec<String> {
     for scene in SCENES.iter().chain(SPECIAL) {
         let s = load(Path::new(&format!("fixtures/scenes/{scene}.toml"))).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        for t in shadow::registry() {
+        for t in shadow::registry::registry() {
             let special = SPECIAL.contains(scene);
             if t.name == "reference" || !t.applies_to(&s) || (special && t.applies.is_none()) {
                 continue;
             }
             for set in t.sweep.iter().chain(t.extended) {
                 let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-                let mut tech = shadow::create(t.name, &sets).unwrap();
+                let mut tech = shadow::registry::create(t.name, &sets).unwrap();
                 let v = tech.visibility(&p, &f).unwrap();
                 let label = sets
                     .iter()

@@ -93,7 +93,7 @@ fn degenerate_warps_fall_back_and_say_so() {
     let s = parse(&text, Path::new("street_along.toml")).unwrap();
     let p = Pipeline::new(2).unwrap();
     for technique in ["lispsm", "tsm", "psm", "logpsm"] {
-        let mut t = shadow::create(technique, &[]).unwrap();
+        let mut t = shadow::registry::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let v = t.visibility(&p, &f).unwrap().to_scalar();
         assert!(v.iter().all(|x| x.is_nan() || (0.0..=1.0).contains(x)));
@@ -130,7 +130,7 @@ fn warps_refuse_other_lights_and_bad_options() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/facing_light.toml")).unwrap();
     for technique in ["lispsm", "tsm", "psm", "logpsm"] {
-        let mut t = shadow::create(technique, &[]).unwrap();
+        let mut t = shadow::registry::create(technique, &[]).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
         let e = t.visibility(&p, &f).unwrap_err().to_string();
         assert!(e.contains("directional") && e.contains("spot"), "{e}");
@@ -147,7 +147,7 @@ fn warps_refuse_other_lights_and_bad_options() {
         ("logpsm", "n_scale", "1000"),
         ("logpsm", "shift", "true"),
     ] {
-        let e = shadow::create(technique, &owned(&[(key, value)]))
+        let e = shadow::registry::create(technique, &owned(&[(key, value)]))
             .err()
             .unwrap()
             .to_string();
@@ -241,7 +241,7 @@ fn psm_lights_across_ahead_and_along_the_view() {
         let changed = text.replace("direction = [0.3, -0.577, -0.76]", &format!("direction = {direction}"));
         let s = parse(&changed, Path::new("street_psm.toml")).unwrap();
         let f = frame::frame(&p, &s, 0, 0).unwrap();
-        let mut t = shadow::create("psm", &[]).unwrap();
+        let mut t = shadow::registry::create("psm", &[]).unwrap();
         t.visibility(&p, &f).unwrap();
         let wrong = penumbra::run::render(&p, &s, &changed, "psm", &[], 0, None)
             .unwrap()
@@ -332,7 +332,7 @@ fn logpsm_raises_n_for_precision_and_refuses_peeled_layers() {
     let p = Pipeline::new(2).unwrap();
     let s = load(Path::new("fixtures/scenes/behind_eye.toml")).unwrap();
     let f = frame::frame(&p, &s, 0, 0).unwrap();
-    let mut t = shadow::create("logpsm", &owned(&[("n_scale", "0.1")])).unwrap();
+    let mut t = shadow::registry::create("logpsm", &owned(&[("n_scale", "0.1")])).unwrap();
     let v = t.visibility(&p, &f).unwrap().to_scalar();
     assert!(v.iter().all(|x| x.is_nan() || (0.0..=1.0).contains(x)));
     let notes = t.notes();
@@ -343,10 +343,10 @@ fn logpsm_raises_n_for_precision_and_refuses_peeled_layers() {
     let ratio = get("logpsm far / near");
     assert!((300.0..400.0).contains(&ratio), "far / near {ratio}");
     for layer in ["midpoint", "id"] {
-        let mut t = shadow::create("logpsm", &owned(&[("layer", layer)])).unwrap();
+        let mut t = shadow::registry::create("logpsm", &owned(&[("layer", layer)])).unwrap();
         let e = t.visibility(&p, &f).unwrap_err().to_string();
         assert!(e.contains("layer") && e.contains(layer), "{layer}: {e}");
     }
-    let mut t = shadow::create("logpsm", &owned(&[("layer", "second")])).unwrap();
+    let mut t = shadow::registry::create("logpsm", &owned(&[("layer", "second")])).unwrap();
     t.visibility(&p, &f).unwrap();
 }

@@ -391,8 +391,8 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), CliError> {
 }
 
 pub fn technique(a: TechniqueArgs) -> Result<(), CliError> {
-    let sets = penumbra::shadow::parse_sets(&a.sets)?;
-    let mut t = penumbra::shadow::create(&a.technique, &sets)?;
+    let sets = penumbra::shadow::registry::parse_sets(&a.sets)?;
+    let mut t = penumbra::shadow::registry::create(&a.technique, &sets)?;
     let resolution = a.resolution.as_deref().map(parse_resolution).transpose()?;
     let p = Pipeline::new(a.common.threads)?;
     let mut scene = match &a.scene {

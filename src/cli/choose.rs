@@ -5,10 +5,11 @@
 use super::scene::{cache, load, pipeline};
 use super::sweep::Progress;
 use crate::error::CliError;
-use penumbra::choose::{analyse, choose, fmt_error, Goal};
+use penumbra::choose::{analyse, choose, fmt_error, Goal, NoPick};
 use penumbra::report::chart::class_chart_svg;
 use penumbra::report::files::{create_folder, write_plain};
 use penumbra::run::{self, RunResult};
+use penumbra::Error;
 use std::path::PathBuf;
 
 /// Options of `penumbra choose`.
@@ -49,7 +50,13 @@ pub fn parse_number(s: &str) -> Result<f64, String> {
 /// `penumbra choose`.
 pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
     if let Some(g) = o.goal {
-        g.check()?;
+        // The goal's option is this command's flag of the same name.
+        g.check().map_err(|e| match e {
+            Error::Option {
+                key, value, message, ..
+            } => CliError(format!("--{key} {value}: {message}")),
+            e => CliError::from(e),
+        })?;
     }
     let (mut s, text) = load(&o.scene)?;
     let scaled = |v: u32| ((v as f64 * o.scale).round() as u32).clamp(1, penumbra::pipeline::MAX_DIMENSION);
@@ -135,7 +142,7 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
             "runs": (0..results.len()).map(entry).collect::<Vec<_>>(),
             "front": choice.front.iter().map(|&i| entry(i)).collect::<Vec<_>>(),
             "pick": choice.pick.as_ref().ok().map(|&i| entry(i)),
-            "why_no_pick": choice.pick.as_ref().err(),
+            "why_no_pick": choice.pick.as_ref().err().map(|e| &e.0),
             "alternatives": choice.alternatives.iter().map(|&i| entry(i)).collect::<Vec<_>>(),
             "chart": chart.display().to_string(),
         });
@@ -185,7 +192,7 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
 }
 
 /// The front's rows: error, time, and `<- pick` beside the pick.
-fn print_rows(results: &[RunResult], rows: &[usize], pick: &Result<usize, String>) {
+fn print_rows(results: &[RunResult], rows: &[usize], pick: &Result<usize, NoPick>) {
     let width = rows.iter().map(|&i| results[i].label().len()).max().unwrap_or(0);
     for &i in rows {
         let r = &results[i];

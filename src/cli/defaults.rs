@@ -41,7 +41,7 @@ type Jobs<'a> = Vec<(&'a str, Vec<(String, String)>)>;
 
 /// `penumbra defaults`.
 pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
-    let reg = shadow::registry();
+    let reg = shadow::registry::registry();
     for t in &o.techniques {
         if !reg.iter().any(|i| i.name == t) {
             return Err(format!(
@@ -89,7 +89,7 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
             .filter(|t| t.models.contains(&effect) && wanted(t.name, t.models))
         {
             for set in t.sweep.iter().chain(t.extended) {
-                jobs.push((t.name, shadow::owned_sets(set)));
+                jobs.push((t.name, shadow::registry::owned_sets(set)));
             }
         }
         if jobs.len() > 1 {

@@ -59,8 +59,8 @@ pub struct ExploreOpts {
 
 /// `penumbra explore`: serves until Ctrl-C.
 pub fn explore(o: ExploreOpts) -> Result<(), CliError> {
-    let sets = shadow::parse_sets(&o.sets)?;
-    shadow::create(&o.technique, &sets)?;
+    let sets = shadow::registry::parse_sets(&o.sets)?;
+    shadow::registry::create(&o.technique, &sets)?;
     let (s, text) = scene::load(&o.scene)?;
     let p = scene::pipeline(o.threads)?;
     let listener =
@@ -442,7 +442,7 @@ impl<'a> State<'a> {
     /// The scene and the registry: techniques, their options (type, range, default), and
     /// which apply to the scene.
     fn info(&self) -> serde_json::Value {
-        let techniques: Vec<_> = shadow::registry()
+        let techniques: Vec<_> = shadow::registry::registry()
             .iter()
             .map(|t| {
                 json!({
@@ -493,7 +493,7 @@ impl<'a> State<'a> {
             .filter(|(k, _)| k == "set")
             .map(|(_, v)| v.clone())
             .collect();
-        let sets = shadow::parse_sets(&sets)?;
+        let sets = shadow::registry::parse_sets(&sets)?;
         let count = self.scene.frame_count();
         let index = match param(params, "frame") {
             None => 0,
@@ -505,7 +505,7 @@ impl<'a> State<'a> {
                 )
             })?,
         };
-        let mut t = shadow::create(&technique, &sets)?;
+        let mut t = shadow::registry::create(&technique, &sets)?;
         let f = frame::frame(self.p, self.scene, 0, index)?;
         let reference = match self.references.get(&index) {
             Some(r) => r.clone(),

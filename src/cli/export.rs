@@ -154,7 +154,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
 /// `penumbra list`.
 pub fn list() -> Result<(), CliError> {
     println!("techniques:");
-    for t in shadow::registry() {
+    for t in shadow::registry::registry() {
         println!("  {:<12} {}", t.name, t.summary);
         for o in &t.options {
             let kv = format!("{}={}", o.key, o.default);

@@ -42,8 +42,8 @@ pub fn render(
     reps: usize,
     out: &Path,
 ) -> Result<(), CliError> {
-    let sets = shadow::parse_sets(sets)?;
-    shadow::create(technique, &sets)?;
+    let sets = shadow::registry::parse_sets(sets)?;
+    shadow::registry::create(technique, &sets)?;
     let (s, text) = load(scene)?;
     let p = pipeline(threads)?;
     let dir_cache = cache(out);
@@ -177,8 +177,8 @@ const FLOAT_FORMATS: [(&str, FloatWriter); 2] = [("pfm", write_pfm), ("exr", wri
 
 /// `penumbra dump`.
 pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out: &Path) -> Result<(), CliError> {
-    let sets = shadow::parse_sets(sets)?;
-    let mut t = shadow::create(technique, &sets)?;
+    let sets = shadow::registry::parse_sets(sets)?;
+    let mut t = shadow::registry::create(technique, &sets)?;
     let (s, _) = load(scene)?;
     let p = pipeline(threads)?;
     let f = frame::frame(&p, &s, 0, 0)?;
@@ -367,8 +367,8 @@ pub fn inspect(
     threads: usize,
     json: bool,
 ) -> Result<(), CliError> {
-    let sets = shadow::parse_sets(sets)?;
-    let mut t = shadow::create(technique, &sets)?;
+    let sets = shadow::registry::parse_sets(sets)?;
+    let mut t = shadow::registry::create(technique, &sets)?;
     let (x, y) = parse_pixel(pixel)?;
     let (s, _) = load(scene)?;
     let p = pipeline(threads)?;

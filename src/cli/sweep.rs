@@ -160,7 +160,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
             .collect();
         scenes.sort();
     }
-    let reg = shadow::registry();
+    let reg = shadow::registry::registry();
     let names: Vec<&str> = if o.techniques == "all" {
         reg.iter().map(|t| t.name).collect()
     } else {
@@ -180,7 +180,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
     for t in reg.iter().filter(|t| names.contains(&t.name)) {
         let extended: &[&[(&str, &str)]] = if o.all { t.extended } else { &[] };
         for set in t.sweep.iter().chain(extended) {
-            jobs.push((t.name, shadow::owned_sets(set)));
+            jobs.push((t.name, shadow::registry::owned_sets(set)));
         }
     }
     let p = pipeline(o.threads)?;
@@ -295,7 +295,11 @@ fn print_outputs(out: &Path) {
 fn check_shard(dir: &Path, rows: &[RunResult], m: &Manifest) -> Result<(), CliError> {
     let csv = dir.join("results.csv");
     let json = dir.join("sweep.json");
-    let known: Vec<&str> = shadow::registry().iter().map(|t| t.name).chain(["reference"]).collect();
+    let known: Vec<&str> = shadow::registry::registry()
+        .iter()
+        .map(|t| t.name)
+        .chain(["reference"])
+        .collect();
     for (k, setting) in m.settings.iter().enumerate() {
         let name = setting.split(" [").next().unwrap_or("");
         if !known.contains(&name) {

@@ -25,11 +25,13 @@
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
 use super::bin::{Chunk, TileTris, TILE, TILE_SHIFT};
-use super::fragment::{depth_span, depth_span_x4, ColorFormat, FragmentProgram, RawTargets};
+use super::lanes::Fragment4;
+use super::program::{ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
+use super::spans::{depth_span, depth_span_x4};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
 use super::vertex::Varyings;
-use super::wide::{fragment4_at, shade_fragment4, Fragment4, Stores, WideState, WideTri};
+use super::wide::{fragment4_at, shade_fragment4, Stores, WideState, WideTri};
 use super::DrawStats;
 use glam::Vec4;
 
@@ -107,6 +109,7 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
                         for (ly, lo, hi) in cover.spans() {
                             // SAFETY: row `ly` of the tile, in the target and in the buffer.
                             let row = unsafe { origin.add(ly as usize * depth.stride) };
+                            // SAFETY: the id buffer holds TILE rows of TILE pixels, and ly < TILE.
                             let idrow = unsafe { idp.add(ly as usize * TILE as usize) };
                             let ids = Some((idrow, k));
                             passed += if (hi | 3) < tw {

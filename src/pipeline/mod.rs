@@ -41,31 +41,36 @@ pub mod compute;
 pub mod deferred;
 pub mod fixed;
 pub mod fragment;
+pub mod lanes;
 pub mod lists;
 pub mod ordered;
+pub mod program;
 pub mod raster;
 pub mod sampler;
 pub mod samples;
 pub mod setup;
+pub mod spans;
 pub mod state;
 pub mod surface;
 pub mod vertex;
 pub mod wide;
 
-pub use fragment::{ColorFormat, DepthOnly, DiscardingShader, Fragment, FragmentProgram, Rgba8, Shader};
+pub use lanes::Fragment;
+pub use lanes::{Color4, Fragment4, Vec3x4};
 pub use lists::{FragmentLists, ListNode};
 pub use ordered::{OrderedProgram, PixelStore};
+pub use program::{ColorFormat, DepthOnly, DiscardingShader, FragmentProgram, Rgba8, Shader};
 pub use state::*;
 pub use surface::{
     check_bytes, check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Surface,
     SurfaceArray, DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
 };
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
-pub use wide::{Color4, Fragment4, Vec3x4};
 
 use bin::{process_chunk, TileGrid, CHUNK};
 use clip::{ClipVertex, Clipper};
-use fragment::{shade_tile, RawSurface, RawTargets, TileLists};
+use fragment::shade_tile;
+use program::{RawSurface, RawTargets, TileLists};
 use rayon::prelude::*;
 use setup::SetupParams;
 use std::fmt;
@@ -631,6 +636,7 @@ impl Pipeline {
                                 unsafe { d.fill_rect(rect, v) };
                             }
                             if let (Some(v), Some(c)) = (cc, raw.color.as_ref()) {
+                                // SAFETY: as for the depth target: the tile's rows are this worker's alone.
                                 unsafe { c.fill_rect(rect, v) };
                             }
                         }

@@ -12,7 +12,8 @@
 //! ([`PixelStore::indexed`]: the irregular z-buffer's samples per texel). A draw with it is
 //! [`super::Pipeline::draw_ordered`]; the program is an [`OrderedProgram`].
 
-use super::fragment::{Fragment, FragmentProgram};
+use super::lanes::Fragment;
+use super::program::FragmentProgram;
 use super::PipelineError;
 use glam::Vec4;
 

@@ -4,9 +4,9 @@
 //! Coordinates: `uv` in [0, 1]^2 with the origin at the top-left; texel centres at
 //! `(i + 0.5) / size`, so the texel-space position of `uv` is `uv * size - 0.5`.
 
+use super::lanes::{floor4, index4};
 use super::state::CompareFunc;
 use super::surface::{MipChain, Surface, Texel};
-use super::wide::{floor4, index4};
 use crate::math;
 use glam::{BVec4A, Vec2, Vec3, Vec4};
 
@@ -281,9 +281,9 @@ impl CompareSampler {
                 & y.cmple(Vec4::splat((h - 2) as f32));
             if w >= 2 && h >= 2 && interior.all() {
                 let (fx, fy) = (tx - x, ty - y);
+                let lanes = lane_indices(x, y, w as u32);
                 // SAFETY: SSE4.1 is enabled for this build; x <= w - 2 and y <= h - 2, so texels
                 // i, i + 1, i + w and i + w + 1 of every lane's index i are in the map.
-                let lanes = lane_indices(x, y, w as u32);
                 let texels = unsafe {
                     let pair = |i: usize| {
                         debug_assert!(i + 1 < d.len());

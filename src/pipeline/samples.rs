@@ -341,10 +341,12 @@ impl Pipeline {
                                 let v = fmt.quantize((((zrow + z.dx * x) as f32) + off).clamp(0.0, 1.0));
                                 // SAFETY: (i, j) lies in this worker's tile.
                                 let p = unsafe { ptr.0.add(j * stride + i) };
+                                // SAFETY: `p` is (i, j) of this worker's tile (above).
                                 let old = unsafe { *p };
                                 if func.test(v, old) {
                                     s.fragments_passed += 1;
                                     if write {
+                                        // SAFETY: `p` is (i, j) of this worker's tile, written by this worker alone.
                                         unsafe { *p = v };
                                     }
                                 } else {
@@ -512,6 +514,7 @@ fn bin(tris: &[SampleTri], tiles: &TileGrid, stats: &mut DrawStats) -> Vec<Vec<u
 struct RawPtr(*mut f32);
 // SAFETY: workers write disjoint tiles of the surface, which outlives the parallel loop.
 unsafe impl Sync for RawPtr {}
+// SAFETY: as for `Sync`: the pointer is only used for disjoint tiles of a live surface.
 unsafe impl Send for RawPtr {}
 
 #[cfg(test)]

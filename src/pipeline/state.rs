@@ -32,26 +32,48 @@ impl std::fmt::Display for CullMode {
 }
 
 impl std::str::FromStr for CullMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownChoice;
+    fn from_str(s: &str) -> Result<Self, UnknownChoice> {
         let modes = [CullMode::None, CullMode::Back, CullMode::Front];
         parse_choice(s, "cull mode", &modes.map(|m| (m.name(), m)))
     }
 }
 
-/// The value named `s` among `choices` (name, value), or an error that names `what` and lists
-/// the choices ("unknown cull mode 'x' (expected none, back or front)").
-pub fn parse_choice<T: Copy>(s: &str, what: &str, choices: &[(&str, T)]) -> Result<T, String> {
+/// A name that is none of a mode's choices; it prints as "unknown cull mode 'x' (expected
+/// none, back or front)".
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnknownChoice {
+    /// What was being named ("cull mode").
+    pub what: &'static str,
+    /// The name given.
+    pub given: String,
+    /// The names there are.
+    pub expected: Vec<&'static str>,
+}
+
+impl std::fmt::Display for UnknownChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let expected = match self.expected.split_last() {
+            Some((last, [])) => last.to_string(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        };
+        write!(f, "unknown {} '{}' (expected {expected})", self.what, self.given)
+    }
+}
+
+impl std::error::Error for UnknownChoice {}
+
+/// The value named `s` among `choices` (name, value), or why not ([`UnknownChoice`]).
+pub fn parse_choice<T: Copy>(s: &str, what: &'static str, choices: &[(&'static str, T)]) -> Result<T, UnknownChoice> {
     if let Some(&(_, v)) = choices.iter().find(|(name, _)| *name == s) {
         return Ok(v);
     }
-    let names: Vec<&str> = choices.iter().map(|(name, _)| *name).collect();
-    let expected = match names.split_last() {
-        Some((last, [])) => last.to_string(),
-        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
-        None => String::new(),
-    };
-    Err(format!("unknown {what} '{s}' (expected {expected})"))
+    Err(UnknownChoice {
+        what,
+        given: s.to_string(),
+        expected: choices.iter().map(|(name, _)| *name).collect(),
+    })
 }
 
 /// Which winding is the front face, seen in NDC (y up) as GL and D3D define it.
@@ -362,8 +384,8 @@ pub enum Shading {
 }
 
 impl std::str::FromStr for Shading {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownChoice;
+    fn from_str(s: &str) -> Result<Self, UnknownChoice> {
         parse_choice(
             s,
             "shading",
@@ -433,7 +455,7 @@ mod tests {
             assert_eq!(m.name().parse::<CullMode>(), Ok(m));
             assert_eq!(m.to_string(), m.name());
         }
-        let e = "sideways".parse::<CullMode>().unwrap_err();
+        let e = "sideways".parse::<CullMode>().unwrap_err().to_string();
         assert!(e.contains("sideways") && e.contains("none, back or front"), "{e}");
     }
 
@@ -441,11 +463,11 @@ mod tests {
     fn choices_parse_their_names_and_errors_list_them() {
         assert_eq!("immediate".parse::<Shading>(), Ok(Shading::Immediate));
         assert_eq!(
-            "lazy".parse::<Shading>().unwrap_err(),
+            "lazy".parse::<Shading>().unwrap_err().to_string(),
             "unknown shading 'lazy' (expected deferred or immediate)"
         );
         assert_eq!(
-            parse_choice("b", "letter", &[("a", 1)]).unwrap_err(),
+            parse_choice("b", "letter", &[("a", 1)]).unwrap_err().to_string(),
             "unknown letter 'b' (expected a)"
         );
     }

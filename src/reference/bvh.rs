@@ -1116,6 +1116,7 @@ mod avx {
     /// The machine must have AVX.
     #[inline(always)]
     pub unsafe fn boxes(r: &Ray4, n: &Node) -> (u32, [f32; W]) {
+        // SAFETY: the caller guarantees AVX; every load reads a 32-byte-aligned row of eight floats inside the node or the packet, and the store writes an array of eight.
         unsafe {
             // The ray's four-lane splats as eight lanes.
             let wide = |x: super::F4| _mm256_set_m128(x.raw(), x.raw());
@@ -1149,6 +1150,7 @@ mod avx {
     /// The machine must have AVX.
     #[inline(always)]
     pub unsafe fn soa_child(s: &super::Soa, n: &Node, lane: usize) -> (u32, [f32; super::PACKET]) {
+        // SAFETY: the caller guarantees AVX; every load reads a 32-byte-aligned row of eight floats inside the node or the packet, and the store writes an array of eight.
         unsafe {
             let r = &s.raw;
             // Rows of eight floats, 32-byte aligned (`SoaRows` is).

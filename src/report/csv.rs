@@ -2,6 +2,7 @@
 //! have written) and a camera path's CSV. Quoting is the `csv` crate's; numbers are written
 //! in their shortest exact form, so reading a row back gives the same bits.
 
+use crate::error::Reason;
 use crate::metrics::Errors;
 use crate::run::{PathFrame, RunResult};
 use crate::scene::SceneClass;
@@ -79,18 +80,18 @@ fn pairs(v: &[(String, f64)]) -> String {
     v.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(";")
 }
 
-fn parse_pairs(s: &str, what: &str) -> Result<Vec<(String, f64)>, String> {
+fn parse_pairs(s: &str, what: &str) -> Result<Vec<(String, f64)>, Reason> {
     s.split(';')
         .filter(|p| !p.is_empty())
         .map(|p| {
             let (k, v) = p
                 .rsplit_once('=')
-                .ok_or_else(|| format!("column {what}: '{p}' is not name=value"))?;
+                .ok_or_else(|| Reason(format!("column {what}: '{p}' is not name=value")))?;
             let v = v
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite() && *v >= 0.0)
-                .ok_or_else(|| format!("column {what}: '{v}' is not a finite number >= 0"))?;
+                .ok_or_else(|| Reason(format!("column {what}: '{v}' is not a finite number >= 0")))?;
             Ok((k.to_string(), v))
         })
         .collect()
@@ -227,8 +228,8 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
                 pixels: row.transparent_pixels,
                 penumbra_pixels: row.transparent_penumbra_pixels,
             },
-            passes: parse_pairs(&row.passes_ms, "passes_ms").map_err(at)?,
-            counters: parse_pairs(&row.counters, "counters").map_err(at)?,
+            passes: parse_pairs(&row.passes_ms, "passes_ms").map_err(|r| at(r.0))?,
+            counters: parse_pairs(&row.counters, "counters").map_err(|r| at(r.0))?,
             scene: uncell(row.scene),
             technique: uncell(row.technique),
             settings: uncell(row.settings),

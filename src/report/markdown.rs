@@ -59,7 +59,7 @@ pub fn summary_markdown(results: &[RunResult], rows: Rows) -> String {
         }
     }
     if rows == Rows::PerTechnique {
-        let registry = crate::shadow::registry();
+        let registry = crate::shadow::registry::registry();
         // A run of the technique's defaults: every setting it names has its default value.
         let is_default = |r: &RunResult| {
             let Some(info) = registry.iter().find(|t| t.name == r.technique) else {

@@ -33,124 +33,15 @@
 
 use super::mesh;
 use super::*;
+use crate::error::Reason;
 use crate::Error;
 use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
-/// Largest image side a scene may ask for.
-pub const MAX_RESOLUTION: u32 = 8192;
-
-/// Largest absolute world coordinate (camera, lights, translations, vertices after their
-/// transforms): beyond it products of coordinates overflow `f32` in the techniques' and the
-/// ray tracer's arithmetic.
-pub const MAX_COORDINATE: f32 = 1e7;
-
-/// The fields of view (a camera's `fov`, a spot light's `angle`) a scene may use, in degrees:
-/// narrower ones overflow the projection (a tangent of 1e-32), wider ones are not a frustum.
-pub const FOV_DEGREES: std::ops::RangeInclusive<f32> = 0.01..=179.9;
-const FOV_TEXT: &str = "[0.01, 179.9]";
-
-/// The largest far / near a camera may have: beyond it the depth buffer cannot tell
-/// surfaces apart (a `near` of 1e-38 made a flat image).
-pub const MAX_DEPTH_RATIO: f32 = 1e6;
-
-/// Largest scene file read (bytes): scene files are short; a larger "scene" is not one.
-pub const MAX_SCENE_BYTES: u64 = 16 << 20;
-
-/// Default scene-wide triangle budget, counted from the objects' parameters before any is
-/// tessellated; the environment variable `PENUMBRA_MAX_TRIANGLES` raises or lowers it.
-pub const MAX_TRIANGLES: u64 = 20_000_000;
-
-/// Largest camera path.
-pub const MAX_KEYFRAMES: usize = 1000;
-
-/// The triangle budget in force ([`MAX_TRIANGLES`] or `PENUMBRA_MAX_TRIANGLES`).
-pub fn triangle_budget() -> u64 {
-    std::env::var("PENUMBRA_MAX_TRIANGLES")
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(MAX_TRIANGLES)
-}
-
-/// Reads a regular file of at most `limit` bytes: devices, pipes and folders are refused by
-/// name before anything is read (a read from `/dev/zero` would never end).
-pub fn read_regular(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error> {
-    read_file(path, what, limit, false)
-}
-
-/// [`read_regular`], never through a symbolic link (`path` itself a link is refused, and the
-/// file opened must be the one checked): for files another party may have planted, such as
-/// a sweep shard's.
-pub fn read_unlinked(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, Error> {
-    read_file(path, what, limit, true)
-}
-
-fn read_file(path: &Path, what: &str, limit: u64, unlinked: bool) -> Result<Vec<u8>, Error> {
-    use std::io::Read;
-    let doing = format!("cannot read {what}");
-    let meta = file_meta(path, what, limit, unlinked)?;
-    let f = std::fs::File::open(path).map_err(|e| Error::io(path, &doing, e))?;
-    #[cfg(unix)]
-    if unlinked {
-        use std::os::unix::fs::MetadataExt;
-        let opened = f.metadata().map_err(|e| Error::io(path, &doing, e))?;
-        if (opened.dev(), opened.ino()) != (meta.dev(), meta.ino()) {
-            return Err(Error::io(path, &doing, "the file changed while it was opened"));
-        }
-    }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    f.take(limit + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Error::io(path, &doing, e))?;
-    if bytes.len() as u64 > limit {
-        return Err(Error::scene(path, format!("{what} grew past {limit} bytes while read")));
-    }
-    Ok(bytes)
-}
-
-/// Checks that `path` is a regular file of at most `limit` bytes (see [`read_regular`]);
-/// returns its length.
-pub fn check_regular(path: &Path, what: &str, limit: u64) -> Result<u64, Error> {
-    file_meta(path, what, limit, false).map(|m| m.len())
-}
-
-/// The metadata of a regular file of at most `limit` bytes (of the link itself where
-/// `unlinked`, which refuses it).
-fn file_meta(path: &Path, what: &str, limit: u64, unlinked: bool) -> Result<std::fs::Metadata, Error> {
-    let doing = format!("cannot read {what}");
-    let meta = if unlinked {
-        std::fs::symlink_metadata(path)
-    } else {
-        std::fs::metadata(path)
-    }
-    .map_err(|e| Error::io(path, &doing, e))?;
-    let kind = meta.file_type();
-    if kind.is_symlink() {
-        return Err(Error::io(
-            path,
-            &doing,
-            "it is a symbolic link, and links are not followed",
-        ));
-    }
-    if kind.is_dir() {
-        return Err(Error::io(path, &doing, "it is a folder"));
-    }
-    if !kind.is_file() {
-        return Err(Error::io(path, &doing, "not a regular file (a device, pipe or socket)"));
-    }
-    if meta.len() > limit {
-        return Err(Error::scene(
-            path,
-            format!(
-                "{what} of {} bytes is larger than the {limit} bytes read at most",
-                meta.len()
-            ),
-        ));
-    }
-    Ok(meta)
-}
+pub use super::limits::*;
+pub use super::read::{check_regular, read_regular, read_unlinked};
 
 /// A list of exactly `N` values (TOML arrays with more or fewer are errors, not truncated).
 fn exact<'de, D: serde::Deserializer<'de>, T: Deserialize<'de>, const N: usize>(d: D) -> Result<[T; N], D::Error> {
@@ -1032,14 +923,12 @@ fn shown(v: f32) -> String {
 }
 
 /// A point: finite and within [`MAX_COORDINATE`].
-fn point3(v: [f32; 3]) -> Result<Vec3, String> {
+fn point3(v: [f32; 3]) -> Result<Vec3, Reason> {
     let p = Vec3::from(v);
     if !p.is_finite() {
-        Err(format!("{p} is not finite"))
+        Err(format!("{p} is not finite").into())
     } else if p.abs().max_element() > MAX_COORDINATE {
-        Err(format!(
-            "{p} is beyond ±{MAX_COORDINATE:e}, the largest coordinate a scene may use"
-        ))
+        Err(format!("{p} is beyond ±{MAX_COORDINATE:e}, the largest coordinate a scene may use").into())
     } else {
         Ok(p)
     }
@@ -1065,7 +954,7 @@ fn check_view(
     position: [f32; 3],
     target: [f32; 3],
     up: Option<[f32; 3]>,
-) -> Result<(Vec3, Vec3, Vec3), (&'static str, String)> {
+) -> Result<(Vec3, Vec3, Vec3), (&'static str, Reason)> {
     let position = point3(position).map_err(|e| ("position", e))?;
     let target = point3(target).map_err(|e| ("target", e))?;
     let Some(view) = unit3(target - position).filter(|_| (target - position).length() >= 1e-6) else {

@@ -8,6 +8,7 @@
 //! files do), orthographic cameras.
 
 use super::{Camera, Light, LightKind, Material, Mesh};
+use crate::error::Reason;
 use crate::Error;
 use glam::{Mat4, Vec3};
 use std::path::Path;
@@ -100,7 +101,7 @@ impl GltfScene {
 /// is checked against its type, its buffer view and its buffer; the node graph is counted,
 /// instances included, against the triangle budget before any mesh is built.
 pub fn load(path: &Path) -> Result<GltfScene, Error> {
-    let bytes = super::file::read_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
+    let bytes = super::read::read_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
     let read_error = |e: gltf::Error| {
         Error::scene(
             path,
@@ -313,7 +314,7 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                     ));
                 }
                 let fov = p.yfov().to_degrees();
-                if !(super::file::FOV_DEGREES.contains(&fov) && p.znear() > 0.0 && p.znear().is_finite()) {
+                if !(super::limits::FOV_DEGREES.contains(&fov) && p.znear() > 0.0 && p.znear().is_finite()) {
                     return Err(Error::scene(
                         path,
                         format!(
@@ -390,13 +391,13 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                 Kind::Point => LightKind::Point,
                 Kind::Spot { outer_cone_angle, .. } => {
                     let angle_deg = 2.0 * outer_cone_angle.to_degrees();
-                    if !super::file::FOV_DEGREES.contains(&angle_deg) {
+                    if !super::limits::FOV_DEGREES.contains(&angle_deg) {
                         return Err(Error::scene(
                             path,
                             format!(
                                 "{node_name}: light {}: outerConeAngle {outer_cone_angle} makes a cone of {angle_deg} degrees, outside {:?}",
                                 l.index(),
-                                super::file::FOV_DEGREES
+                                super::limits::FOV_DEGREES
                             ),
                         ));
                     }
@@ -475,14 +476,14 @@ fn load_buffers(path: &Path, doc: &gltf::Document, mut blob: Option<Vec<u8>>) ->
 /// The bytes a buffer URI names, or why it is refused: `data:` URIs in base64 (bounded), or
 /// a relative path (percent-decoded) to a regular file inside the glTF file's folder or its
 /// subfolders. Other schemes, absolute paths, `..` and links out of the folder are refused.
-fn read_uri(gltf_path: &Path, uri: &str) -> Result<Vec<u8>, String> {
+fn read_uri(gltf_path: &Path, uri: &str) -> Result<Vec<u8>, Reason> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (meta, payload) = rest.split_once(',').ok_or("a data URI without a ','")?;
         if !meta.ends_with(";base64") {
             return Err("only base64 data URIs are read".into());
         }
         if payload.len() as u64 / 4 * 3 > MAX_BUFFER_BYTES {
-            return Err(format!("decodes to more than {MAX_BUFFER_BYTES} bytes"));
+            return Err(format!("decodes to more than {MAX_BUFFER_BYTES} bytes").into());
         }
         return base64_decode(payload);
     }
@@ -491,7 +492,8 @@ fn read_uri(gltf_path: &Path, uri: &str) -> Result<Vec<u8>, String> {
             return Err(format!(
                 "the scheme '{}:' is not read (only relative paths inside the glTF file's folder, and data: URIs)",
                 &uri[..i]
-            ));
+            )
+            .into());
         }
     }
     let decoded = percent_decode(uri)?;
@@ -516,13 +518,13 @@ fn read_uri(gltf_path: &Path, uri: &str) -> Result<Vec<u8>, String> {
         full.canonicalize().map_err(|e| format!("{}: {e}", full.display()))?,
     );
     if !real.starts_with(&real_base) {
-        return Err(format!("{} leads out of the glTF file's folder", full.display()));
+        return Err(format!("{} leads out of the glTF file's folder", full.display()).into());
     }
-    super::file::read_regular(&full, "glTF buffer", MAX_BUFFER_BYTES).map_err(|e| e.to_string())
+    super::read::read_regular(&full, "glTF buffer", MAX_BUFFER_BYTES).map_err(|e| Reason(e.to_string()))
 }
 
 /// `%XX` escapes of a URI decoded (the result must be UTF-8).
-fn percent_decode(s: &str) -> Result<String, String> {
+fn percent_decode(s: &str) -> Result<String, Reason> {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
@@ -548,7 +550,7 @@ fn percent_decode(s: &str) -> Result<String, String> {
 }
 
 /// Standard base64 (RFC 4648, `=` padding optional), or which character is wrong.
-fn base64_decode(s: &str) -> Result<Vec<u8>, String> {
+fn base64_decode(s: &str) -> Result<Vec<u8>, Reason> {
     let value = |c: u8| -> Option<u32> {
         Some(match c {
             b'A'..=b'Z' => c - b'A',
@@ -653,7 +655,7 @@ fn check_graph(path: &Path, scene: &gltf::Scene, buffers: &[Vec<u8>]) -> Result<
             format!("the node graph makes {visits} node instances, more than {MAX_NODE_VISITS}"),
         ));
     }
-    let budget = super::file::triangle_budget();
+    let budget = super::limits::triangle_budget();
     if tris > budget {
         return Err(Error::scene(
             path,

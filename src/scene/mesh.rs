@@ -334,7 +334,7 @@ fn check_obj(text: &str, path: &Path) -> Result<(String, usize), Error> {
 /// (with line numbers). Errors name the path, and the line where there is one.
 #[cfg(feature = "files")]
 pub fn load_obj(path: &Path) -> Result<Mesh, Error> {
-    let bytes = super::file::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
+    let bytes = super::read::read_regular(path, "OBJ file", MAX_OBJ_BYTES)?;
     obj_from_bytes(&bytes, path)
 }
 

@@ -7,9 +7,12 @@
 pub mod file;
 #[cfg(feature = "files")]
 pub mod gltf;
+pub mod limits;
 pub mod mesh;
 #[cfg(feature = "files")]
 pub mod random;
+#[cfg(feature = "files")]
+pub mod read;
 pub mod spheres;
 
 use glam::{Mat4, Vec3};

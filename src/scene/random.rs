@@ -143,7 +143,7 @@ pub fn generate(seed: u64, params: &Params) -> RandomScene {
     let mut g = Rng(seed ^ 0x5eed_0f5c_e7e5);
     let mut t = String::new();
     let mut meshes = Vec::new();
-    let _ = writeln!(t, "# Random scene {seed} (penumbra random --seed {seed}).");
+    let _ = writeln!(t, "# Random scene of seed {seed}.");
 
     // Camera: it looks down at the ground from 10 to 18 units away.
     let eye = spherical(g.range(10.0, 18.0), g.range(15.0, 60.0), g.range(0.0, 360.0));

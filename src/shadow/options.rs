@@ -13,6 +13,7 @@
 //! fields once, on its own type; a technique takes them into its declaration with
 //! [`within`], which reaches the group inside its `Options`.
 
+use crate::error::Reason;
 use crate::Error;
 use std::fmt::Display;
 
@@ -22,7 +23,7 @@ pub trait OptionValue: Clone + 'static {
     /// choices joined by `|`).
     fn type_name() -> String;
     /// Parses a value; the error is the end of a sentence ("is not a number").
-    fn parse(s: &str) -> Result<Self, String>;
+    fn parse(s: &str) -> Result<Self, Reason>;
     /// The value as text (parses back to the same value).
     fn show(&self) -> String;
 }
@@ -33,8 +34,8 @@ macro_rules! integer_option {
             fn type_name() -> String {
                 "integer".into()
             }
-            fn parse(s: &str) -> Result<Self, String> {
-                s.parse().map_err(|_| integer_error(s, <$t>::MAX as f64))
+            fn parse(s: &str) -> Result<Self, Reason> {
+                s.parse().map_err(|_| integer_error(s, <$t>::MAX as f64).into())
             }
             fn show(&self) -> String {
                 self.to_string()
@@ -62,7 +63,7 @@ impl OptionValue for f32 {
         "number".into()
     }
     /// A finite number: NaN and infinities are refused here, before any range check.
-    fn parse(s: &str) -> Result<Self, String> {
+    fn parse(s: &str) -> Result<Self, Reason> {
         match s.trim().parse::<f32>() {
             Ok(v) if v.is_finite() => Ok(v),
             Ok(_) => match s.trim().parse::<f64>() {
@@ -82,7 +83,7 @@ impl OptionValue for bool {
         "bool".into()
     }
     /// `true`/`false`, also `on`/`off`.
-    fn parse(s: &str) -> Result<Self, String> {
+    fn parse(s: &str) -> Result<Self, Reason> {
         match s {
             "true" | "on" => Ok(true),
             "false" | "off" => Ok(false),
@@ -98,7 +99,7 @@ impl OptionValue for String {
     fn type_name() -> String {
         "text".into()
     }
-    fn parse(s: &str) -> Result<Self, String> {
+    fn parse(s: &str) -> Result<Self, Reason> {
         Ok(s.to_string())
     }
     fn show(&self) -> String {
@@ -120,7 +121,7 @@ impl OptionValue for String {
 /// }
 /// use penumbra::shadow::options::OptionValue;
 /// assert_eq!(Filter::parse("pcf2").unwrap(), Filter::Pcf2);
-/// assert!(Filter::parse("gauss").unwrap_err().contains("not one of none, pcf2"));
+/// assert!(Filter::parse("gauss").unwrap_err().0.contains("not one of none, pcf2"));
 /// ```
 #[macro_export]
 macro_rules! choice_enum {
@@ -140,10 +141,10 @@ macro_rules! choice_enum {
             fn type_name() -> String {
                 Self::NAMES.join("|")
             }
-            fn parse(s: &str) -> Result<Self, String> {
+            fn parse(s: &str) -> Result<Self, $crate::error::Reason> {
                 match s {
                     $($s => Ok($name::$v),)+
-                    _ => Err(format!("is not one of {}", Self::NAMES.join(", "))),
+                    _ => Err(format!("is not one of {}", Self::NAMES.join(", ")).into()),
                 }
             }
             fn show(&self) -> String {
@@ -153,8 +154,8 @@ macro_rules! choice_enum {
     };
 }
 
-type Setter<O> = Box<dyn Fn(&mut O, &str) -> Result<(), String> + Send + Sync>;
-type Checker<O> = Box<dyn Fn(&O) -> Result<(), String> + Send + Sync>;
+type Setter<O> = Box<dyn Fn(&mut O, &str) -> Result<(), Reason> + Send + Sync>;
+type Checker<O> = Box<dyn Fn(&O) -> Result<(), Reason> + Send + Sync>;
 type Shower<O> = Box<dyn Fn(&O) -> String + Send + Sync>;
 
 /// One option: key, documentation, type and range, and the struct field it maps to.
@@ -221,11 +222,11 @@ impl<O: Clone + Default + 'static> Field<O> {
         access: fn(&mut O) -> &mut T,
     ) -> Self {
         let open = if closed { '[' } else { '(' };
-        let inside = move |v: T| -> Result<(), String> {
+        let inside = move |v: T| -> Result<(), Reason> {
             if (v > lo || (closed && v >= lo)) && v <= hi {
                 Ok(())
             } else {
-                Err(format!("is outside {open}{lo}, {hi}]"))
+                Err(format!("is outside {open}{lo}, {hi}]").into())
             }
         };
         Field {
@@ -248,7 +249,7 @@ impl<O: Clone + Default + 'static> Field<O> {
 impl<I: Clone + Default + 'static> Field<I> {
     /// This field of a group of options `I` as a field of an options struct `O` that holds
     /// the group at `access` (the map pass's [`crate::shadow::light::MapOptions`], the
-    /// lookups' [`crate::shadow::map::lookup::Bias`]...): same key, documentation and range;
+    /// lookups' [`crate::shadow::sample::lookup::Bias`]...): same key, documentation and range;
     /// its default is the one `O::default()` holds.
     pub fn within<O: Clone + Default + 'static>(self, access: fn(&mut O) -> &mut I) -> Field<O> {
         let Field {
@@ -371,7 +372,7 @@ impl OptionValue for crate::pipeline::DepthFormat {
     fn type_name() -> String {
         "f32|u24|u16".into()
     }
-    fn parse(s: &str) -> Result<Self, String> {
+    fn parse(s: &str) -> Result<Self, Reason> {
         use crate::pipeline::DepthFormat as D;
         match s {
             "f32" => Ok(D::F32),

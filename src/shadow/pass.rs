@@ -8,8 +8,8 @@
 
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
+use crate::shadow::technique::{ShadowTechnique, Stage, Step, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{ShadowTechnique, Stage, Step, Visibility};
 use crate::Error;
 
 /// A shared pass that a technique can be: what [`ShadowTechnique`] asks, less the name and

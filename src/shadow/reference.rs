@@ -5,7 +5,7 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::reference::{Reference, ReferenceOptions};
 use crate::shadow::inspect::{self, Step};
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 
 /// Options of the reference technique.

@@ -20,12 +20,12 @@ use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::irregular::{self, IrregularZBuffer};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::light_size_fields;
-use crate::shadow::map::lookup::lookup_fields;
 use crate::shadow::map::soft::{self, SoftShadows};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_map;
+use crate::shadow::sample::lookup::lookup_fields;
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 
 /// Options of the hybrid.
@@ -104,7 +104,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("from", "0"), ("to", "1")], &[("from", "2"), ("to", "12")]],
         create: |pairs| Ok(Box::new(Hybrid::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -9,7 +9,7 @@ pub use super::irregular::{
 };
 use crate::pipeline::MAX_DIMENSION;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// The option declaration.

@@ -23,7 +23,7 @@ use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 use glam::{Vec2, Vec4};
 

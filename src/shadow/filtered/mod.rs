@@ -47,8 +47,8 @@ use crate::shadow::light::{self, DepthToDistance, Layer, LightMaps, LightView, M
 use crate::shadow::options::{within, OptionValue};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_counted;
+use crate::shadow::technique::{Declaration, Field, Stage};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Field, Stage};
 use crate::Error;
 use glam::{Vec2, Vec4};
 pub use prefilter::{Prefilter, Prefiltered, SatSums};

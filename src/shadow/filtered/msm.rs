@@ -36,7 +36,7 @@ use super::{bleeding_field, check, reduce_bleeding, FilteredPass, Filtering, Mom
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 use glam::{Mat4, Vec2, Vec4};
 

@@ -25,7 +25,7 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 use glam::{Vec2, Vec4};
 

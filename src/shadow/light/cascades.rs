@@ -22,7 +22,7 @@ use super::sdsm::{DepthSamples, Partition};
 use super::{corners, up_for, Fit, LightView, OnView};
 use crate::choice_enum;
 use crate::frame::Frame;
-use crate::shadow::Field;
+use crate::shadow::options::Field;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// Most cascades of one light.

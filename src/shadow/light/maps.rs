@@ -19,7 +19,8 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::Light;
-use crate::shadow::{Field, Stage};
+use crate::shadow::options::Field;
+use crate::shadow::stage::Stage;
 use crate::Error;
 use glam::{BVec4A, Vec2, Vec3, Vec4};
 

@@ -7,7 +7,7 @@ use super::LightView;
 use crate::frame::Frame;
 use crate::math;
 use crate::scene::LightKind;
-use crate::shadow::Field;
+use crate::shadow::options::Field;
 
 /// The light's width for PCSS-style estimates: the scene's area light (a disk's or sphere's
 /// diameter, a rectangle's mean side) times `scale`; `2 tan(angle / 2)` for a directional

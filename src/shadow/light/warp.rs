@@ -64,8 +64,9 @@ use super::cascades::{convex_hull, depth_plane, slice_corners, view_range};
 use super::sdsm::DepthSamples;
 use super::{corners, up_for, Fit, LightView};
 use crate::choice_enum;
+use crate::error::Reason;
 use crate::frame::Frame;
-use crate::shadow::Field;
+use crate::shadow::options::Field;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
 choice_enum! {
@@ -368,7 +369,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
         match (fallback.is_none(), fit.matrix) {
             (true, Ok((m, n))) => (m, n),
             (_, Err(why)) if fallback.is_none() => {
-                fallback = Some(why);
+                fallback = Some(why.0);
                 (orthographic(), f32::INFINITY)
             }
             _ => (orthographic(), f32::INFINITY),
@@ -414,7 +415,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
 /// PSM's matrix, or why it cannot be fitted, and what it found.
 struct PsmFit {
     /// World to map, and the virtual near distance (the warp's `n`).
-    matrix: Result<(Mat4, f32), String>,
+    matrix: Result<(Mat4, f32), Reason>,
     info: PsmInfo,
     /// Per object: whether part of it can shadow the view.
     casters: Vec<bool>,
@@ -659,7 +660,7 @@ fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -
                     "the light lies {} the view so near its axis that one frustum in post-perspective space would span {:.0} degrees: the orthographic map of the view",
                     if l.w < 0.0 { "behind" } else { "ahead of" },
                     if s_min <= radius * 1e-3 { 180.0 } else { 2.0 * angle }
-                )),
+                ).into()),
                 info,
                 casters,
             };

@@ -27,7 +27,7 @@ use crate::shadow::light::cascades::Cascades;
 use crate::shadow::light::MapOptions;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// Options of the cascaded shadow map.

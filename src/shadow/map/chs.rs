@@ -5,7 +5,7 @@
 //! 1. **Blocker search, 8x8 in 16 gathers.** The search width `S` (texels of the base map)
 //!    is PCSS's cone at the nearest caster ([`super::pcss`]). The search reads the 8x8 texels
 //!    around the point at the level `L_s = ceil(log2(S / 8))` of the *minimum* chain (the
-//!    pipeline's reduction, [`super::kernel::MinMax`]): 16 gathers of 2x2. A texel is a
+//!    pipeline's reduction, [`crate::shadow::sample::kernel::MinMax`]): 16 gathers of 2x2. A texel is a
 //!    blocker if its minimum depth is nearer than the receiver's plane anywhere in its block
 //!    (`z + g . d - (|g_x| + |g_y|) 2^L / 2` with `g` the receiver-plane gradient, Isidoro
 //!    2006), and the blockers' distances are averaged.
@@ -23,8 +23,6 @@
 //! toward too wide where a block mixes casters; the coarse levels' blocks blur small
 //! shadows and lose thin occluders in wide penumbrae.
 
-use super::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
-use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::frame::Frame;
 use crate::math;
 use crate::pipeline::{Pipeline, Surface};
@@ -32,11 +30,13 @@ use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
-use crate::shadow::map::lookup::cone_field;
 use crate::shadow::options::within;
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
+use crate::shadow::sample::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
+use crate::shadow::sample::lookup::cone_field;
+use crate::shadow::sample::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::{Vec2, Vec4};
 
@@ -112,7 +112,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
         create: |pairs| Ok(Box::new(Chs::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 
@@ -208,10 +208,10 @@ impl Chs {
             receiver: d_r,
             blocker: f32::NAN,
             penumbra: 0.0,
-            class: super::kernel::Class::Mixed,
+            class: crate::shadow::sample::kernel::Class::Mixed,
         };
         if found == 0 {
-            e.class = super::kernel::Class::Lit;
+            e.class = crate::shadow::sample::kernel::Class::Lit;
             return (e, ls);
         }
         let d_o = sum / found as f32;
@@ -272,7 +272,7 @@ impl Chs {
         if self.width <= 0.0 {
             t.step(|| Step::new("hard", "the light has no width: one 2x2 comparison"));
             let map = &self.lookup.maps()[at.face].0;
-            return (super::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
+            return (crate::shadow::sample::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
         }
         let (e, ls) = self.estimate(&at);
         t.step(|| {
@@ -485,7 +485,7 @@ mod tests {
             &[("angle", "3"), ("receiver", "false"), ("kernel", "3")],
             &[("light", "0")],
         ];
-        crate::shadow::map::lookup::testing::assert_lookups(
+        crate::shadow::sample::testing::assert_lookups(
             &sets,
             |pairs| Chs::new(declaration().parse(pairs).unwrap()).unwrap(),
             |t, f, x, y| t.lookup(f, x, y, &mut NoTrace),

@@ -39,7 +39,7 @@ use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
 use crate::Error;
 
 super::warped::warped_options!(

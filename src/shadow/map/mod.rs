@@ -1,24 +1,19 @@
 //! Shadow maps (Williams 1978; RTR 7.4): a depth map from the light through the pipeline and
 //! a depth comparison per camera pixel.
 //!
-//! The family's shared modules, which every map-based technique calls with its own options:
-//! [`lookup`] (from a camera pixel to the maps, the reference depth with every bias, and the
-//! comparisons and kernels), [`bias`] (normal offset, receiver plane), [`kernel`] (the PCF
-//! kernels), [`planes`] (the min/max hierarchy) and [`plain`] (the plain map's pass, which
-//! `shadow-map` and `contact-map` both run). The light's maps themselves are
-//! [`crate::shadow::light`]'s. No technique here holds another.
+//! Every map technique calls the sampling floor ([`crate::shadow::sample`]: lookup, biases,
+//! kernels, the min/max hierarchy) with its own options. Two passes here are shared with
+//! other families: [`plain`] (the plain map's pass, which `shadow-map`, the warps and
+//! `contact-map` run) and [`soft`] (PCSS's pass, which the hybrid runs). The light's maps
+//! themselves are [`crate::shadow::light`]'s. No technique here holds another.
 
-pub mod bias;
 pub mod cascaded;
 pub mod chs;
-pub mod kernel;
 pub mod lispsm;
 pub mod logpsm;
-pub mod lookup;
 pub mod multi_sample;
 pub mod pcss;
 pub mod plain;
-pub mod planes;
 pub mod psm;
 pub mod sdsm;
 pub mod shadow_map;

@@ -16,7 +16,6 @@
 //! wider than `N`'s spacing allows (few samples, large lights); each map's own bias and
 //! aliasing, repeated `N` times.
 
-use super::lookup::{MapLookup, Prepared, Setup};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8, Surface};
@@ -26,9 +25,10 @@ use crate::shadow::inspect::{self, NoTrace, Step};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_counted;
+use crate::shadow::sample::lookup::{MapLookup, Prepared, Setup};
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::stencil::{Mode, StencilVolumes};
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::{Vec2, Vec3};
 
@@ -121,7 +121,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -7,13 +7,13 @@
 //! the all-blockers early out, and the estimate quantized by the map's resolution
 //! ([`super::soft`] has the details).
 
-use super::kernel::MAX_TAPS;
 use super::soft::SoftShadows;
 pub use super::soft::{Disk, Options};
 use crate::shadow::light::soft::light_size_fields;
-use crate::shadow::map::lookup::lookup_fields;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::sample::kernel::MAX_TAPS;
+use crate::shadow::sample::lookup::lookup_fields;
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// The option declaration.
@@ -66,7 +66,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(Pcss::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 
@@ -85,7 +85,7 @@ impl Pcss {
 mod tests {
     use super::*;
     use crate::shadow::inspect::NoTrace;
-    use crate::shadow::map::lookup::testing::assert_lookups;
+    use crate::shadow::sample::testing::assert_lookups;
 
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {

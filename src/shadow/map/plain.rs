@@ -1,10 +1,9 @@
 //! The plain shadow map's pass (Williams 1978; RTR 7.4), shared by the techniques that look
 //! up one map per pixel with the options of `shadow-map`: the `shadow-map` technique itself
 //! ([`super::shadow_map`], which documents the options and failures) and the map under the
-//! contact march of `contact-map` ([`crate::shadow::screen::contact`]).
+//! contact march of `contact-map` (`screen/contact.rs`).
 
-use super::kernel::{Kernel, Pattern, MAX_TAPS};
-use super::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
+use crate::error::Reason;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Trace};
@@ -13,8 +12,10 @@ use crate::shadow::light::{LightView, MapOptions};
 use crate::shadow::options::OptionValue;
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::{per_pixel4_counted, per_row_counted};
+use crate::shadow::sample::kernel::{Kernel, Pattern, MAX_TAPS};
+use crate::shadow::sample::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
+use crate::shadow::technique::{Declaration, Field, Stage};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Field, Stage};
 use crate::Error;
 
 /// How the map is sampled: one comparison, hardware 2x2 PCF, or a kernel of 2x2 comparisons
@@ -46,13 +47,13 @@ impl OptionValue for Filter {
         format!("none|pcf2|{}", Pattern::type_name())
     }
 
-    fn parse(s: &str) -> Result<Self, String> {
+    fn parse(s: &str) -> Result<Self, Reason> {
         match s {
             "none" => Ok(Filter::None),
             "pcf2" => Ok(Filter::Pcf2),
             _ => Pattern::parse(s)
                 .map(Filter::Kernel)
-                .map_err(|_| format!("is not one of none, pcf2, {}", Pattern::NAMES.join(", "))),
+                .map_err(|_| format!("is not one of none, pcf2, {}", Pattern::NAMES.join(", ")).into()),
         }
     }
 

@@ -22,7 +22,7 @@ use super::warped::directional;
 use crate::shadow::light::cascades::{Cascades, Split};
 use crate::shadow::light::sdsm::Partition;
 use crate::shadow::light::MapOptions;
-use crate::shadow::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
 use crate::Error;
 
 /// Options of SDSM.

@@ -12,9 +12,9 @@
 //! object ids instead of depth, Cournia 3.1.2); fitting of a directional light's frustum to
 //! the casters that can shadow visible receivers, with other casters culled (RTR fig. 7.11);
 //! and texel snapping so camera motion does not move the sampling grid; and the lookup's
-//! filter: one comparison, 2x2 hardware PCF, or a wide PCF kernel of [`super::kernel`] (grid,
+//! filter: one comparison, 2x2 hardware PCF, or a wide PCF kernel of [`crate::shadow::sample::kernel`] (grid,
 //! tent, Poisson, rotated Poisson, spiral; width in texels or world units; receiver-plane
-//! depth and bias cone across the kernel; a hierarchy of the map, [`super::planes`], to skip
+//! depth and bias cone across the kernel; a hierarchy of the map, [`crate::shadow::sample::planes`], to skip
 //! the taps of kernels fully lit or shadowed), or the depths filtered before one comparison,
 //! the wrong order.
 //!
@@ -28,7 +28,7 @@ pub use super::plain::{declaration, Filter, FitTo, Layer, Options};
 use crate::pipeline::Surface;
 use crate::shadow::light::LightView;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Family, TechniqueInfo};
+use crate::shadow::technique::{Family, TechniqueInfo};
 use crate::Error;
 
 /// Registry entry.
@@ -119,7 +119,7 @@ mod tests {
     use crate::pipeline::Pipeline;
     use crate::shadow::inspect::NoTrace;
     use crate::shadow::light::MapOptions;
-    use crate::shadow::ShadowTechnique;
+    use crate::shadow::technique::ShadowTechnique;
 
     #[test]
     fn fitting_culls_casters_that_cannot_shadow_visible_receivers() {
@@ -143,7 +143,7 @@ mod tests {
 
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
-        use crate::shadow::map::lookup::testing::assert_lookups;
+        use crate::shadow::sample::testing::assert_lookups;
         // The hierarchy's sets take the row pass (mixed pixels queued into full lane groups).
         let sets: [&[(&str, &str)]; 11] = [
             &[("filter", "grid"), ("kernel", "5")],

@@ -16,9 +16,9 @@
 //!    penumbra width at the receiver, `w_penumbra = w_light (d_r - d_o) / d_o` (directional:
 //!    `(d_r - d_o) 2 tan(angle / 2)`), taken to texels at the receiver's distance.
 //! 3. **Filtering.** A PCF disk of `taps` hardware 2x2 comparisons that wide
-//!    ([`super::kernel`]), with the shadow map's receiver-plane bias and bias cone across it.
+//!    ([`crate::shadow::sample::kernel`]), with the shadow map's receiver-plane bias and bias cone across it.
 //!
-//! With `hierarchy`, the map's hierarchy ([`super::planes::PlaneChain`]: per block the least
+//! With `hierarchy`, the map's hierarchy ([`crate::shadow::sample::planes::PlaneChain`]: per block the least
 //! and greatest depth and the depths' bounds around a plane, so that kernels on a sloped
 //! receiver with the receiver-plane bias are classified too) classifies the search disk (no
 //! blocker or all blockers: one lookup) and the filter disk (fully lit or in umbra) and skips
@@ -44,20 +44,20 @@
 //! the search disk but still crosses an edge; and the estimate is quantized by the map's
 //! resolution (contact-hardening shadows use a mip chain against that).
 
-use super::kernel::{Class, Kernel, Pattern, Reference, Reference4};
-use super::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
 use crate::choice_enum;
 use crate::frame::Frame;
+use crate::pipeline::lanes::floor4;
 use crate::pipeline::sampler::{texels_at4, Indices4};
-use crate::pipeline::wide::floor4;
 use crate::pipeline::Pipeline;
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels, world};
 use crate::shadow::light::{DepthToDistance, Layer, MapOptions};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
+use crate::shadow::sample::kernel::{Class, Kernel, Pattern, Reference, Reference4};
+use crate::shadow::sample::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
+use crate::shadow::technique::Stage;
 use crate::shadow::timing::Passes;
-use crate::shadow::Stage;
 use crate::Error;
 use glam::{BVec4A, Vec2, Vec4};
 
@@ -314,7 +314,7 @@ impl SoftShadows {
                     "the light has no width: one 2x2 comparison, the hard shadow map's",
                 )
             });
-            return (super::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
+            return (crate::shadow::sample::kernel::bilinear_compare(map, at.uv, at.r.z), 1);
         }
         let e = self.estimate(&at, x, y);
         t.step(|| {

@@ -8,7 +8,7 @@ use crate::scene::{LightKind, Scene};
 use crate::shadow::light::warp::Warp;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Field};
+use crate::shadow::technique::{Declaration, Field};
 use crate::Error;
 
 /// A warped technique's `Options`: the plain map pass's options holding the warp `$kind`

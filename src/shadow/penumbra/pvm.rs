@@ -48,13 +48,13 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
-use crate::shadow::map::kernel::bilinear_compare;
-use crate::shadow::map::lookup::{Bias, MapLookup, Prepared, Setup};
 use crate::shadow::options::within;
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
+use crate::shadow::sample::kernel::bilinear_compare;
+use crate::shadow::sample::lookup::{Bias, MapLookup, Prepared, Setup};
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3};
 
@@ -116,7 +116,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
         create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -33,7 +33,7 @@
 //!    cell centres, which bands, fig. 5.3). Filtered pixels with no volume texel around are
 //!    deep in an umbra: their width is 0 (one comparison).
 //!    Before its taps, a filter's footprint is classified on the map's hierarchy
-//!    (`hierarchy`, the shadow map's [`crate::shadow::map::planes::PlaneChain`]): fully lit or
+//!    (`hierarchy`, the shadow map's [`crate::shadow::sample::planes::PlaneChain`]): fully lit or
 //!    fully shadowed, its result is exactly 1 or 0 with no tap (not in the text; the same image).
 //! 4. **Noise reduction** (5.3). The filtered pixels are blurred,
 //!    `v = 1/b_s Σ_{i,j = -n_blur/2}^{n_blur/2} S(u + i, v + j) B(u, v, u + i, v + j)` with
@@ -58,11 +58,11 @@ use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
 use crate::shadow::inspect::{NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
-use crate::shadow::map::kernel::{bilinear_compare, Class};
-use crate::shadow::map::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
+use crate::shadow::sample::kernel::{bilinear_compare, Class};
+use crate::shadow::sample::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::{Vec2, Vec3};
 
@@ -239,7 +239,7 @@ pub fn info() -> TechniqueInfo {
         ],
         create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::AreaLight],
+        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -18,8 +18,10 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, LightView};
 use crate::shadow::pixels::per_pixel;
+use crate::shadow::technique::{
+    object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility,
+};
 use crate::shadow::timing::Passes;
-use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::Vec4;
 

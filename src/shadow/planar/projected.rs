@@ -27,8 +27,10 @@ use crate::pipeline::*;
 use crate::scene::Mesh;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::homogeneous_position;
+use crate::shadow::technique::{
+    object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility,
+};
 use crate::shadow::timing::Passes;
-use crate::shadow::{object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::{DVec3, Mat4, Vec3, Vec4};
 

@@ -16,8 +16,8 @@ use crate::shadow::map::plain::{self, MapPass};
 use crate::shadow::map::shadow_map;
 use crate::shadow::options::within;
 use crate::shadow::pass::Pass;
+use crate::shadow::technique::{Declaration, Family, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::Error;
 
 /// Options of the shadow map with contact shadows.

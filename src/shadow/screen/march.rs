@@ -17,9 +17,9 @@ use crate::frame::{Frame, NO_OBJECT};
 use crate::pipeline::{Pipeline, Surface};
 use crate::scene::LightKind;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::map::kernel::interleaved_gradient_noise;
 use crate::shadow::pixels::per_pixel_map;
-use crate::shadow::{Field, Stage};
+use crate::shadow::sample::kernel::interleaved_gradient_noise;
+use crate::shadow::technique::{Field, Stage};
 use crate::Error;
 use glam::{Mat4, Vec2, Vec3};
 

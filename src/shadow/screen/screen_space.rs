@@ -12,8 +12,8 @@ use crate::pipeline::Pipeline;
 use crate::shadow::inspect::explain;
 use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
+use crate::shadow::technique::{Declaration, Family, Stage, Step, TechniqueInfo};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Stage, Step, TechniqueInfo};
 use crate::Error;
 
 /// Options of screen-space shadows.

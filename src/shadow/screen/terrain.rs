@@ -31,8 +31,8 @@ use crate::shadow::inspect::{explain, Trace};
 use crate::shadow::light::{
     corners, directional_view, inside, merged_casters, scene_depth, texel, DepthPass, LightView,
 };
+use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
-use crate::shadow::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::Error;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;

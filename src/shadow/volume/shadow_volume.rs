@@ -25,7 +25,7 @@ pub use super::stencil::zpass_is_safe;
 pub use super::stencil::Mode;
 use super::stencil::StencilVolumes;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
 
 /// Options of stencil shadow volumes.

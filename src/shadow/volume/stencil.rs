@@ -13,8 +13,8 @@ use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pass::Pass;
+use crate::shadow::technique::Stage;
 use crate::shadow::timing::Passes;
-use crate::shadow::Stage;
 use crate::Error;
 use glam::{Mat4, Vec3, Vec4};
 

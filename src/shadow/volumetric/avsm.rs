@@ -34,7 +34,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, merged_casters, LightView};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
 use glam::Vec3;
 
@@ -124,7 +124,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::Transmittance],
+        models: &[crate::shadow::technique::Effect::Transmittance],
     }
 }
 

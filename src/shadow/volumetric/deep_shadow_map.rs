@@ -35,7 +35,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -133,7 +133,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("filter", "nearest")]],
         create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::Transmittance],
+        models: &[crate::shadow::technique::Effect::Transmittance],
     }
 }
 

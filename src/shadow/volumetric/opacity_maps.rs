@@ -31,7 +31,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, DepthPass, LightView};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
 use glam::{Vec3, Vec4};
 
@@ -124,7 +124,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[&[("slices", "16")]],
         create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::Transmittance],
+        models: &[crate::shadow::technique::Effect::Transmittance],
     }
 }
 

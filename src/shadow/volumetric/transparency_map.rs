@@ -21,7 +21,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, DepthPass, LightView};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
 use glam::{Vec3, Vec4};
 
@@ -77,7 +77,7 @@ pub fn info() -> TechniqueInfo {
         extended: &[],
         create: |pairs| Ok(Box::new(TransparencyMap::new(declaration().parse(pairs)?)?)),
         applies: None,
-        models: &[crate::shadow::Effect::Transmittance],
+        models: &[crate::shadow::technique::Effect::Transmittance],
     }
 }
 

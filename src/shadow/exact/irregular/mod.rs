@@ -72,16 +72,16 @@
 use crate::choice_enum;
 use crate::frame::{Frame, NO_OBJECT};
 use crate::pipeline::compute::Scatter;
-use crate::pipeline::wide::Vec3x4;
+use crate::pipeline::lanes::Vec3x4;
 use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::pass::Pass;
+use crate::shadow::technique::Stage;
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette::Adjacency;
-use crate::shadow::Stage;
 use crate::{Error, Resource};
 use glam::{BVec4A, Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;

@@ -28,7 +28,8 @@ use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::cascades::{self, Blend};
 use crate::shadow::light::{self, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::options::within;
-use crate::shadow::{Field, Stage};
+use crate::shadow::options::Field;
+use crate::shadow::stage::Stage;
 use crate::Error;
 use glam::{Vec2, Vec4};
 
@@ -778,65 +779,4 @@ fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool) -> Step {
             .num(&format!("weight {i}"), wt);
     }
     step
-}
-
-/// Shared by the family's tests: a small scene under every light kind, and the check that
-/// a technique's four-pixel lookups equal its one-pixel ones.
-#[cfg(all(test, feature = "files"))]
-pub(crate) mod testing {
-    use crate::frame::Frame;
-    use crate::pipeline::Pipeline;
-    use crate::shadow::{ShadowTechnique, Visibility};
-
-    /// A box and a sphere on a ground, seen by a small camera, under `light` (TOML).
-    pub(crate) fn scene(light: &str) -> crate::scene::Scene {
-        let text = format!(
-            "[camera]\nposition = [3, 2.5, 4]\ntarget = [0, 0.4, 0]\nresolution = [97, 61]\n\n{light}\n\n[[object]]\nmesh = \"plane\"\nsize = 8\n\n[[object]]\nmesh = \"box\"\nsize = 1\ntranslate = [0, 0.5, 0]\nrotate = [0, 25, 0]\n\n[[object]]\nmesh = \"sphere\"\nradius = 0.4\ntranslate = [1.2, 0.6, -0.6]\n"
-        );
-        crate::scene::file::parse(&text, std::path::Path::new("t.toml")).unwrap()
-    }
-
-    /// Lights of every kind: a disk, a sun with an angular size, and a point light (cube
-    /// faces: four pixels may look up different views).
-    pub(crate) const LIGHTS: [&str; 3] = [
-        "[[light]]\ntype = \"disk\"\nposition = [-2.5, 5, -1.5]\ntarget = [0, 0, 0]\nradius = 0.35",
-        "[[light]]\ntype = \"directional\"\ndirection = [0.4, -1, 0.3]",
-        "[[light]]\ntype = \"point\"\nposition = [0.3, 1.6, 0.9]",
-    ];
-
-    /// For every light of [`LIGHTS`] and option set of `sets` on [`scene`]'s frame: the
-    /// technique `make` builds runs, and every pixel's value equals its one-pixel `lookup`
-    /// bit for bit (then `more` checks the pixel), and the run's count (`counted`) is the sum
-    /// of the one-pixel counts.
-    pub(crate) fn assert_lookups<T: ShadowTechnique>(
-        sets: &[&[(&str, &str)]],
-        make: impl Fn(&[(String, String)]) -> T,
-        lookup: impl Fn(&T, &Frame, usize, usize) -> (f32, u64),
-        more: impl Fn(&T, &Frame, usize, usize, usize),
-        counted: impl Fn(&T) -> u64,
-    ) {
-        let p = Pipeline::new(2).unwrap();
-        for light in LIGHTS {
-            let s = scene(light);
-            let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
-            for set in sets {
-                let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-                let mut t = make(&pairs);
-                let Visibility::Scalar(v) = t.visibility(&p, &f).unwrap() else {
-                    panic!("scalar")
-                };
-                let (w, h) = (f.width() as usize, f.height() as usize);
-                let mut total = 0u64;
-                for y in 0..h {
-                    for x in 0..w {
-                        let (one, n) = lookup(&t, &f, x, y);
-                        total += n;
-                        assert_eq!(v[y * w + x].to_bits(), one.to_bits(), "{light} {set:?} ({x}, {y})");
-                        more(&t, &f, x, y, y * w + x);
-                    }
-                }
-                assert_eq!(counted(&t), total, "{light} {set:?}");
-            }
-        }
-    }
 }

@@ -6,9 +6,9 @@
 //! - receiver-plane depth bias (Isidoro 2006): the receiver's depth slope in shadow-map
 //!   texels, from its screen-space neighbours.
 
-use super::super::light::LightView;
 use crate::reference::SamplePoint;
 use crate::scene::Light;
+use crate::shadow::light::LightView;
 use glam::{Vec2, Vec3, Vec4};
 
 /// The normal-offset lookup point (Holbert 2011): `s` moved along `normal` by `k` texels of
@@ -201,8 +201,8 @@ mod tests {
     fn four_lane_receiver_planes_equal_one_pixel_ones() {
         let p = Pipeline::new(2).unwrap();
         let bits = |(g, b): (Option<Vec2>, f32)| (g.map(|g| [g.x.to_bits(), g.y.to_bits()]), b.to_bits());
-        for light in crate::shadow::map::lookup::testing::LIGHTS {
-            let scene = crate::shadow::map::lookup::testing::scene(light);
+        for light in crate::shadow::sample::testing::LIGHTS {
+            let scene = crate::shadow::sample::testing::scene(light);
             let f = crate::frame::frame(&p, &scene, 0, 0).unwrap();
             let (w, h) = (f.width() as usize, f.height() as usize);
             let (pts, objs) = (f.points(), f.gbuffer.object.data());

@@ -379,7 +379,7 @@ impl Reference4 {
         if !self.coned {
             return plane;
         }
-        plane + self.cone * crate::pipeline::wide::sqrt4(dx * dx + dy * dy)
+        plane + self.cone * crate::pipeline::lanes::sqrt4(dx * dx + dy * dy)
     }
 }
 
@@ -543,7 +543,7 @@ pub fn separable4(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4, t: &[f32]) -> V
 }
 
 fn separable4_n<const C: usize>(map: &Surface<f32>, u: Vec4, v: Vec4, z: Vec4, t: &[f32]) -> Vec4 {
-    use crate::pipeline::wide::floor4;
+    use crate::pipeline::lanes::floor4;
     let (w, h) = (map.width() as usize, map.height() as usize);
     let n = t.len();
     let r = (n / 2) as f32;
