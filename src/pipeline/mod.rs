@@ -13,7 +13,10 @@
 //!    program, depth write, blending with colour masks, per-pixel fragment [`lists`]; shaded
 //!    draws without stencil, lists or discard run four pixels at a time ([`wide`]:
 //!    [`FragmentProgram::shade4`] on structure-of-arrays lanes, bit-identical to the
-//!    one-pixel path).
+//!    one-pixel path), hidden surfaces removed before shading ([`deferred`]). Under them,
+//!    bottom up: [`lanes`] (what a program sees, one pixel or four), [`program`] (the program
+//!    trait, colour formats, blending, the targets as tile workers see them) and [`spans`]
+//!    (the depth-only and stencil-counting row spans).
 //!
 //! Beside them: raster-ordered per-pixel storage ([`ordered`], [`Pipeline::draw_ordered`]):
 //! a program reads and writes its pixel's slice of user data, one pixel's fragments in

@@ -13,7 +13,7 @@ pub use crate::visibility::Visibility;
 use super::light::LightView;
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
-use crate::scene::Scene;
+use crate::scene::{Light, Scene};
 use crate::Error;
 
 /// A shadow technique.
@@ -130,10 +130,10 @@ pub struct TechniqueInfo {
     pub extended: &'static [&'static [(&'static str, &'static str)]],
     /// Constructor from `key=value` settings (parsed by the technique's [`Declaration`]).
     pub create: Constructor,
-    /// The scenes the technique works on, for harnesses that run every technique on every
-    /// scene (the sweep, the golden hashes): `None` for every scene. On another scene its
-    /// `visibility` is an error that says what is missing.
-    pub applies: Option<fn(&Scene) -> bool>,
+    /// The lights (and their scenes) the technique works on, for harnesses that run every
+    /// technique on every scene (the sweep, the golden hashes): `None` for every light. On
+    /// another its `visibility` is an error that says what is missing.
+    pub applies: Option<fn(&Scene, &Light) -> bool>,
     /// What the technique models beyond the hard shadow of opaque casters from a point (empty:
     /// nothing more). `penumbra choose` skips a technique whose scene has none of these: no
     /// penumbra technique under a point light, no volumetric one where nothing transmits light.
@@ -151,13 +151,10 @@ pub enum Effect {
 }
 
 impl Effect {
-    /// Whether `scene` (its first light, its materials) has this effect.
-    pub fn in_scene(self, scene: &Scene) -> bool {
+    /// Whether `light` of `scene` (the light, the scene's materials) has this effect.
+    pub fn in_light(self, scene: &Scene, light: &Light) -> bool {
         match self {
-            Effect::AreaLight => matches!(
-                scene.lights.first().map(|l| l.kind),
-                Some(crate::scene::LightKind::Area(_))
-            ),
+            Effect::AreaLight => matches!(light.kind, crate::scene::LightKind::Area(_)),
             Effect::Transmittance => scene.objects.iter().any(|o| {
                 scene
                     .materials
@@ -165,6 +162,11 @@ impl Effect {
                     .is_some_and(crate::scene::Material::is_transparent)
             }),
         }
+    }
+
+    /// Whether any light of `scene` has this effect ([`Effect::in_light`]).
+    pub fn in_scene(self, scene: &Scene) -> bool {
+        scene.lights.iter().any(|l| self.in_light(scene, l))
     }
 
     /// A name for people: `an area light`, `translucent casters`.
@@ -177,9 +179,14 @@ impl Effect {
 }
 
 impl TechniqueInfo {
-    /// Whether the technique works on `scene` ([`TechniqueInfo::applies`]).
+    /// Whether the technique works on `light` of `scene` ([`TechniqueInfo::applies`]).
+    pub fn applies_to_light(&self, scene: &Scene, light: &Light) -> bool {
+        self.applies.is_none_or(|f| f(scene, light))
+    }
+
+    /// Whether the technique works on every light of `scene` ([`TechniqueInfo::applies`]).
     pub fn applies_to(&self, scene: &Scene) -> bool {
-        self.applies.is_none_or(|f| f(scene))
+        scene.lights.iter().all(|l| self.applies_to_light(scene, l))
     }
 }
 

@@ -4,7 +4,7 @@
 //! plain map's pass over the one warped view ([`crate::shadow::light::warp`]).
 
 use super::plain::{self, HoldsMapPass, MapPass};
-use crate::scene::{LightKind, Scene};
+use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::light::warp::Warp;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
@@ -55,9 +55,9 @@ pub fn declaration<O: HoldsMapPass>(technique: &'static str, fields: Vec<Field<W
     Declaration { technique, fields: all }
 }
 
-/// Whether `scene`'s light is directional (the only kind warps and cascades take).
-pub fn directional(scene: &Scene) -> bool {
-    scene.lights.first().is_some_and(|l| l.kind == LightKind::Directional)
+/// Whether `light` is directional (the only kind warps and cascades take).
+pub fn directional(_scene: &Scene, light: &Light) -> bool {
+    light.kind == LightKind::Directional
 }
 
 /// The warped technique `d.technique` with `opts`: an option out of its range is an error,

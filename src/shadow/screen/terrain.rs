@@ -26,7 +26,7 @@ use crate::frame::Frame;
 use crate::pipeline::{DepthFormat, Pipeline};
 use crate::pipeline::{PolygonOffset, Surface, MAX_DIMENSION};
 use crate::reference::bvh::{Bvh, Tri};
-use crate::scene::{LightKind, Scene};
+use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
 use crate::shadow::light::{
     corners, directional_view, inside, merged_casters, scene_depth, texel, DepthPass, LightView,
@@ -133,9 +133,8 @@ pub fn info() -> TechniqueInfo {
 
 /// Whether terrain occlusion height works on `scene`: a heightfield under a directional
 /// first light.
-pub fn applies(scene: &Scene) -> bool {
-    scene.objects.iter().any(|o| o.heightfield)
-        && scene.lights.first().is_some_and(|l| l.kind == LightKind::Directional)
+pub fn applies(scene: &Scene, light: &Light) -> bool {
+    scene.objects.iter().any(|o| o.heightfield) && light.kind == LightKind::Directional
 }
 
 /// A depth map of some casters from the sun, with its view.
