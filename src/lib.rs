@@ -10,7 +10,7 @@
 //!     +--frame--> camera pass through the pipeline: G-buffer (depth, position, normal, object)
 //!     |               |                                     |
 //!     |               v                                     v
-//!     |     shadow technique (shadow::create):     reference ray tracer (reference):
+//!     |     shadow technique (penumbra::create):   reference ray tracer (reference):
 //!     |     light-space passes through the         exact hard or area-light visibility
 //!     |     pipeline -> Visibility                 -> Visibility
 //!     |               |                                     |
@@ -45,7 +45,7 @@
 //! let s = scene::file::parse(text, std::path::Path::new("box.toml"))?;
 //! let p = Pipeline::new(2)?;
 //! let f = frame::frame(&p, &s, 0, 0)?; // the camera's G-buffer for light 0, frame 0
-//! let mut t = shadow::create("shadow-volume", &[])?; // or "pcss", "izb", with ("key", "value") options
+//! let mut t = shadow::registry::create("shadow-volume", &[])?; // or "pcss", "izb", with ("key", "value") options
 //! let v = t.visibility(&p, &f)?;
 //! let r = Reference::new(&s).visibility(f.points(), f.width() as usize, &f.light, &ReferenceOptions::default());
 //! let e = metrics::compare(&v, &r, &f.metric_mask());
