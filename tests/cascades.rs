@@ -98,7 +98,7 @@ fn every_visible_point_falls_inside_the_cascade_that_sees_it() {
                     seen[at.view] += 1;
                 }
                 // Splits increase and the cascades are ordered near to far.
-                let ends: Vec<f32> = views.iter().map(|v| v.slice.unwrap().far).collect();
+                let ends: Vec<f32> = views.iter().map(|v| v.slice().unwrap().far).collect();
                 assert!(ends.windows(2).all(|w| w[0] < w[1]), "{scene}: {ends:?}");
                 assert!(
                     seen.iter().filter(|n| **n > 0).count() >= 2.min(c),

@@ -89,12 +89,28 @@ pub fn sample_bilinear<T: Filterable>(s: &Surface<T>, uv: Vec2, addr: Address) -
     T::mix(top, 1.0 - fy, bottom, fy)
 }
 
+/// The edge rule of every map lookup, the samplers' borders and the shadow techniques'
+/// `locate` alike: `uv` lies on a map when it is in `[0, 1)²`, where its texel
+/// `floor(uv * size)` exists (a coordinate of exactly 1 is off the map, as a texel index of
+/// `size` would be). NaN lies on no map.
+#[inline(always)]
+pub fn on_map(uv: Vec2) -> bool {
+    uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0
+}
+
+/// [`on_map`] of four coordinates `(u[l], v[l])`, one per lane.
+#[inline(always)]
+pub fn on_map4(u: Vec4, v: Vec4) -> BVec4A {
+    u.cmpge(Vec4::ZERO) & u.cmplt(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmplt(Vec4::ONE)
+}
+
 /// A depth-comparison sampler (GL `sampler2DShadow` with linear filtering).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct CompareSampler {
     /// `reference FUNC texel` is "lit". Default: `LessEqual`.
     pub func: CompareFunc,
-    /// Result for `uv` outside [0, 1]^2 (`None`: clamp to edge). Default: `Some(1.0)` (lit).
+    /// Result for `uv` off the map ([`on_map`]: outside `[0, 1)²`; `None`: clamp to edge).
+    /// Default: `Some(1.0)` (lit).
     pub border: Option<f32>,
 }
 
@@ -125,7 +141,7 @@ impl CompareSampler {
     #[inline(always)]
     fn border_for(&self, uv: Vec2) -> Option<f32> {
         match self.border {
-            Some(b) if !(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) => Some(b),
+            Some(b) if !on_map(uv) => Some(b),
             _ => None,
         }
     }
@@ -204,7 +220,7 @@ impl CompareSampler {
     #[inline(always)]
     fn inside4(&self, u: Vec4, v: Vec4) -> BVec4A {
         match self.border {
-            Some(_) => u.cmpge(Vec4::ZERO) & u.cmple(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmple(Vec4::ONE),
+            Some(_) => on_map4(u, v),
             None => BVec4A::TRUE,
         }
     }

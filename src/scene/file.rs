@@ -369,53 +369,7 @@ impl Ctx<'_> {
         for (i, o) in raw.objects.iter().enumerate() {
             let (s, o) = (o.span(), o.get_ref());
             let what = format!("[[object]] #{} ({})", i + 1, o.mesh);
-            let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, Error> {
-                let v = v.unwrap_or(default);
-                if v.is_finite() && v > 0.0 && v < 1e6 {
-                    Ok(v)
-                } else {
-                    self.err(s.clone(), &what, field, format!("{v} must be positive and below 1e6"))
-                }
-            };
-            let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, Error> {
-                let v = match &o.size {
-                    None => default.to_vec(),
-                    Some(NumOrVec::Num(x)) => vec![*x; n],
-                    Some(NumOrVec::Vec(v)) if v.len() == n => v.clone(),
-                    Some(NumOrVec::Vec(v)) => {
-                        return self.err(s.clone(), &what, "size", format!("needs {n} numbers, got {}", v.len()))
-                    }
-                };
-                if v.iter().all(|x| x.is_finite() && *x > 0.0 && *x < 1e6) {
-                    Ok(v)
-                } else {
-                    self.err(s.clone(), &what, "size", "every entry must be positive and below 1e6")
-                }
-            };
-            let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, Error> {
-                let v = v.unwrap_or(default);
-                if (1..=max).contains(&v) {
-                    Ok(v)
-                } else {
-                    self.err(s.clone(), &what, field, format!("{v} is outside 1..={max}"))
-                }
-            };
-            // The scene-wide triangle budget, from the parameters, before anything is tessellated
-            // (each parameter clamped to its own limit, which `count` checks below).
-            let param = |v: Option<u32>, default: u32, max: u32| v.unwrap_or(default).min(max) as u64;
-            let estimate = match o.mesh.as_str() {
-                "plane" => 2 * param(o.subdivisions, 1, 1024).pow(2),
-                "box" => 12,
-                "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
-                "cylinder" => 4 * param(o.segments, 32, 4096),
-                "cone" => 2 * param(o.segments, 32, 4096),
-                "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
-                "pleated" => {
-                    let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
-                    2 * n * (n / 4).max(1)
-                }
-                _ => 0,
-            };
+            let estimate = estimated_triangles(o);
             *triangles += estimate;
             if *triangles > budget {
                 return self.err(
@@ -427,97 +381,8 @@ impl Ctx<'_> {
                     ),
                 );
             }
-            let mesh = match o.mesh.as_str() {
-                "plane" => {
-                    let sz = size_vec(2, &[10.0, 10.0])?;
-                    mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
-                }
-                "box" => {
-                    let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
-                    mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
-                }
-                "sphere" => mesh::sphere(
-                    num(o.radius, "radius", 0.5)?,
-                    count(o.stacks, "stacks", 24, 2048)?,
-                    count(o.slices, "slices", 48, 4096)?,
-                ),
-                "cylinder" => mesh::cylinder(
-                    num(o.radius, "radius", 0.5)?,
-                    num(o.height, "height", 1.0)?,
-                    count(o.segments, "segments", 32, 4096)?,
-                ),
-                "cone" => mesh::cone(
-                    num(o.radius, "radius", 0.5)?,
-                    num(o.height, "height", 1.0)?,
-                    count(o.segments, "segments", 32, 4096)?,
-                ),
-                "heightfield" => {
-                    let sz = size_vec(2, &[20.0, 20.0])?;
-                    let amp = o.amplitude.unwrap_or(1.0);
-                    if !(amp.is_finite() && amp.abs() < 1e6) {
-                        return self.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                    }
-                    mesh::heightfield(
-                        Vec2::new(sz[0], sz[1]),
-                        count(o.subdivisions, "subdivisions", 64, 1024)?,
-                        amp,
-                        o.seed.unwrap_or(1),
-                    )
-                }
-                "pleated" => {
-                    let sz = size_vec(2, &[4.0, 2.0])?;
-                    let amp = o.amplitude.unwrap_or(0.2);
-                    if !(amp.is_finite() && amp.abs() < 1e6) {
-                        return self.err(s, &what, "amplitude", format!("{amp} is not a finite height"));
-                    }
-                    let pleats = count(o.pleats, "pleats", 6, 1024)?;
-                    mesh::pleated(
-                        Vec2::new(sz[0], sz[1]),
-                        count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
-                        amp,
-                        pleats,
-                    )
-                }
-                p if p.to_ascii_lowercase().ends_with(".obj") => {
-                    let full: PathBuf = dir.join(p);
-                    match self.files.iter().find(|(name, _)| name == p) {
-                        Some((_, text)) => mesh::obj_from_bytes(text.as_bytes(), &full),
-                        None => mesh::load_obj(&full),
-                    }
-                    .or_else(|e| self.err(s.clone(), &what, "mesh", e))?
-                }
-                p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
-                    let full: PathBuf = dir.join(p);
-                    super::gltf::load(&full)
-                        .map(|g| g.merged())
-                        .or_else(|e| self.err(s.clone(), &what, "mesh", e))?
-                }
-                other => {
-                    return self.err(
-                        s,
-                        &what,
-                        "mesh",
-                        format!(
-                            "unknown mesh '{other}' (plane, box, sphere, cylinder, cone, heightfield, pleated, or a .obj, .gltf or .glb path)"
-                        ),
-                    )
-                }
-            };
-            let t = finite3(o.translate.unwrap_or([0.0; 3]))
-                .map_or_else(|| self.err(s.clone(), &what, "translate", "not finite"), Ok)?;
-            let r = finite3(o.rotate.unwrap_or([0.0; 3]))
-                .map_or_else(|| self.err(s.clone(), &what, "rotate", "not finite"), Ok)?;
-            let sc = match &o.scale {
-                None => Vec3::ONE,
-                Some(NumOrVec::Num(x)) => Vec3::splat(*x),
-                Some(NumOrVec::Vec(v)) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
-                Some(NumOrVec::Vec(_)) => return self.err(s, &what, "scale", "needs 1 or 3 numbers"),
-            };
-            if !sc.is_finite() || sc.abs().min_element() < 1e-6 {
-                return self.err(s, &what, "scale", "must be finite and non-zero");
-            }
-            let rot = Quat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
-            let m = Mat4::from_scale_rotation_translation(sc, rot, t);
+            let mesh = self.object_mesh(s.clone(), &what, o, dir)?;
+            let (m, t) = self.object_transform(s.clone(), &what, o)?;
             let material = match &o.material {
                 None => 0,
                 Some(name) => match materials[1..].iter().position(|m| &m.name == name) {
@@ -573,6 +438,139 @@ impl Ctx<'_> {
             });
         }
         Ok(objects)
+    }
+
+    /// The mesh of object `o` (`what`, at `s`): procedural with its parameters checked, or read
+    /// from an OBJ or glTF file under `dir` (or from the files given with the text).
+    fn object_mesh(&self, s: std::ops::Range<usize>, what: &str, o: &RawObject, dir: &Path) -> Result<Mesh, Error> {
+        let num = |v: Option<f32>, field: &str, default: f32| -> Result<f32, Error> {
+            let v = v.unwrap_or(default);
+            if v.is_finite() && v > 0.0 && v < 1e6 {
+                Ok(v)
+            } else {
+                self.err(s.clone(), what, field, format!("{v} must be positive and below 1e6"))
+            }
+        };
+        let size_vec = |n: usize, default: &[f32]| -> Result<Vec<f32>, Error> {
+            let v = match &o.size {
+                None => default.to_vec(),
+                Some(NumOrVec::Num(x)) => vec![*x; n],
+                Some(NumOrVec::Vec(v)) if v.len() == n => v.clone(),
+                Some(NumOrVec::Vec(v)) => {
+                    return self.err(s.clone(), what, "size", format!("needs {n} numbers, got {}", v.len()))
+                }
+            };
+            if v.iter().all(|x| x.is_finite() && *x > 0.0 && *x < 1e6) {
+                Ok(v)
+            } else {
+                self.err(s.clone(), what, "size", "every entry must be positive and below 1e6")
+            }
+        };
+        let count = |v: Option<u32>, field: &str, default: u32, max: u32| -> Result<u32, Error> {
+            let v = v.unwrap_or(default);
+            if (1..=max).contains(&v) {
+                Ok(v)
+            } else {
+                self.err(s.clone(), what, field, format!("{v} is outside 1..={max}"))
+            }
+        };
+        let mesh = match o.mesh.as_str() {
+            "plane" => {
+                let sz = size_vec(2, &[10.0, 10.0])?;
+                mesh::plane(Vec2::new(sz[0], sz[1]), count(o.subdivisions, "subdivisions", 1, 1024)?)
+            }
+            "box" => {
+                let sz = size_vec(3, &[1.0, 1.0, 1.0])?;
+                mesh::cuboid(Vec3::new(sz[0], sz[1], sz[2]))
+            }
+            "sphere" => mesh::sphere(
+                num(o.radius, "radius", 0.5)?,
+                count(o.stacks, "stacks", 24, 2048)?,
+                count(o.slices, "slices", 48, 4096)?,
+            ),
+            "cylinder" => mesh::cylinder(
+                num(o.radius, "radius", 0.5)?,
+                num(o.height, "height", 1.0)?,
+                count(o.segments, "segments", 32, 4096)?,
+            ),
+            "cone" => mesh::cone(
+                num(o.radius, "radius", 0.5)?,
+                num(o.height, "height", 1.0)?,
+                count(o.segments, "segments", 32, 4096)?,
+            ),
+            "heightfield" => {
+                let sz = size_vec(2, &[20.0, 20.0])?;
+                let amp = o.amplitude.unwrap_or(1.0);
+                if !(amp.is_finite() && amp.abs() < 1e6) {
+                    return self.err(s, what, "amplitude", format!("{amp} is not a finite height"));
+                }
+                mesh::heightfield(
+                    Vec2::new(sz[0], sz[1]),
+                    count(o.subdivisions, "subdivisions", 64, 1024)?,
+                    amp,
+                    o.seed.unwrap_or(1),
+                )
+            }
+            "pleated" => {
+                let sz = size_vec(2, &[4.0, 2.0])?;
+                let amp = o.amplitude.unwrap_or(0.2);
+                if !(amp.is_finite() && amp.abs() < 1e6) {
+                    return self.err(s, what, "amplitude", format!("{amp} is not a finite height"));
+                }
+                let pleats = count(o.pleats, "pleats", 6, 1024)?;
+                mesh::pleated(
+                    Vec2::new(sz[0], sz[1]),
+                    count(o.subdivisions, "subdivisions", 16 * pleats, 4096)?,
+                    amp,
+                    pleats,
+                )
+            }
+            p if p.to_ascii_lowercase().ends_with(".obj") => {
+                let full: PathBuf = dir.join(p);
+                match self.files.iter().find(|(name, _)| name == p) {
+                    Some((_, text)) => mesh::obj_from_bytes(text.as_bytes(), &full),
+                    None => mesh::load_obj(&full),
+                }
+                .or_else(|e| self.err(s.clone(), what, "mesh", e))?
+            }
+            p if p.to_ascii_lowercase().ends_with(".gltf") || p.to_ascii_lowercase().ends_with(".glb") => {
+                let full: PathBuf = dir.join(p);
+                super::gltf::load(&full)
+                    .map(|g| g.merged())
+                    .or_else(|e| self.err(s.clone(), what, "mesh", e))?
+            }
+            other => {
+                return self.err(
+                    s,
+                    what,
+                    "mesh",
+                    format!(
+                        "unknown mesh '{other}' (plane, box, sphere, cylinder, cone, heightfield, pleated, or a .obj, .gltf or .glb path)"
+                    ),
+                )
+            }
+        };
+        Ok(mesh)
+    }
+
+    /// Object `o`'s transform (`what`, at `s`): translate, rotate (degrees x, y, z) and scale,
+    /// each checked; with its translation.
+    fn object_transform(&self, s: std::ops::Range<usize>, what: &str, o: &RawObject) -> Result<(Mat4, Vec3), Error> {
+        let t = finite3(o.translate.unwrap_or([0.0; 3]))
+            .map_or_else(|| self.err(s.clone(), what, "translate", "not finite"), Ok)?;
+        let r = finite3(o.rotate.unwrap_or([0.0; 3]))
+            .map_or_else(|| self.err(s.clone(), what, "rotate", "not finite"), Ok)?;
+        let sc = match &o.scale {
+            None => Vec3::ONE,
+            Some(NumOrVec::Num(x)) => Vec3::splat(*x),
+            Some(NumOrVec::Vec(v)) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
+            Some(NumOrVec::Vec(_)) => return self.err(s, what, "scale", "needs 1 or 3 numbers"),
+        };
+        if !sc.is_finite() || sc.abs().min_element() < 1e-6 {
+            return self.err(s, what, "scale", "must be finite and non-zero");
+        }
+        let rot = Quat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
+        Ok((Mat4::from_scale_rotation_translation(sc, rot, t), t))
     }
 
     /// The glTF's materials and objects after the file's own (names made unique), counting
@@ -919,6 +917,26 @@ fn shown(v: f32) -> String {
         format!("{v:e}")
     } else {
         v.to_string()
+    }
+}
+
+/// The triangles an object's parameters make, before anything is tessellated (each parameter
+/// clamped to its own limit, which the object's check refuses beyond): the scene-wide
+/// triangle budget is counted from these. 0 for meshes from files (counted once read).
+fn estimated_triangles(o: &RawObject) -> u64 {
+    let param = |v: Option<u32>, default: u32, max: u32| v.unwrap_or(default).min(max) as u64;
+    match o.mesh.as_str() {
+        "plane" => 2 * param(o.subdivisions, 1, 1024).pow(2),
+        "box" => 12,
+        "sphere" => 2 * param(o.stacks, 24, 2048) * param(o.slices, 48, 4096),
+        "cylinder" => 4 * param(o.segments, 32, 4096),
+        "cone" => 2 * param(o.segments, 32, 4096),
+        "heightfield" => 2 * param(o.subdivisions, 64, 1024).pow(2),
+        "pleated" => {
+            let n = param(o.subdivisions, 16 * param(o.pleats, 6, 1024) as u32, 4096);
+            2 * n * (n / 4).max(1)
+        }
+        _ => 0,
     }
 }
 

@@ -102,86 +102,14 @@ impl GltfScene {
 /// instances included, against the triangle budget before any mesh is built.
 pub fn load(path: &Path) -> Result<GltfScene, Error> {
     let bytes = super::read::read_regular(path, "glTF file", super::mesh::MAX_OBJ_BYTES)?;
-    let read_error = |e: gltf::Error| {
-        Error::scene(
-            path,
-            match e {
-                gltf::Error::Binary(e) => format!("not a valid binary glTF (GLB) container: {e}"),
-                gltf::Error::Deserialize(e) => format!("not valid glTF JSON: {e}"),
-                gltf::Error::Validation(v) => {
-                    let (p, e) = &v[0];
-                    format!(
-                        "invalid glTF 2.0: {p}: {e}{}",
-                        if v.len() > 1 {
-                            format!(" (and {} more)", v.len() - 1)
-                        } else {
-                            String::new()
-                        }
-                    )
-                }
-                e => format!("cannot read glTF: {e}"),
-            },
-        )
-    };
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(read_error)?;
-    let root = document.into_json();
-    // The crate's validation indexes a primitive's POSITION accessor before it checks that
-    // the index exists (a panic): checked here first.
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (k, prim) in mesh.primitives.iter().enumerate() {
-            for (semantic, a) in &prim.attributes {
-                if a.value() >= root.accessors.len() {
-                    let semantic = match semantic {
-                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
-                        gltf::json::validation::Checked::Invalid => "(unknown)".into(),
-                    };
-                    return Err(Error::scene(
-                        path,
-                        format!(
-                            "mesh {m}, primitive {k}: attribute {semantic} names accessor {}, but the file has {}",
-                            a.value(),
-                            root.accessors.len()
-                        ),
-                    ));
-                }
-            }
-        }
-    }
-    let doc = gltf::Document::from_json(root).map_err(read_error)?;
-    let version = &doc.as_json().asset.version;
-    if !version.starts_with("2.") {
-        return Err(Error::scene(
-            path,
-            format!("asset.version is '{version}': only glTF 2.x is read"),
-        ));
-    }
+    let (doc, blob) = document(path, &bytes)?;
     let buffers = load_buffers(path, &doc, blob)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| Error::scene(path, "the file has no scene"))?;
     check_graph(path, &scene, &buffers)?;
-    let mut materials = Vec::new();
-    for (i, m) in doc.materials().enumerate() {
-        let c = m.pbr_metallic_roughness().base_color_factor();
-        let name = m.name().map_or_else(|| format!("gltf_material{i}"), str::to_string);
-        if let Some(v) = c.iter().find(|v| !(**v >= 0.0 && **v <= 1.0)) {
-            return Err(Error::scene(
-                path,
-                format!("material {i} '{name}': baseColorFactor {c:?} has {v}, outside [0, 1]"),
-            ));
-        }
-        materials.push(Material {
-            name,
-            albedo: Vec3::new(c[0], c[1], c[2]),
-            opacity: match m.alpha_mode() {
-                gltf::material::AlphaMode::Blend => c[3],
-                _ => 1.0,
-            },
-            transmittance: None,
-            two_sided: m.double_sided(),
-        });
-    }
+    let mut materials = materials(path, &doc)?;
     let default_material = materials.len();
     materials.push(Material {
         name: "gltf_default".into(),
@@ -221,201 +149,16 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                let what = format!(
-                    "{node_name}, mesh {} '{}', primitive {}",
-                    mesh.index(),
-                    mesh.name().unwrap_or(""),
-                    prim.index()
-                );
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(Error::scene(
-                        path,
-                        format!("{what}: mode {:?} is not supported (only TRIANGLES)", prim.mode()),
-                    ));
-                }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
-                let positions: Vec<Vec3> = reader
-                    .read_positions()
-                    .ok_or_else(|| Error::scene(path, format!("{what}: no POSITION accessor")))?
-                    .map(Vec3::from)
-                    .collect();
-                if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
-                    return Err(Error::scene(
-                        path,
-                        format!(
-                            "{what}: accessor {}: a position is not finite ({p})",
-                            prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.index())
-                        ),
-                    ));
-                }
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(ix) => ix.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
-                };
-                if !indices.len().is_multiple_of(3) {
-                    return Err(Error::scene(
-                        path,
-                        format!("{what}: {} indices are not whole triangles", indices.len()),
-                    ));
-                }
-                if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-                    return Err(Error::scene(
-                        path,
-                        format!(
-                            "{what}: accessor {}: index {bad} beyond the {} positions",
-                            prim.indices().map_or(0, |a| a.index()),
-                            positions.len()
-                        ),
-                    ));
-                }
-                let normals: Vec<Vec3> = match reader.read_normals() {
-                    Some(n) => n.map(|v| Vec3::from(v).normalize_or_zero()).collect(),
-                    None => super::mesh::face_normals(&positions, &indices),
-                };
-                if normals.len() != positions.len() {
-                    return Err(Error::scene(
-                        path,
-                        format!("{what}: {} normals for {} positions", normals.len(), positions.len()),
-                    ));
-                }
-                let mut m = Mesh {
-                    positions,
-                    normals,
-                    indices,
-                }
-                .transformed(world);
-                // A mirroring transform turns the faces' winding around (glTF 2.0, 3.7.4).
-                if crate::math::determinant(&world) < 0.0 {
-                    for t in m.indices.chunks_exact_mut(3) {
-                        t.swap(1, 2);
-                    }
-                }
-                out.objects.push(GltfObject {
-                    name: format!(
-                        "{}/{}/{}",
-                        node.name().unwrap_or("node"),
-                        mesh.name().unwrap_or("mesh"),
-                        prim.index()
-                    ),
-                    mesh: m,
-                    material: prim.material().index().unwrap_or(default_material),
-                });
+                let object =
+                    primitive_object(path, &buffers, &node, &mesh, &prim, world, default_material, &node_name)?;
+                out.objects.push(object);
             }
         }
-        let origin = world.transform_point3(Vec3::ZERO);
-        let forward = world.transform_vector3(-Vec3::Z).normalize_or_zero();
-        if let Some(cam) = node.camera() {
-            if let (None, gltf::camera::Projection::Perspective(p)) = (&out.camera, cam.projection()) {
-                let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-                if forward == Vec3::ZERO || up == Vec3::ZERO {
-                    return Err(Error::scene(
-                        path,
-                        format!("{node_name}: the camera's transform is degenerate"),
-                    ));
-                }
-                let fov = p.yfov().to_degrees();
-                if !(super::limits::FOV_DEGREES.contains(&fov) && p.znear() > 0.0 && p.znear().is_finite()) {
-                    return Err(Error::scene(
-                        path,
-                        format!(
-                            "{node_name}: camera {}: yfov {} rad or znear {} is out of range",
-                            cam.index(),
-                            p.yfov(),
-                            p.znear()
-                        ),
-                    ));
-                }
-                if let Some(a) = p.aspect_ratio().filter(|a| !(a.is_finite() && *a > 0.0)) {
-                    return Err(Error::scene(
-                        path,
-                        format!("{node_name}: camera {}: aspectRatio {a} is not positive", cam.index()),
-                    ));
-                }
-                if let Some(f) = p.zfar().filter(|f| !(f.is_finite() && *f > p.znear())) {
-                    return Err(Error::scene(
-                        path,
-                        format!(
-                            "{node_name}: camera {}: zfar {f} is not beyond znear {}",
-                            cam.index(),
-                            p.znear()
-                        ),
-                    ));
-                }
-                out.camera = Some(GltfCamera {
-                    position: origin,
-                    target: origin + forward,
-                    up,
-                    fov_deg: fov,
-                    near: p.znear(),
-                    far: p.zfar(),
-                    aspect: p.aspect_ratio(),
-                });
-            }
+        if let (None, Some(cam)) = (&out.camera, node.camera()) {
+            out.camera = node_camera(path, &cam, world, &node_name)?;
         }
         if let Some(l) = node.light() {
-            use gltf::khr_lights_punctual::Kind;
-            let bad = |field: &str, v: String, want: &str| {
-                Err(Error::scene(
-                    path,
-                    format!("{node_name}: light {}: {field} {v} {want}", l.index()),
-                ))
-            };
-            if !(l.intensity() >= 0.0 && l.intensity().is_finite()) {
-                return bad("intensity", l.intensity().to_string(), "is not a finite number >= 0");
-            }
-            if let Some(r) = l.range().filter(|r| !(r.is_finite() && *r > 0.0)) {
-                return bad("range", r.to_string(), "is not a finite number > 0");
-            }
-            if l.color().iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
-                return bad(
-                    "color",
-                    format!("{:?}", l.color()),
-                    "has a negative or non-finite component",
-                );
-            }
-            if let Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } = l.kind()
-            {
-                if !(inner_cone_angle >= 0.0 && inner_cone_angle < outer_cone_angle) {
-                    return bad(
-                        "innerConeAngle",
-                        inner_cone_angle.to_string(),
-                        &format!("is not in [0, outerConeAngle = {outer_cone_angle})"),
-                    );
-                }
-            }
-            let kind = match l.kind() {
-                Kind::Directional => LightKind::Directional,
-                Kind::Point => LightKind::Point,
-                Kind::Spot { outer_cone_angle, .. } => {
-                    let angle_deg = 2.0 * outer_cone_angle.to_degrees();
-                    if !super::limits::FOV_DEGREES.contains(&angle_deg) {
-                        return Err(Error::scene(
-                            path,
-                            format!(
-                                "{node_name}: light {}: outerConeAngle {outer_cone_angle} makes a cone of {angle_deg} degrees, outside {:?}",
-                                l.index(),
-                                super::limits::FOV_DEGREES
-                            ),
-                        ));
-                    }
-                    LightKind::Spot { angle_deg }
-                }
-            };
-            if forward == Vec3::ZERO {
-                return Err(Error::scene(
-                    path,
-                    format!("{node_name}: the light's transform is degenerate"),
-                ));
-            }
-            out.lights.push(Light {
-                kind,
-                position: origin,
-                direction: forward,
-                intensity: 1.0,
-            });
+            out.lights.push(node_light(path, &l, world, &node_name)?);
         }
         for child in node.children().collect::<Vec<_>>().into_iter().rev() {
             stack.push((child, world));
@@ -425,6 +168,310 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         return Err(Error::scene(path, "no triangles in the scene"));
     }
     Ok(out)
+}
+
+/// The file's document and binary chunk, its JSON checked where the crate's validation would
+/// panic, then validated, and its version 2.x.
+fn document(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>), Error> {
+    let read_error = |e: gltf::Error| {
+        Error::scene(
+            path,
+            match e {
+                gltf::Error::Binary(e) => format!("not a valid binary glTF (GLB) container: {e}"),
+                gltf::Error::Deserialize(e) => format!("not valid glTF JSON: {e}"),
+                gltf::Error::Validation(v) => {
+                    let (p, e) = &v[0];
+                    format!(
+                        "invalid glTF 2.0: {p}: {e}{}",
+                        if v.len() > 1 {
+                            format!(" (and {} more)", v.len() - 1)
+                        } else {
+                            String::new()
+                        }
+                    )
+                }
+                e => format!("cannot read glTF: {e}"),
+            },
+        )
+    };
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(read_error)?;
+    let root = document.into_json();
+    // The crate's validation indexes a primitive's POSITION accessor before it checks that
+    // the index exists (a panic): checked here first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, a) in &prim.attributes {
+                if a.value() >= root.accessors.len() {
+                    let semantic = match semantic {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "(unknown)".into(),
+                    };
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "mesh {m}, primitive {k}: attribute {semantic} names accessor {}, but the file has {}",
+                            a.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let doc = gltf::Document::from_json(root).map_err(read_error)?;
+    let version = &doc.as_json().asset.version;
+    if !version.starts_with("2.") {
+        return Err(Error::scene(
+            path,
+            format!("asset.version is '{version}': only glTF 2.x is read"),
+        ));
+    }
+    Ok((doc, blob))
+}
+
+/// The file's materials (base colour, alpha blending, two-sided), each colour checked.
+fn materials(path: &Path, doc: &gltf::Document) -> Result<Vec<Material>, Error> {
+    let mut materials = Vec::new();
+    for (i, m) in doc.materials().enumerate() {
+        let c = m.pbr_metallic_roughness().base_color_factor();
+        let name = m.name().map_or_else(|| format!("gltf_material{i}"), str::to_string);
+        if let Some(v) = c.iter().find(|v| !(**v >= 0.0 && **v <= 1.0)) {
+            return Err(Error::scene(
+                path,
+                format!("material {i} '{name}': baseColorFactor {c:?} has {v}, outside [0, 1]"),
+            ));
+        }
+        materials.push(Material {
+            name,
+            albedo: Vec3::new(c[0], c[1], c[2]),
+            opacity: match m.alpha_mode() {
+                gltf::material::AlphaMode::Blend => c[3],
+                _ => 1.0,
+            },
+            transmittance: None,
+            two_sided: m.double_sided(),
+        });
+    }
+    Ok(materials)
+}
+
+/// The object of primitive `prim` of `mesh` at node `node_name` with transform `world`:
+/// its triangles checked (mode, finite positions, whole triangles, indices in range, one
+/// normal per position) and moved to the world, their winding turned where `world` mirrors.
+#[allow(clippy::too_many_arguments)]
+fn primitive_object(
+    path: &Path,
+    buffers: &[Vec<u8>],
+    node: &gltf::Node,
+    mesh: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    world: Mat4,
+    default_material: usize,
+    node_name: &str,
+) -> Result<GltfObject, Error> {
+    let what = format!(
+        "{node_name}, mesh {} '{}', primitive {}",
+        mesh.index(),
+        mesh.name().unwrap_or(""),
+        prim.index()
+    );
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        return Err(Error::scene(
+            path,
+            format!("{what}: mode {:?} is not supported (only TRIANGLES)", prim.mode()),
+        ));
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| Error::scene(path, format!("{what}: no POSITION accessor")))?
+        .map(Vec3::from)
+        .collect();
+    if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+        return Err(Error::scene(
+            path,
+            format!(
+                "{what}: accessor {}: a position is not finite ({p})",
+                prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.index())
+            ),
+        ));
+    }
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(ix) => ix.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(Error::scene(
+            path,
+            format!("{what}: {} indices are not whole triangles", indices.len()),
+        ));
+    }
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        return Err(Error::scene(
+            path,
+            format!(
+                "{what}: accessor {}: index {bad} beyond the {} positions",
+                prim.indices().map_or(0, |a| a.index()),
+                positions.len()
+            ),
+        ));
+    }
+    let normals: Vec<Vec3> = match reader.read_normals() {
+        Some(n) => n.map(|v| Vec3::from(v).normalize_or_zero()).collect(),
+        None => super::mesh::face_normals(&positions, &indices),
+    };
+    if normals.len() != positions.len() {
+        return Err(Error::scene(
+            path,
+            format!("{what}: {} normals for {} positions", normals.len(), positions.len()),
+        ));
+    }
+    let mut m = Mesh {
+        positions,
+        normals,
+        indices,
+    }
+    .transformed(world);
+    // A mirroring transform turns the faces' winding around (glTF 2.0, 3.7.4).
+    if crate::math::determinant(&world) < 0.0 {
+        for t in m.indices.chunks_exact_mut(3) {
+            t.swap(1, 2);
+        }
+    }
+    Ok(GltfObject {
+        name: format!(
+            "{}/{}/{}",
+            node.name().unwrap_or("node"),
+            mesh.name().unwrap_or("mesh"),
+            prim.index()
+        ),
+        mesh: m,
+        material: prim.material().index().unwrap_or(default_material),
+    })
+}
+
+/// The camera `cam` of node `node_name` with transform `world` (perspective cameras; `None`
+/// for an orthographic one), its view and projection checked.
+fn node_camera(path: &Path, cam: &gltf::Camera, world: Mat4, node_name: &str) -> Result<Option<GltfCamera>, Error> {
+    let origin = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(-Vec3::Z).normalize_or_zero();
+    let gltf::camera::Projection::Perspective(p) = cam.projection() else {
+        return Ok(None);
+    };
+    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+    if forward == Vec3::ZERO || up == Vec3::ZERO {
+        return Err(Error::scene(
+            path,
+            format!("{node_name}: the camera's transform is degenerate"),
+        ));
+    }
+    let fov = p.yfov().to_degrees();
+    if !(super::limits::FOV_DEGREES.contains(&fov) && p.znear() > 0.0 && p.znear().is_finite()) {
+        return Err(Error::scene(
+            path,
+            format!(
+                "{node_name}: camera {}: yfov {} rad or znear {} is out of range",
+                cam.index(),
+                p.yfov(),
+                p.znear()
+            ),
+        ));
+    }
+    if let Some(a) = p.aspect_ratio().filter(|a| !(a.is_finite() && *a > 0.0)) {
+        return Err(Error::scene(
+            path,
+            format!("{node_name}: camera {}: aspectRatio {a} is not positive", cam.index()),
+        ));
+    }
+    if let Some(f) = p.zfar().filter(|f| !(f.is_finite() && *f > p.znear())) {
+        return Err(Error::scene(
+            path,
+            format!(
+                "{node_name}: camera {}: zfar {f} is not beyond znear {}",
+                cam.index(),
+                p.znear()
+            ),
+        ));
+    }
+    Ok(Some(GltfCamera {
+        position: origin,
+        target: origin + forward,
+        up,
+        fov_deg: fov,
+        near: p.znear(),
+        far: p.zfar(),
+        aspect: p.aspect_ratio(),
+    }))
+}
+
+/// The punctual light `l` (KHR_lights_punctual) of node `node_name` with transform `world`,
+/// its intensity, range, colour and cone checked.
+fn node_light(path: &Path, l: &gltf::khr_lights_punctual::Light, world: Mat4, node_name: &str) -> Result<Light, Error> {
+    let origin = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(-Vec3::Z).normalize_or_zero();
+    use gltf::khr_lights_punctual::Kind;
+    let bad = |field: &str, v: String, want: &str| {
+        Err(Error::scene(
+            path,
+            format!("{node_name}: light {}: {field} {v} {want}", l.index()),
+        ))
+    };
+    if !(l.intensity() >= 0.0 && l.intensity().is_finite()) {
+        return bad("intensity", l.intensity().to_string(), "is not a finite number >= 0");
+    }
+    if let Some(r) = l.range().filter(|r| !(r.is_finite() && *r > 0.0)) {
+        return bad("range", r.to_string(), "is not a finite number > 0");
+    }
+    if l.color().iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+        return bad(
+            "color",
+            format!("{:?}", l.color()),
+            "has a negative or non-finite component",
+        );
+    }
+    if let Kind::Spot {
+        inner_cone_angle,
+        outer_cone_angle,
+    } = l.kind()
+    {
+        if !(inner_cone_angle >= 0.0 && inner_cone_angle < outer_cone_angle) {
+            return bad(
+                "innerConeAngle",
+                inner_cone_angle.to_string(),
+                &format!("is not in [0, outerConeAngle = {outer_cone_angle})"),
+            );
+        }
+    }
+    let kind = match l.kind() {
+        Kind::Directional => LightKind::Directional,
+        Kind::Point => LightKind::Point,
+        Kind::Spot { outer_cone_angle, .. } => {
+            let angle_deg = 2.0 * outer_cone_angle.to_degrees();
+            if !super::limits::FOV_DEGREES.contains(&angle_deg) {
+                return Err(Error::scene(
+                    path,
+                    format!(
+                        "{node_name}: light {}: outerConeAngle {outer_cone_angle} makes a cone of {angle_deg} degrees, outside {:?}",
+                        l.index(),
+                        super::limits::FOV_DEGREES
+                    ),
+                ));
+            }
+            LightKind::Spot { angle_deg }
+        }
+    };
+    if forward == Vec3::ZERO {
+        return Err(Error::scene(
+            path,
+            format!("{node_name}: the light's transform is degenerate"),
+        ));
+    }
+    Ok(Light {
+        kind,
+        position: origin,
+        direction: forward,
+        intensity: 1.0,
+    })
 }
 
 /// Most bytes of a buffer, whether a file or a `data:` URI (the scene files' limit).

@@ -313,7 +313,7 @@ impl Linear {
             to_distance: d,
             near: d.at(0.0),
             far: d.at(1.0),
-            perspective: v.perspective,
+            perspective: v.perspective(),
         }
     }
 
@@ -665,7 +665,7 @@ impl<M: Moments> Pass for FilteredPass<M> {
         let mut map = self.opts.map.clone();
         self.uncascaded = self.opts.cascades > 0 && frame.light.kind != crate::scene::LightKind::Directional;
         if self.opts.cascades > 0 && !self.uncascaded {
-            map.cascades = Some(crate::shadow::light::cascades::Cascades {
+            map.views = crate::shadow::light::Views::Cascades(crate::shadow::light::cascades::Cascades {
                 count: self.opts.cascades,
                 ..Default::default()
             });

@@ -19,7 +19,7 @@
 //!   next one, linearly or by an ordered dither (one lookup per pixel), against seams.
 
 use super::sdsm::{DepthSamples, Partition};
-use super::{corners, up_for, Fit, LightView, OnView};
+use super::{corners, up_for, Fit, LightView, OnView, ViewKind};
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::shadow::options::Field;
@@ -207,7 +207,7 @@ pub fn cascade_of(views: &[impl OnView], first: &Slice, p: Vec3) -> usize {
     }
     let d = first.depth(p);
     (0..last)
-        .find(|&i| views[i].light_view().slice.is_some_and(|s| d < s.far))
+        .find(|&i| views[i].light_view().slice().is_some_and(|s| d < s.far))
         .unwrap_or(last)
 }
 
@@ -216,7 +216,7 @@ pub fn cascade_of(views: &[impl OnView], first: &Slice, p: Vec3) -> usize {
 /// cascade), rising to 1 at the cascade's end.
 #[inline(always)]
 pub fn next_weight(views: &[impl OnView], i: usize, p: Vec3, uv: Vec2, band: f32) -> f32 {
-    let Some(s) = views[i].light_view().slice else {
+    let Some(s) = views[i].light_view().slice() else {
         return 0.0;
     };
     if band <= 0.0 || i + 1 >= views.len() {
@@ -428,10 +428,7 @@ pub fn cascade_fit(frame: &Frame, size: u32, c: &Cascades, snap: bool, samples: 
         views.push(LightView {
             matrix: Mat4::orthographic_rh(x0, x1, y0, y1, zn, zf) * lv,
             texel: (x1 - x0).max(y1 - y0) / size as f32,
-            perspective: false,
-            warped: false,
-            log: None,
-            slice: Some(Slice {
+            kind: ViewKind::Cascade(Slice {
                 plane,
                 near: splits[i],
                 far: splits[i + 1],

@@ -110,7 +110,7 @@ impl DepthPass {
             },
             ..Default::default()
         };
-        if let Some(rows) = &view.log {
+        if let Some(rows) = view.log() {
             // LogPSM: the perspective warp's space drawn at the logarithmic rows' samples.
             if peel.is_some() {
                 return Err(Error::technique(

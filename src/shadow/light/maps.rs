@@ -64,12 +64,65 @@ pub struct MapOptions {
     /// Snap the fitted frustum to whole texels (against shimmering); with cascades, fit each
     /// to its slice's bounding sphere on whole texels. Default: false.
     pub snap: bool,
+    /// The views the pass draws: one per face (whole), cascades, or a warp. Default: whole.
+    pub views: Views,
+}
+
+/// Which views a map pass draws for its light: one of, never a mix.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Views {
+    /// One view per face of the light ([`super::light_views`]; a directional light's fitted
+    /// as [`MapOptions::fit`] says).
+    #[default]
+    Whole,
     /// Cascades over the view range instead of one map (directional lights; declared by the
-    /// techniques that offer them, [`Cascades::fields`]). Default: none.
-    pub cascades: Option<Cascades>,
-    /// A perspective warp of a directional light's map ([`Warp`]: LiSPSM, TSM; declared by
-    /// the techniques that are one). Default: none.
-    pub warp: Option<Warp>,
+    /// techniques that offer them, [`Cascades::fields`]).
+    Cascades(Cascades),
+    /// A perspective warp of a directional light's map ([`Warp`]: PSM, TSM, LiSPSM, LogPSM;
+    /// declared by the techniques that are one).
+    Warp(Warp),
+}
+
+impl Views {
+    /// The cascades, if these views are cascades.
+    pub fn cascades(&self) -> Option<&Cascades> {
+        match self {
+            Views::Cascades(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The warp, if these views are warped.
+    pub fn warp(&self) -> Option<&Warp> {
+        match self {
+            Views::Warp(w) => Some(w),
+            _ => None,
+        }
+    }
+
+    /// The cascades, made default cascades first unless these views are cascades (for
+    /// option declarations that reach into them).
+    pub fn cascades_mut(&mut self) -> &mut Cascades {
+        if !matches!(self, Views::Cascades(_)) {
+            *self = Views::Cascades(Cascades::default());
+        }
+        match self {
+            Views::Cascades(c) => c,
+            _ => unreachable!("just set to cascades"),
+        }
+    }
+
+    /// The warp, made the default warp first unless these views are warped (for option
+    /// declarations that reach into it).
+    pub fn warp_mut(&mut self) -> &mut Warp {
+        if !matches!(self, Views::Warp(_)) {
+            *self = Views::Warp(Warp::default());
+        }
+        match self {
+            Views::Warp(w) => w,
+            _ => unreachable!("just set to a warp"),
+        }
+    }
 }
 
 impl Default for MapOptions {
@@ -81,8 +134,7 @@ impl Default for MapOptions {
             slope: 1.1,
             fit: FitTo::Scene,
             snap: false,
-            cascades: None,
-            warp: None,
+            views: Views::Whole,
         }
     }
 }
@@ -92,7 +144,7 @@ impl MapOptions {
     pub fn cascaded(size: u32, c: Cascades) -> MapOptions {
         MapOptions {
             size,
-            cascades: Some(c),
+            views: Views::Cascades(c),
             ..MapOptions::default()
         }
     }
@@ -100,7 +152,7 @@ impl MapOptions {
     /// The default map pass warped by `kind` (with the warp's default parameters).
     pub fn warped(kind: super::warp::WarpKind) -> MapOptions {
         MapOptions {
-            warp: Some(Warp {
+            views: Views::Warp(Warp {
                 kind,
                 ..Warp::default()
             }),
@@ -177,18 +229,19 @@ impl MapPoint {
     }
 }
 
-/// The edge rule of every lookup: `uv` lies on a map when it is in `[0, 1)²`, where its texel
-/// `floor(uv * size)` exists (so a coordinate of exactly 1 is off the map, as a texel index
-/// of `size` would be).
+/// The edge rule of every lookup, the pipeline's samplers' own
+/// ([`crate::pipeline::sampler::on_map`]): `uv` lies on a map when it is in `[0, 1)²`, where
+/// its texel `floor(uv * size)` exists (so a coordinate of exactly 1 is off the map, as a
+/// texel index of `size` would be).
 #[inline(always)]
 pub fn inside(uv: Vec2) -> bool {
-    uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0
+    crate::pipeline::sampler::on_map(uv)
 }
 
 /// [`inside`] of four coordinates `(u[l], v[l])`, one per lane.
 #[inline(always)]
 pub fn inside4(u: Vec4, v: Vec4) -> BVec4A {
-    u.cmpge(Vec4::ZERO) & u.cmplt(Vec4::ONE) & v.cmpge(Vec4::ZERO) & v.cmplt(Vec4::ONE)
+    crate::pipeline::sampler::on_map4(u, v)
 }
 
 /// The texel of `uv` in a `width x height` map, clamped to the map.
@@ -224,7 +277,7 @@ impl<T> OnView for (T, LightView) {
 /// ([`CubeFace::ALL`] order), the one view otherwise.
 #[inline(always)]
 pub fn view_of(views: &[impl OnView], light: &Light, p: Vec3) -> usize {
-    match views.first().and_then(|v| v.light_view().slice) {
+    match views.first().and_then(|v| v.light_view().slice()) {
         Some(first) => cascade_of(views, &first, p),
         None if views.len() == 6 => CubeFace::from_direction(p - light.position).map_or(0, |f| f.0 as usize),
         None => 0,
@@ -274,63 +327,65 @@ impl LightMaps {
     pub fn render(&mut self, p: &Pipeline, frame: &Frame, o: &MapOptions, layer: Layer) -> Result<(), Error> {
         self.warp = None;
         self.samples = None;
-        let fit = if let Some(c) = &o.cascades {
-            if frame.light.kind != crate::scene::LightKind::Directional {
-                return Err(Error::option(
-                    "cascades",
-                    c.count,
-                    format!(
-                        "split a directional light's map; the scene's light is {} (shadow-map covers every light)",
-                        frame.light.kind.describe()
-                    ),
-                ));
+        let fit = match &o.views {
+            Views::Cascades(c) => {
+                if frame.light.kind != crate::scene::LightKind::Directional {
+                    return Err(Error::option(
+                        "cascades",
+                        c.count,
+                        format!(
+                            "split a directional light's map; the scene's light is {} (shadow-map covers every light)",
+                            frame.light.kind.describe()
+                        ),
+                    ));
+                }
+                if c.partition == Partition::View {
+                    cascade_fit(frame, o.size, c, o.snap, None)
+                } else {
+                    // SDSM: reduce this frame's depths; use them, or with latency the last frame's.
+                    let start = std::time::Instant::now();
+                    let now = sdsm::reduce(p, frame, c.partition == Partition::Histogram)?;
+                    let ms = start.elapsed().as_secs_f64() * 1e3;
+                    let used = match c.latency {
+                        0 => now.clone(),
+                        _ => self.last_samples.take().or_else(|| now.clone()),
+                    };
+                    self.last_samples = now;
+                    let fit = cascade_fit(frame, o.size, c, o.snap, used.as_ref());
+                    self.samples = used.map(|u| (u, ms));
+                    fit
+                }
             }
-            if c.partition == Partition::View {
-                cascade_fit(frame, o.size, c, o.snap, None)
-            } else {
-                // SDSM: reduce this frame's depths; use them, or with latency the last frame's.
+            Views::Warp(w) => {
+                if frame.light.kind != crate::scene::LightKind::Directional {
+                    return Err(Error::technique(format!(
+                        "{} warps a directional light's map; the scene's light is {} (shadow-map covers every light)",
+                        w.kind.as_str(),
+                        frame.light.kind.describe()
+                    )));
+                }
+                if w.kind == super::warp::WarpKind::Logpsm && matches!(layer, Layer::Midpoint | Layer::Id) {
+                    return Err(Error::option(
+                        "layer",
+                        layer.as_str(),
+                        "logpsm draws its logarithmic rows one depth layer at a time: first or second",
+                    ));
+                }
+                // PSM and LogPSM cover the depths seen: this frame's reduction.
                 let start = std::time::Instant::now();
-                let now = sdsm::reduce(p, frame, c.partition == Partition::Histogram)?;
-                let ms = start.elapsed().as_secs_f64() * 1e3;
-                let used = match c.latency {
-                    0 => now.clone(),
-                    _ => self.last_samples.take().or_else(|| now.clone()),
+                let seen = match w.kind {
+                    super::warp::WarpKind::Psm | super::warp::WarpKind::Logpsm => sdsm::reduce(p, frame, false)?,
+                    _ => None,
                 };
-                self.last_samples = now;
-                let fit = cascade_fit(frame, o.size, c, o.snap, used.as_ref());
-                self.samples = used.map(|u| (u, ms));
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                let (fit, mut info) = warp_fit(frame, o.size, w, seen.as_ref());
+                if seen.is_some() {
+                    info.reduce_ms = Some(ms);
+                }
+                self.warp = Some(info);
                 fit
             }
-        } else if let Some(w) = &o.warp {
-            if frame.light.kind != crate::scene::LightKind::Directional {
-                return Err(Error::technique(format!(
-                    "{} warps a directional light's map; the scene's light is {} (shadow-map covers every light)",
-                    w.kind.as_str(),
-                    frame.light.kind.describe()
-                )));
-            }
-            if w.kind == super::warp::WarpKind::Logpsm && matches!(layer, Layer::Midpoint | Layer::Id) {
-                return Err(Error::option(
-                    "layer",
-                    layer.as_str(),
-                    "logpsm draws its logarithmic rows one depth layer at a time: first or second",
-                ));
-            }
-            // PSM and LogPSM cover the depths seen: this frame's reduction.
-            let start = std::time::Instant::now();
-            let seen = match w.kind {
-                super::warp::WarpKind::Psm | super::warp::WarpKind::Logpsm => sdsm::reduce(p, frame, false)?,
-                _ => None,
-            };
-            let ms = start.elapsed().as_secs_f64() * 1e3;
-            let (fit, mut info) = warp_fit(frame, o.size, w, seen.as_ref());
-            if seen.is_some() {
-                info.reduce_ms = Some(ms);
-            }
-            self.warp = Some(info);
-            fit
-        } else {
-            fit(frame, o.size, o.fit == FitTo::Receivers, o.snap)
+            Views::Whole => fit(frame, o.size, o.fit == FitTo::Receivers, o.snap),
         };
         self.culled = fit.culled;
         self.fitted = fit.fitted;
@@ -528,7 +583,7 @@ impl LightMaps {
                 4.0,
             )?);
         }
-        if self.maps.first().is_some_and(|(_, v)| v.slice.is_some()) {
+        if self.maps.first().is_some_and(|(_, v)| v.slice().is_some()) {
             v.push(Stage::Color {
                 name: "cascades".into(),
                 data: cascade_image(frame, &self.maps)?,
@@ -628,10 +683,7 @@ mod tests {
                 LightView {
                     matrix: glam::Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, 0.01, 50.0) * view,
                     texel: 2.0 / 64.0,
-                    perspective: true,
-                    warped: false,
-                    log: None,
-                    slice: None,
+                    kind: crate::shadow::light::ViewKind::Perspective,
                 }
             })
             .collect();

@@ -33,7 +33,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 pub use depth::{merged_casters, scene_depth, Casters, DepthPass};
 pub use maps::{
-    inside, inside4, locate, locate_on, texel, view_of, FitTo, Layer, LightMaps, MapOptions, MapPoint, OnView,
+    inside, inside4, locate, locate_on, texel, view_of, FitTo, Layer, LightMaps, MapOptions, MapPoint, OnView, Views,
 };
 
 /// One light view: world to light clip, and the world size of one texel at unit distance
@@ -45,27 +45,69 @@ pub struct LightView {
     /// Texel size in world units (perspective views: per unit of distance from the light;
     /// warped views: in texture coordinates, `1 / size`).
     pub texel: f32,
-    /// True for perspective views (texel size grows with distance).
-    pub perspective: bool,
-    /// True for a directional light's warped view ([`warp`]: LiSPSM, TSM): a projective
-    /// matrix whose texel size varies over the map ([`LightView::texel_at`] takes it from the
+    /// What kind of view it is: one of, never a mix.
+    pub kind: ViewKind,
+}
+
+/// The kind of a [`LightView`]: how its matrix projects and how a point picks it.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum ViewKind {
+    /// Orthographic along a directional light, fitted to the scene or to the receivers.
+    Ortho,
+    /// A perspective cone from the light's position (a spot light, or one face of a point or
+    /// area light's cube): the texel size grows with the distance.
+    Perspective,
+    /// One cascade of a directional light's set (orthographic): the view depths it covers and
+    /// how points pick it ([`cascades::Slice`]).
+    Cascade(cascades::Slice),
+    /// A directional light's warped view ([`warp`]: PSM, TSM, LiSPSM): a projective matrix
+    /// whose texel size varies over the map ([`LightView::texel_at`] takes it from the
     /// matrix) and whose depth is not linear along the light (no [`LightView::distance`]).
-    pub warped: bool,
-    /// LogPSM's logarithmic rows ([`warp::LogRows`]): the map's `v` is the logarithm of the
-    /// distance along the warp axis instead of the matrix's perspective `v`, and the map is
-    /// drawn at the rows' sample table. `None` for every other view.
-    pub log: Option<warp::LogRows>,
-    /// One cascade of a set: the view depths it covers and how points pick it
-    /// ([`cascades::Slice`]); `None` for single views and cube faces.
-    pub slice: Option<cascades::Slice>,
+    /// With LogPSM's logarithmic rows ([`warp::LogRows`]) the map's `v` is the logarithm of
+    /// the distance along the warp axis instead of the matrix's perspective `v`, and the map
+    /// is drawn at the rows' sample table.
+    Warped {
+        /// LogPSM's rows; `None` for the other warps.
+        log: Option<warp::LogRows>,
+    },
 }
 
 impl LightView {
+    /// True for perspective views ([`ViewKind::Perspective`]: texel size grows with distance).
+    #[inline]
+    pub fn perspective(&self) -> bool {
+        self.kind == ViewKind::Perspective
+    }
+
+    /// True for a directional light's warped view ([`ViewKind::Warped`]).
+    #[inline]
+    pub fn warped(&self) -> bool {
+        matches!(self.kind, ViewKind::Warped { .. })
+    }
+
+    /// LogPSM's logarithmic rows, if the view has them ([`ViewKind::Warped`]).
+    #[inline]
+    pub fn log(&self) -> Option<&warp::LogRows> {
+        match &self.kind {
+            ViewKind::Warped { log } => log.as_ref(),
+            _ => None,
+        }
+    }
+
+    /// The depths a cascade covers ([`ViewKind::Cascade`]); `None` for every other view.
+    #[inline]
+    pub fn slice(&self) -> Option<cascades::Slice> {
+        match self.kind {
+            ViewKind::Cascade(s) => Some(s),
+            _ => None,
+        }
+    }
+
     /// Texture coordinate (origin top-left, [0, 1]²) and depth of world point `p`; `None`
     /// behind a perspective view's eye.
     #[inline]
     pub fn lookup(&self, p: Vec3) -> Option<(Vec2, f32)> {
-        match &self.log {
+        match self.log() {
             None => project(&self.matrix, p),
             Some(rows) => rows.project(&self.matrix, p),
         }
@@ -73,9 +115,9 @@ impl LightView {
 
     /// World size of one texel at world point `p` (seen from `light`).
     pub fn texel_at(&self, light: &Light, p: Vec3) -> f32 {
-        if self.warped {
-            warp::texel_at(&self.matrix, self.log.as_ref(), light.direction, p, self.texel)
-        } else if self.perspective {
+        if self.warped() {
+            warp::texel_at(&self.matrix, self.log(), light.direction, p, self.texel)
+        } else if self.perspective() {
             self.texel * (p - light.position).length()
         } else {
             self.texel
@@ -97,7 +139,7 @@ impl LightView {
     #[inline]
     pub fn depth_to_distance(&self) -> DepthToDistance {
         let (r2, r3) = (self.matrix.row(2), self.matrix.row(3));
-        if self.perspective {
+        if self.perspective() {
             // A perspective projection's depth row is `-a * (w row) + b * e_w`, so
             // `z = -a + b / w` and `w` (the distance along the axis) is `b / (z + a)`.
             let a = -r2.truncate().dot(r3.truncate()) / r3.truncate().length_squared();
@@ -162,10 +204,7 @@ pub fn light_views(frame: &Frame, size: u32) -> Vec<LightView> {
             vec![LightView {
                 matrix: Mat4::perspective_rh(angle_deg.to_radians(), 1.0, (far * 1e-4).max(1e-3), far) * view,
                 texel: 2.0 * half / size as f32,
-                perspective: true,
-                warped: false,
-                log: None,
-                slice: None,
+                kind: ViewKind::Perspective,
             }]
         }
         LightKind::Point | LightKind::Area(_) => cube_views(frame, size),
@@ -197,10 +236,7 @@ pub fn cube_views(frame: &Frame, size: u32) -> Vec<LightView> {
             LightView {
                 matrix: proj * view,
                 texel: 2.0 / size as f32,
-                perspective: true,
-                warped: false,
-                log: None,
-                slice: None,
+                kind: ViewKind::Perspective,
             }
         })
         .collect()
@@ -251,10 +287,7 @@ pub fn directional_view(frame: &Frame, receivers: &[Vec3], casters: &[Vec3], siz
     LightView {
         matrix: Mat4::orthographic_rh(x0, x1, y0, y1, near, far) * view,
         texel: (x1 - x0).max(y1 - y0) / size as f32,
-        perspective: false,
-        warped: false,
-        log: None,
-        slice: None,
+        kind: ViewKind::Ortho,
     }
 }
 
@@ -442,10 +475,7 @@ mod tests {
         let v = LightView {
             matrix: m,
             texel: 0.001,
-            perspective: true,
-            warped: false,
-            log: None,
-            slice: None,
+            kind: ViewKind::Perspective,
         };
         for d in [0.1f32, 1.0, 7.5, 30.0] {
             let (_, z) = v.lookup(eye + dir * d).unwrap();
@@ -456,10 +486,7 @@ mod tests {
             matrix: Mat4::orthographic_rh(-5.0, 5.0, -5.0, 5.0, 1.0, 30.0)
                 * Mat4::look_at_rh(eye, eye + dir, up_for(dir)),
             texel: 0.01,
-            perspective: false,
-            warped: false,
-            log: None,
-            slice: None,
+            kind: ViewKind::Ortho,
         };
         let (_, z1) = o.lookup(eye + dir * 3.0).unwrap();
         let (_, z2) = o.lookup(eye + dir * 8.0 + Vec3::X * 0.0).unwrap();

@@ -23,7 +23,7 @@ pub fn light_width(frame: &Frame, scale: f32, angle: f32) -> f32 {
 /// A width in world units at distance `d` from the light, in texels of `view`.
 #[inline(always)]
 pub fn texels(view: &LightView, world: f32, d: f32) -> f32 {
-    if view.perspective {
+    if view.perspective() {
         world / (view.texel * d.max(1e-6))
     } else {
         world / view.texel
@@ -35,7 +35,7 @@ pub fn texels(view: &LightView, world: f32, d: f32) -> f32 {
 /// `w (d_r - d_min) / d_r` wide there.
 #[inline(always)]
 pub fn search_texels(view: &LightView, w: f32, d_r: f32, d_min: f32) -> f32 {
-    if view.perspective {
+    if view.perspective() {
         texels(view, w * (d_r - d_min) / d_r.max(1e-6), d_min)
     } else {
         texels(view, (d_r - d_min) * w, d_r)
@@ -46,7 +46,7 @@ pub fn search_texels(view: &LightView, w: f32, d_r: f32, d_min: f32) -> f32 {
 /// `(d_r - d_o) 2 tan(angle / 2)`), in texels at the receiver.
 #[inline(always)]
 pub fn penumbra_texels(view: &LightView, w: f32, d_r: f32, d_o: f32) -> f32 {
-    if view.perspective {
+    if view.perspective() {
         texels(view, w * (d_r - d_o).max(0.0) / d_o.max(1e-6), d_r)
     } else {
         texels(view, (d_r - d_o).max(0.0) * w, d_r)
@@ -57,7 +57,7 @@ pub fn penumbra_texels(view: &LightView, w: f32, d_r: f32, d_o: f32) -> f32 {
 /// inverse of [`texels`]).
 #[inline(always)]
 pub fn world(view: &LightView, texels: f32, d: f32) -> f32 {
-    let texel = if view.perspective { view.texel * d } else { view.texel };
+    let texel = if view.perspective() { view.texel * d } else { view.texel };
     texels * texel
 }
 
@@ -96,10 +96,11 @@ mod tests {
             let view = LightView {
                 matrix: Mat4::IDENTITY,
                 texel: 0.01,
-                perspective,
-                warped: false,
-                log: None,
-                slice: None,
+                kind: if perspective {
+                    crate::shadow::light::ViewKind::Perspective
+                } else {
+                    crate::shadow::light::ViewKind::Ortho
+                },
             };
             // A light 0.5 wide, a blocker at 2, a receiver at 6: the penumbra is
             // 0.5 * 4 / 2 = 1 world unit wide (perspective; orthographic: 4 * 0.5 = 2).

@@ -62,7 +62,7 @@
 
 use super::cascades::{convex_hull, depth_plane, slice_corners, view_range};
 use super::sdsm::DepthSamples;
-use super::{corners, up_for, Fit, LightView};
+use super::{corners, up_for, Fit, LightView, ViewKind};
 use crate::choice_enum;
 use crate::error::Reason;
 use crate::frame::Frame;
@@ -386,10 +386,7 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
     let view = LightView {
         matrix,
         texel: 1.0 / size as f32,
-        perspective: false,
-        warped: true,
-        log,
-        slice: None,
+        kind: ViewKind::Warped { log },
     };
     let fit = Fit {
         views: vec![view],

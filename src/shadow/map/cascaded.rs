@@ -34,7 +34,7 @@ use crate::Error;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// The shadow map's options (map pass, bias, layer, filter), the cascades in
-    /// `shadow.map.cascades`. Default: 4 cascades of 1024² texels (the texels of one 2048²
+    /// `shadow.map.views` (`Views::Cascades`). Default: 4 cascades of 1024² texels (the texels of one 2048²
     /// map), practical splits with Zhang et al.'s lambda 0.5, selection by view depth, a
     /// linear blend over the last tenth of each cascade, tight fitting (`snap=false`, the
     /// paper's: on 12 of the 13 directional fixtures the stable sphere's wasted texels gave
@@ -59,7 +59,7 @@ impl HoldsMapPass for Options {
 
 /// The cascades inside `o`'s map pass.
 fn cascades_of<O: HoldsMapPass>(o: &mut O) -> &mut Cascades {
-    o.shadow().map.cascades.get_or_insert_with(Cascades::default)
+    o.shadow().map.views.cascades_mut()
 }
 
 /// A cascaded technique's declaration: `shadow-map`'s fields but `fit` (cascades fit to their
@@ -73,7 +73,7 @@ pub fn cascaded_declaration<O: HoldsMapPass>(technique: &'static str, extra: Vec
 /// The cascaded technique `d.technique` with `opts`: an option out of its range is an error,
 /// and so are options without cascades.
 pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTechnique<MapPass>, Error> {
-    if opts.shadow().map.cascades.is_none() {
+    if opts.shadow().map.views.cascades().is_none() {
         return Err(d.error("cascades", "none", "must be set (1 to 8)"));
     }
     plain::build(&d, opts)

@@ -502,10 +502,7 @@ mod tests {
         let view = LightView {
             matrix: glam::Mat4::orthographic_rh(-3.0, 3.0, -3.0, 3.0, 0.5, 20.0),
             texel: 0.01,
-            perspective: false,
-            warped: false,
-            log: None,
-            slice: None,
+            kind: crate::shadow::light::ViewKind::Ortho,
         };
         let (mut inside, mut blockers) = (0, 0);
         for _ in 0..3000 {

@@ -26,7 +26,7 @@ use crate::Error;
 super::warped::warped_options!(
     "LiSPSM",
     WarpKind::Lispsm,
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest as `shadow-map`'s defaults."
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest as `shadow-map`'s defaults."
 );
 
 /// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)

@@ -45,7 +45,7 @@ use crate::Error;
 super::warped::warped_options!(
     "LogPSM",
     WarpKind::Logpsm,
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, `n_scale=1`; the rest as `shadow-map`'s defaults."
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, `n_scale=1`; the rest as `shadow-map`'s defaults."
 );
 
 /// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)

@@ -458,7 +458,7 @@ impl Pass for MapPass {
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Vec<f32>, Error> {
         self.lookup.light_pass(p, frame)?;
         let maps = self.lookup.light_maps();
-        if maps.maps().first().is_some_and(|(_, v)| v.slice.is_some()) {
+        if maps.maps().first().is_some_and(|(_, v)| v.slice().is_some()) {
             // Cascades: SDSM's reduction and each cascade's pass on its own line.
             let times = maps.view_times();
             let reduce = maps.depth_samples().map_or(0.0, |(_, ms)| *ms);
@@ -511,7 +511,7 @@ impl Pass for MapPass {
                 .zip(maps.cascade_casters())
                 .map(|(n, t)| (*n, *t as f64)),
         );
-        let ends = maps.maps().iter().filter_map(|(_, v)| v.slice.map(|s| s.far));
+        let ends = maps.maps().iter().filter_map(|(_, v)| v.slice().map(|s| s.far));
         c.extend(CASCADE_ENDS.iter().zip(ends).map(|(n, d)| (*n, d as f64)));
         // SDSM: the range the cascades split and the frame its depths came from.
         if let Some((d, _)) = maps.depth_samples() {

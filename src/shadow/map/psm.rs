@@ -34,7 +34,7 @@ use crate::Error;
 super::warped::warped_options!(
     "PSM",
     WarpKind::Psm,
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the virtual camera moved back past the casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults."
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the virtual camera moved back past the casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults."
 );
 
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `shift`.

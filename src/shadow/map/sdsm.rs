@@ -29,7 +29,7 @@ use crate::Error;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// The shadow map's options (map pass, bias, layer, filter), the cascades in
-    /// `shadow.map.cascades`. Default: 4 cascades of 1024² texels, logarithmic splits of the
+    /// `shadow.map.views` (`Views::Cascades`). Default: 4 cascades of 1024² texels, logarithmic splits of the
     /// reduced range (the paper's), each fitted to where the histogram has samples, this
     /// frame's depths (`latency=0`); the rest as `csm`'s defaults.
     pub shadow: MapPassOptions,

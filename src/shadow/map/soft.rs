@@ -243,7 +243,7 @@ impl SoftShadows {
             n = taps.len() as u32;
             for &(d, _) in taps.iter() {
                 let uv = at.uv + d * inv;
-                if !(uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0) {
+                if !crate::shadow::light::inside(uv) {
                     continue;
                 }
                 let depth = map.at((uv.x * size) as u32, (uv.y * size) as u32);

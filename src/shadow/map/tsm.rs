@@ -33,7 +33,7 @@ use crate::Error;
 super::warped::warped_options!(
     "TSM",
     WarpKind::Tsm,
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.warp`. Default: one 2048² map, the focus at half the view range; the rest as `shadow-map`'s defaults."
+    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the focus at half the view range; the rest as `shadow-map`'s defaults."
 );
 
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `focus`.

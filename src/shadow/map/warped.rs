@@ -44,7 +44,7 @@ pub(crate) use warped_options;
 
 /// The warp inside `o`'s map pass.
 fn warp_of<O: HoldsMapPass>(o: &mut O) -> &mut Warp {
-    o.shadow().map.warp.get_or_insert_with(Warp::default)
+    o.shadow().map.views.warp_mut()
 }
 
 /// A warped technique's declaration: `shadow-map`'s fields but `fit` and `snap`, and the
@@ -63,7 +63,7 @@ pub fn directional(_scene: &Scene, light: &Light) -> bool {
 /// The warped technique `d.technique` with `opts`: an option out of its range is an error,
 /// and so are options without a warp.
 pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTechnique<MapPass>, Error> {
-    if opts.shadow().map.warp.is_none() {
+    if opts.shadow().map.views.warp().is_none() {
         return Err(d.error("warp", "none", "must be set"));
     }
     plain::build(&d, opts)

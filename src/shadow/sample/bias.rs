@@ -125,7 +125,7 @@ pub fn receiver_plane4(
     let mut general = [false; 4];
     let mut p = [[Vec3::ZERO; 4]; 3];
     // (LogPSM's logarithmic `v` takes the one-pixel path.)
-    if y + 1 < h && view.log.is_none() {
+    if y + 1 < h && view.log().is_none() {
         for l in 0..n.min(4) {
             let i = y * w + x + l;
             if x + l + 1 >= w || objs[i + 1] != objs[i] || objs[i + w] != objs[i] {

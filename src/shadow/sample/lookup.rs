@@ -483,10 +483,12 @@ impl MapLookup {
     #[inline(always)]
     pub fn next_cascade(&self, at: &At, x: usize, y: usize, t: &mut impl Trace) -> f32 {
         let views = self.maps.maps();
-        if views[at.face].1.slice.is_none() {
+        if views[at.face].1.slice().is_none() {
             return 0.0;
         }
-        let Some(c) = &self.setup.map.cascades else { return 0.0 };
+        let Some(c) = self.setup.map.views.cascades() else {
+            return 0.0;
+        };
         let w = cascades::next_weight(views, at.face, at.pos, at.uv, c.band);
         let used = match c.blend {
             Blend::Dither if w > 0.0 => {
@@ -543,10 +545,10 @@ impl MapLookup {
             )
             .int("view", face)
             .int("views", self.maps.maps().len())
-            .flag("perspective", view.perspective)
-            .flag("warped", view.warped)
+            .flag("perspective", view.perspective())
+            .flag("warped", view.warped())
             .num("texel size at the point", view.texel_at(light, s.position));
-            match view.slice {
+            match view.slice() {
                 Some(c) => step
                     .num("view depth", c.depth(s.position))
                     .num("cascade from", c.near)
@@ -563,7 +565,8 @@ impl MapLookup {
                     .num("moved by", (pos - s.position).length())
             });
         }
-        let Some((uv, z)) = view.lookup(pos) else {
+        // The surface point chose the view; the (offset) lookup point is located in it.
+        let Some(light::MapPoint { uv, depth: z, .. }) = light::locate_on(self.maps.maps(), face, pos) else {
             t.step(|| Step::new("behind the light", "the point is behind the view's eye: lit"));
             return Prepared::Done(1.0, 0);
         };

@@ -419,10 +419,7 @@ pub(super) fn crop(base: &LightView, lo: Vec2, hi: Vec2, size: u32) -> (LightVie
     let view = LightView {
         matrix: c * base.matrix,
         texel: base.texel * (hi - lo).max_element(),
-        perspective: base.perspective,
-        warped: base.warped,
-        log: base.log,
-        slice: base.slice,
+        kind: base.kind,
     };
     let grid = Grid {
         lo,

@@ -198,5 +198,5 @@ pub(super) fn axis_at(axis: Vec4, p: Vec3) -> f32 {
 /// perspective view, clip `z` for an orthographic one. Linear in p, so a triangle's nearest
 /// point along the axis is one of its vertices.
 pub(super) fn axis_depth(view: &LightView) -> Vec4 {
-    view.matrix.row(if view.perspective { 3 } else { 2 })
+    view.matrix.row(if view.perspective() { 3 } else { 2 })
 }
