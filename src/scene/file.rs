@@ -682,84 +682,8 @@ impl Ctx<'_> {
             {
                 return self.err(s, &what, "position", format!("a {} light needs a position", l.kind));
             }
-            let dir = match (l.direction, l.target, pos) {
-                (Some(d), _, _) => match finite3(d).and_then(unit3) {
-                    Some(d) => d,
-                    None => return self.err(s, &what, "direction", "zero or not finite"),
-                },
-                (None, Some(t), Some(p)) => {
-                    let t = point3(t).or_else(|e| self.err(s.clone(), &what, "target", e))?;
-                    match unit3(t - p).filter(|_| (t - p).length() > 1e-6) {
-                        Some(d) => d,
-                        None => return self.err(s, &what, "target", "equals the position"),
-                    }
-                }
-                (None, None, Some(p)) => match unit3(center - p).filter(|_| (center - p).length() > 1e-6) {
-                    Some(d) => d,
-                    None if omni => Vec3::NEG_Y,
-                    None => {
-                        return self.err(
-                            s,
-                            &what,
-                            "direction",
-                            "missing, and the light sits at the centre of the scene's bounds, so it faces nowhere (give direction or target)",
-                        )
-                    }
-                },
-                (None, _, None) => {
-                    return self.err(s, &what, "direction", "missing (a directional light needs direction = [x, y, z])")
-                }
-            };
-            let radius = |default: f32| -> Result<f32, Error> {
-                let r = l.radius.unwrap_or(default);
-                if r.is_finite() && r > 0.0 && r <= MAX_COORDINATE {
-                    Ok(r)
-                } else {
-                    self.err(
-                        s.clone(),
-                        &what,
-                        "radius",
-                        format!("{} must be positive and at most {MAX_COORDINATE:e}", shown(r)),
-                    )
-                }
-            };
-            let kind = match l.kind.as_str() {
-                "directional" => LightKind::Directional,
-                "spot" => {
-                    let a = l.angle.unwrap_or(60.0);
-                    if !FOV_DEGREES.contains(&a) {
-                        return self.err(s, &what, "angle", format!("{} is outside {FOV_TEXT} degrees", shown(a)));
-                    }
-                    LightKind::Spot { angle_deg: a }
-                }
-                "point" => LightKind::Point,
-                "disk" => LightKind::Area(AreaShape::Disk { radius: radius(0.25)? }),
-                "sphere" => LightKind::Area(AreaShape::Sphere { radius: radius(0.25)? }),
-                "rectangle" => {
-                    let [w, h] = l.size.unwrap_or([0.5, 0.5]);
-                    if !(w > 0.0 && h > 0.0 && w <= MAX_COORDINATE && h <= MAX_COORDINATE) {
-                        return self.err(
-                            s,
-                            &what,
-                            "size",
-                            format!(
-                                "[{}, {}]: both sides must be positive and at most {MAX_COORDINATE:e}",
-                                shown(w),
-                                shown(h)
-                            ),
-                        );
-                    }
-                    LightKind::Area(AreaShape::Rectangle { width: w, height: h })
-                }
-                other => {
-                    return self.err(
-                        s,
-                        &what,
-                        "type",
-                        format!("unknown light type '{other}' (directional, spot, point, disk, sphere, rectangle)"),
-                    )
-                }
-            };
+            let dir = self.light_direction(s.clone(), &what, l, pos, (center, omni))?;
+            let kind = self.light_kind(s.clone(), &what, l)?;
             let position = match (kind, pos) {
                 (_, Some(p)) => p,
                 (LightKind::Directional, None) => center - dir * 100.0,
@@ -785,6 +709,102 @@ impl Ctx<'_> {
             lights = gltf_lights;
         }
         Ok(lights)
+    }
+
+    /// Light `l`'s direction (`what`, at `s`): given, towards its target, or towards the
+    /// scene's `center` from its position `pos` (an `omni` light that sits there faces down).
+    fn light_direction(
+        &self,
+        s: std::ops::Range<usize>,
+        what: &str,
+        l: &RawLight,
+        pos: Option<Vec3>,
+        (center, omni): (Vec3, bool),
+    ) -> Result<Vec3, Error> {
+        match (l.direction, l.target, pos) {
+            (Some(d), _, _) => match finite3(d).and_then(unit3) {
+                Some(d) => Ok(d),
+                None => self.err(s, what, "direction", "zero or not finite"),
+            },
+            (None, Some(t), Some(p)) => {
+                let t = point3(t).or_else(|e| self.err(s.clone(), what, "target", e))?;
+                match unit3(t - p).filter(|_| (t - p).length() > 1e-6) {
+                    Some(d) => Ok(d),
+                    None => self.err(s, what, "target", "equals the position"),
+                }
+            }
+            (None, None, Some(p)) => match unit3(center - p).filter(|_| (center - p).length() > 1e-6) {
+                Some(d) => Ok(d),
+                None if omni => Ok(Vec3::NEG_Y),
+                None => {
+                    self.err(
+                        s,
+                        what,
+                        "direction",
+                        "missing, and the light sits at the centre of the scene's bounds, so it faces nowhere (give direction or target)",
+                    )
+                }
+            },
+            (None, _, None) => {
+                self.err(s, what, "direction", "missing (a directional light needs direction = [x, y, z])")
+            }
+        }
+    }
+
+    /// Light `l`'s kind (`what`, at `s`) with its size: a spot's angle, an area light's
+    /// radius or sides, each checked.
+    fn light_kind(&self, s: std::ops::Range<usize>, what: &str, l: &RawLight) -> Result<LightKind, Error> {
+        let radius = |default: f32| -> Result<f32, Error> {
+            let r = l.radius.unwrap_or(default);
+            if r.is_finite() && r > 0.0 && r <= MAX_COORDINATE {
+                Ok(r)
+            } else {
+                self.err(
+                    s.clone(),
+                    what,
+                    "radius",
+                    format!("{} must be positive and at most {MAX_COORDINATE:e}", shown(r)),
+                )
+            }
+        };
+        let kind = match l.kind.as_str() {
+            "directional" => LightKind::Directional,
+            "spot" => {
+                let a = l.angle.unwrap_or(60.0);
+                if !FOV_DEGREES.contains(&a) {
+                    return self.err(s, what, "angle", format!("{} is outside {FOV_TEXT} degrees", shown(a)));
+                }
+                LightKind::Spot { angle_deg: a }
+            }
+            "point" => LightKind::Point,
+            "disk" => LightKind::Area(AreaShape::Disk { radius: radius(0.25)? }),
+            "sphere" => LightKind::Area(AreaShape::Sphere { radius: radius(0.25)? }),
+            "rectangle" => {
+                let [w, h] = l.size.unwrap_or([0.5, 0.5]);
+                if !(w > 0.0 && h > 0.0 && w <= MAX_COORDINATE && h <= MAX_COORDINATE) {
+                    return self.err(
+                        s,
+                        what,
+                        "size",
+                        format!(
+                            "[{}, {}]: both sides must be positive and at most {MAX_COORDINATE:e}",
+                            shown(w),
+                            shown(h)
+                        ),
+                    );
+                }
+                LightKind::Area(AreaShape::Rectangle { width: w, height: h })
+            }
+            other => {
+                return self.err(
+                    s,
+                    what,
+                    "type",
+                    format!("unknown light type '{other}' (directional, spot, point, disk, sphere, rectangle)"),
+                )
+            }
+        };
+        Ok(kind)
     }
 
     /// The `[[camera_path]]` keyframes, checked as `camera` is.

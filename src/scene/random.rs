@@ -159,35 +159,7 @@ pub fn generate(seed: u64, params: &Params) -> RandomScene {
     );
 
     // Light.
-    let kind = *g.pick(&params.lights);
-    let _ = writeln!(t, "[[light]]\ntype = \"{kind}\"");
-    let high = spherical(g.range(9.0, 14.0), g.range(35.0, 80.0), g.range(0.0, 360.0));
-    match kind {
-        "directional" => {
-            let d = spherical(1.0, g.range(20.0, 80.0), g.range(0.0, 360.0));
-            let _ = writeln!(t, "direction = {}", v3(d.map(|x| -x)));
-        }
-        "point" | "sphere" => {
-            let _ = writeln!(t, "position = {}", v3(high));
-            if kind == "sphere" {
-                let _ = writeln!(t, "radius = {}", g.range(0.1, 1.0));
-            }
-        }
-        _ => {
-            let _ = writeln!(t, "position = {}\ntarget = [0, 0, 0]", v3(high));
-            match kind {
-                "spot" => {
-                    let _ = writeln!(t, "angle = {}", g.range(50.0, 100.0));
-                }
-                "disk" => {
-                    let _ = writeln!(t, "radius = {}", g.range(0.1, 1.0));
-                }
-                _ => {
-                    let _ = writeln!(t, "size = [{}, {}]", g.range(0.2, 1.5), g.range(0.2, 1.5));
-                }
-            }
-        }
-    }
+    light(&mut g, &mut t, params);
     t.push('\n');
 
     // Materials: grey ground, a few opaque colours, and translucent ones when asked.
@@ -239,71 +211,7 @@ pub fn generate(seed: u64, params: &Params) -> RandomScene {
         ]);
         let _ = writeln!(t, "[[object]]\nname = \"c{k}_{kind}\"");
         // Its half height, for resting it on the ground.
-        let half = match kind {
-            "box" => {
-                let mut s = [g.range(0.3, 2.0), g.range(0.3, 2.0), g.range(0.3, 2.0)];
-                if g.chance(0.2) {
-                    let i = g.int(0, 2);
-                    s[i] = g.range(0.02, 0.06); // thin
-                } else if g.chance(0.15) {
-                    let i = g.int(0, 2);
-                    s[i] = g.range(3.0, 6.0); // elongated
-                }
-                let _ = writeln!(t, "mesh = \"box\"\nsize = {}", v3(s));
-                s[1] / 2.0
-            }
-            "sphere" => {
-                let r = g.range(0.2, 1.2);
-                let _ = writeln!(t, "mesh = \"sphere\"\nradius = {r}\nstacks = 12\nslices = 24");
-                r
-            }
-            "cylinder" | "cone" => {
-                let (r, h) = (g.range(0.05, 0.8), g.range(0.5, 4.0));
-                let _ = writeln!(t, "mesh = \"{kind}\"\nradius = {r}\nheight = {h}\nsegments = 24");
-                h / 2.0
-            }
-            "pleated" => {
-                let _ = writeln!(
-                    t,
-                    "mesh = \"pleated\"\nsize = [{}, {}]\namplitude = {}\npleats = {}",
-                    g.range(1.0, 4.0),
-                    g.range(1.0, 3.0),
-                    g.range(0.05, 0.4),
-                    g.int(2, 8)
-                );
-                0.5
-            }
-            "heightfield" => {
-                let _ = writeln!(
-                    t,
-                    "mesh = \"heightfield\"\nsize = [{}, {}]\nsubdivisions = 16\namplitude = {}\nseed = {}",
-                    g.range(1.0, 3.0),
-                    g.range(1.0, 3.0),
-                    g.range(0.1, 0.6),
-                    g.int(1, 1000)
-                );
-                0.5
-            }
-            "hull" => {
-                // A low-tessellated ellipsoid: a random convex polyhedron.
-                let _ = writeln!(
-                    t,
-                    "mesh = \"sphere\"\nradius = 1\nstacks = {}\nslices = {}\nscale = {}",
-                    g.int(3, 7),
-                    g.int(4, 9),
-                    v3([g.range(0.2, 1.2), g.range(0.2, 1.2), g.range(0.2, 1.2)])
-                );
-                0.6
-            }
-            _ => {
-                let name = format!("random_{seed}_knot{k}.obj");
-                let (p, q) = *g.pick(&[(2, 3), (3, 2), (2, 5), (3, 4)]);
-                let tube = g.range(0.12, 0.3);
-                meshes.push((name.clone(), torus_knot(p, q, tube, 96, 8)));
-                let _ = writeln!(t, "mesh = \"{name}\"\nscale = {}", g.range(0.3, 0.6));
-                0.8
-            }
-        };
+        let half = caster_shape(&mut g, &mut t, kind, (seed, k), &mut meshes);
         let (x, z) = (g.range(-6.0, 6.0), g.range(-6.0, 6.0));
         let y = if g.chance(0.05) {
             eye[1] + g.range(0.5, 2.0) // above the camera
@@ -330,6 +238,115 @@ pub fn generate(seed: u64, params: &Params) -> RandomScene {
         let _ = writeln!(t, "material = \"{material}\"\n");
     }
     RandomScene { seed, text: t, meshes }
+}
+
+/// The scene's `[[light]]`: a kind from `params`, placed high over the scene.
+fn light(g: &mut Rng, t: &mut String, params: &Params) {
+    let kind = *g.pick(&params.lights);
+    let _ = writeln!(t, "[[light]]\ntype = \"{kind}\"");
+    let high = spherical(g.range(9.0, 14.0), g.range(35.0, 80.0), g.range(0.0, 360.0));
+    match kind {
+        "directional" => {
+            let d = spherical(1.0, g.range(20.0, 80.0), g.range(0.0, 360.0));
+            let _ = writeln!(t, "direction = {}", v3(d.map(|x| -x)));
+        }
+        "point" | "sphere" => {
+            let _ = writeln!(t, "position = {}", v3(high));
+            if kind == "sphere" {
+                let _ = writeln!(t, "radius = {}", g.range(0.1, 1.0));
+            }
+        }
+        _ => {
+            let _ = writeln!(t, "position = {}\ntarget = [0, 0, 0]", v3(high));
+            match kind {
+                "spot" => {
+                    let _ = writeln!(t, "angle = {}", g.range(50.0, 100.0));
+                }
+                "disk" => {
+                    let _ = writeln!(t, "radius = {}", g.range(0.1, 1.0));
+                }
+                _ => {
+                    let _ = writeln!(t, "size = [{}, {}]", g.range(0.2, 1.5), g.range(0.2, 1.5));
+                }
+            }
+        }
+    }
+}
+
+/// Caster number `k` of the scene of `seed` as a `kind` mesh (its keys written into `t`, an
+/// OBJ file into `meshes` for a knot); returns its half height, for resting it on the ground.
+fn caster_shape(
+    g: &mut Rng,
+    t: &mut String,
+    kind: &str,
+    (seed, k): (u64, usize),
+    meshes: &mut Vec<(String, String)>,
+) -> f32 {
+    match kind {
+        "box" => {
+            let mut s = [g.range(0.3, 2.0), g.range(0.3, 2.0), g.range(0.3, 2.0)];
+            if g.chance(0.2) {
+                let i = g.int(0, 2);
+                s[i] = g.range(0.02, 0.06); // thin
+            } else if g.chance(0.15) {
+                let i = g.int(0, 2);
+                s[i] = g.range(3.0, 6.0); // elongated
+            }
+            let _ = writeln!(t, "mesh = \"box\"\nsize = {}", v3(s));
+            s[1] / 2.0
+        }
+        "sphere" => {
+            let r = g.range(0.2, 1.2);
+            let _ = writeln!(t, "mesh = \"sphere\"\nradius = {r}\nstacks = 12\nslices = 24");
+            r
+        }
+        "cylinder" | "cone" => {
+            let (r, h) = (g.range(0.05, 0.8), g.range(0.5, 4.0));
+            let _ = writeln!(t, "mesh = \"{kind}\"\nradius = {r}\nheight = {h}\nsegments = 24");
+            h / 2.0
+        }
+        "pleated" => {
+            let _ = writeln!(
+                t,
+                "mesh = \"pleated\"\nsize = [{}, {}]\namplitude = {}\npleats = {}",
+                g.range(1.0, 4.0),
+                g.range(1.0, 3.0),
+                g.range(0.05, 0.4),
+                g.int(2, 8)
+            );
+            0.5
+        }
+        "heightfield" => {
+            let _ = writeln!(
+                t,
+                "mesh = \"heightfield\"\nsize = [{}, {}]\nsubdivisions = 16\namplitude = {}\nseed = {}",
+                g.range(1.0, 3.0),
+                g.range(1.0, 3.0),
+                g.range(0.1, 0.6),
+                g.int(1, 1000)
+            );
+            0.5
+        }
+        "hull" => {
+            // A low-tessellated ellipsoid: a random convex polyhedron.
+            let _ = writeln!(
+                t,
+                "mesh = \"sphere\"\nradius = 1\nstacks = {}\nslices = {}\nscale = {}",
+                g.int(3, 7),
+                g.int(4, 9),
+                v3([g.range(0.2, 1.2), g.range(0.2, 1.2), g.range(0.2, 1.2)])
+            );
+            0.6
+        }
+        _ => {
+            let name = format!("random_{seed}_knot{k}.obj");
+            let (p, q) = *g.pick(&[(2, 3), (3, 2), (2, 5), (3, 4)]);
+            let tube = g.range(0.12, 0.3);
+            meshes.push((name.clone(), torus_knot(p, q, tube, 96, 8)));
+            let _ = writeln!(t, "mesh = \"{name}\"\nscale = {}", g.range(0.3, 0.6));
+            0.8
+        }
+    }
 }
 
 /// A closed tube of radius `tube` around the (p, q) torus knot (major radius 2, minor 1):
