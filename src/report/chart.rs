@@ -106,42 +106,8 @@ pub fn family_colour(f: Family) -> &'static str {
 /// defaults where they do not overlap, and every point's numbers in a tooltip (`<title>`).
 pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) -> String {
     let points = chart_points(results);
-    let (w, h, ml, mr, mt, mb) = (860.0, 520.0, 70.0, 200.0, 40.0, 60.0);
-    let finite: Vec<&ChartPoint> = points
-        .iter()
-        .filter(|p| p.ms.is_finite() && p.error.is_finite())
-        .collect();
-    let xs = || finite.iter().map(|p| p.ms.max(1e-3));
-    let xmin = xs().fold(f64::INFINITY, f64::min);
-    let xmax = xs().fold(0.0, f64::max);
-    let (xmin, xmax) = if xmin.is_finite() { (xmin, xmax) } else { (1.0, 10.0) };
-    // Errors span decades (exact techniques at 0.001 %, acne at 50 %): a log axis from the
-    // decade of the smallest positive error (at most five decades below the largest); errors
-    // at or below its floor, zero among them, sit on the bottom line.
-    let ymax = finite.iter().map(|p| p.error).fold(0.0, f64::max);
-    let ypos = finite
-        .iter()
-        .map(|p| p.error)
-        .filter(|&e| e > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    let ly1 = if ymax > 0.0 { ymax.log10().ceil() } else { 0.0 };
-    let ly0 = if ypos.is_finite() {
-        ypos.log10().floor().max(ly1 - 5.0)
-    } else {
-        ly1 - 1.0
-    }
-    .min(ly1 - 1.0);
-    let lx0 = xmin.log10().floor();
-    let lx1 = xmax.log10().ceil().max(lx0 + 1.0);
-    let px = |x: f64| ml + (x.max(1e-3).log10() - lx0) / (lx1 - lx0) * (w - ml - mr);
-    let py = |y: f64| {
-        let t = if y > 0.0 {
-            ((y.log10() - ly0) / (ly1 - ly0)).max(0.0)
-        } else {
-            0.0
-        };
-        h - mb - t * (h - mt - mb)
-    };
+    let a = Axes::fitting(&points);
+    let (w, h, ml, mr) = (a.w, a.h, a.ml, a.mr);
     let mut s = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
     let _ = writeln!(
         s,
@@ -149,42 +115,7 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
         (w - mr + ml) / 2.0,
         xml(title)
     );
-    // Axes, decades and error ticks.
-    let _ = writeln!(
-        s,
-        "<line x1=\"{ml}\" y1=\"{b}\" x2=\"{r}\" y2=\"{b}\" stroke=\"black\"/><line x1=\"{ml}\" y1=\"{mt}\" x2=\"{ml}\" y2=\"{b}\" stroke=\"black\"/>",
-        b = h - mb,
-        r = w - mr
-    );
-    let mut d = lx0;
-    while d <= lx1 + 1e-9 {
-        let x = px(10f64.powf(d));
-        let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{mt}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{} ms</text>", h - mb, h - mb + 16.0, 10f64.powf(d));
-        d += 1.0;
-    }
-    let mut d = ly0;
-    while d <= ly1 + 1e-9 {
-        let y = 10f64.powf(d);
-        let label = if d == ly0 {
-            format!("\u{2264} {y}")
-        } else {
-            format!("{y}")
-        };
-        let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{label}</text>", w - mr, ml - 6.0, py(y) + 4.0, py = py(y));
-        d += 1.0;
-    }
-    let _ = writeln!(
-        s,
-        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">median time per frame (ms, log scale)</text>",
-        (w - mr + ml) / 2.0,
-        h - 18.0
-    );
-    let _ = writeln!(
-        s,
-        "<text x=\"16\" y=\"{c}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {c})\">mean {} (log scale)</text>",
-        xml(class.metric()),
-        c = h / 2.0
-    );
+    a.draw(&mut s, class);
     // The Pareto front (the reference is exact by definition: left out of the front).
     let pts: Vec<(f64, f64)> = points
         .iter()
@@ -199,7 +130,7 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
     let front = pareto(&pts);
     let line: Vec<String> = front
         .iter()
-        .map(|&i| format!("{:.1},{:.1}", px(pts[i].0), py(pts[i].1)))
+        .map(|&i| format!("{:.1},{:.1}", a.px(pts[i].0), a.py(pts[i].1)))
         .collect();
     if line.len() > 1 {
         let _ = writeln!(
@@ -208,9 +139,134 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
             line.join(" ")
         );
     }
-    // Points, each with its numbers as a tooltip.
+    draw_points(&mut s, &a, class, &points);
+    draw_labels(&mut s, &a, &points, &front);
+    draw_legend(&mut s, &a, &points);
+    s.push_str("</svg>\n");
+    s
+}
+
+/// A speed/accuracy chart's frame: its size and margins, and its two log axes fitted to the
+/// points (x: milliseconds by decades; y: errors by decades from the smallest positive one,
+/// at most five below the largest).
+struct Axes {
+    w: f64,
+    h: f64,
+    ml: f64,
+    mr: f64,
+    mt: f64,
+    mb: f64,
+    lx0: f64,
+    lx1: f64,
+    ly0: f64,
+    ly1: f64,
+}
+
+impl Axes {
+    /// The axes that hold every point with a finite time and error.
+    fn fitting(points: &[ChartPoint]) -> Axes {
+        let (w, h, ml, mr, mt, mb) = (860.0, 520.0, 70.0, 200.0, 40.0, 60.0);
+        let finite: Vec<&ChartPoint> = points
+            .iter()
+            .filter(|p| p.ms.is_finite() && p.error.is_finite())
+            .collect();
+        let xs = || finite.iter().map(|p| p.ms.max(1e-3));
+        let xmin = xs().fold(f64::INFINITY, f64::min);
+        let xmax = xs().fold(0.0, f64::max);
+        let (xmin, xmax) = if xmin.is_finite() { (xmin, xmax) } else { (1.0, 10.0) };
+        // Errors span decades (exact techniques at 0.001 %, acne at 50 %): a log axis from the
+        // decade of the smallest positive error (at most five decades below the largest); errors
+        // at or below its floor, zero among them, sit on the bottom line.
+        let ymax = finite.iter().map(|p| p.error).fold(0.0, f64::max);
+        let ypos = finite
+            .iter()
+            .map(|p| p.error)
+            .filter(|&e| e > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let ly1 = if ymax > 0.0 { ymax.log10().ceil() } else { 0.0 };
+        let ly0 = if ypos.is_finite() {
+            ypos.log10().floor().max(ly1 - 5.0)
+        } else {
+            ly1 - 1.0
+        }
+        .min(ly1 - 1.0);
+        let lx0 = xmin.log10().floor();
+        let lx1 = xmax.log10().ceil().max(lx0 + 1.0);
+        Axes {
+            w,
+            h,
+            ml,
+            mr,
+            mt,
+            mb,
+            lx0,
+            lx1,
+            ly0,
+            ly1,
+        }
+    }
+
+    /// The x of `x` milliseconds.
+    fn px(&self, x: f64) -> f64 {
+        self.ml + (x.max(1e-3).log10() - self.lx0) / (self.lx1 - self.lx0) * (self.w - self.ml - self.mr)
+    }
+
+    /// The y of error `y` (errors at or below the axis's floor on the bottom line).
+    fn py(&self, y: f64) -> f64 {
+        let t = if y > 0.0 {
+            ((y.log10() - self.ly0) / (self.ly1 - self.ly0)).max(0.0)
+        } else {
+            0.0
+        };
+        self.h - self.mb - t * (self.h - self.mt - self.mb)
+    }
+
+    /// Axes, decades and error ticks, and the axes' titles.
+    fn draw(&self, s: &mut String, class: SceneClass) {
+        let (w, h, ml, mr, mt, mb) = (self.w, self.h, self.ml, self.mr, self.mt, self.mb);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{ml}\" y1=\"{b}\" x2=\"{r}\" y2=\"{b}\" stroke=\"black\"/><line x1=\"{ml}\" y1=\"{mt}\" x2=\"{ml}\" y2=\"{b}\" stroke=\"black\"/>",
+            b = h - mb,
+            r = w - mr
+        );
+        let mut d = self.lx0;
+        while d <= self.lx1 + 1e-9 {
+            let x = self.px(10f64.powf(d));
+            let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{mt}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{} ms</text>", h - mb, h - mb + 16.0, 10f64.powf(d));
+            d += 1.0;
+        }
+        let mut d = self.ly0;
+        while d <= self.ly1 + 1e-9 {
+            let y = 10f64.powf(d);
+            let label = if d == self.ly0 {
+                format!("\u{2264} {y}")
+            } else {
+                format!("{y}")
+            };
+            let _ = writeln!(s, "<line x1=\"{ml}\" y1=\"{py:.1}\" x2=\"{}\" y2=\"{py:.1}\" stroke=\"#eee\"/><text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{label}</text>", w - mr, ml - 6.0, self.py(y) + 4.0, py = self.py(y));
+            d += 1.0;
+        }
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">median time per frame (ms, log scale)</text>",
+            (w - mr + ml) / 2.0,
+            h - 18.0
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"16\" y=\"{c}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {c})\">mean {} (log scale)</text>",
+            xml(class.metric()),
+            c = h / 2.0
+        );
+    }
+}
+
+/// The points, each with its numbers as a tooltip: the reference a diamond, the others
+/// circles in their family's colour.
+fn draw_points(s: &mut String, a: &Axes, class: SceneClass, points: &[ChartPoint]) {
     for p in points.iter().filter(|p| p.ms.is_finite() && p.error.is_finite()) {
-        let (x, y) = (px(p.ms), py(p.error));
+        let (x, y) = (a.px(p.ms), a.py(p.error));
         let tip = format!(
             "{}\nfamily: {}\nmedian time: {:.2} ms\nmean {}: {:.4}\nscenes ({}): {}",
             p.label,
@@ -237,8 +293,11 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
             );
         }
     }
-    // Labels: the reference, the front, then each technique's defaults; a label that would
-    // overlap one already placed is left to the tooltip.
+}
+
+/// Labels: the reference, the `front`, then each technique's defaults; a label that would
+/// overlap one already placed is left to the tooltip.
+fn draw_labels(s: &mut String, a: &Axes, points: &[ChartPoint], front: &[usize]) {
     let mut order: Vec<usize> = points
         .iter()
         .position(|p| p.family == Family::Reference)
@@ -252,7 +311,7 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
         if !p.ms.is_finite() || !p.error.is_finite() {
             continue;
         }
-        let (x, y) = (px(p.ms) + 7.0, py(p.error) - 5.0);
+        let (x, y) = (a.px(p.ms) + 7.0, a.py(p.error) - 5.0);
         let bw = 6.0 * p.label.chars().count() as f64;
         let b = (x, y - 10.0, x + bw, y + 2.0);
         let overlaps = placed.iter().any(|q| b.0 < q.2 && q.0 < b.2 && b.1 < q.3 && q.1 < b.3);
@@ -262,8 +321,11 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
         placed.push(b);
         let _ = writeln!(s, "<text x=\"{x:.1}\" y=\"{y:.1}\">{}</text>", xml(&p.label));
     }
-    // Legend: the families present, and the marks.
-    let (lx, mut ly) = (w - mr + 16.0, mt + 10.0);
+}
+
+/// The legend: the families present, the Pareto front's line, and a hint.
+fn draw_legend(s: &mut String, a: &Axes, points: &[ChartPoint]) {
+    let (lx, mut ly) = (a.w - a.mr + 16.0, a.mt + 10.0);
     let mut fams: Vec<Family> = points.iter().map(|p| p.family).collect();
     fams.sort();
     fams.dedup();
@@ -291,8 +353,6 @@ pub fn class_chart_svg(title: &str, class: SceneClass, results: &[RunResult]) ->
         "<text x=\"{lx}\" y=\"{}\" fill=\"#555\">hover a point for its numbers</text>",
         ly + 26.0
     );
-    s.push_str("</svg>\n");
-    s
 }
 
 /// Time and counters along a camera path as SVG: one panel per series (time first, then each
