@@ -225,13 +225,19 @@ impl Basis {
     }
 }
 
-/// A warped view of `frame`'s directional light at `size` texels ([`Warp`]; see the module
-/// docs), with the casters that can shadow the body. PSM covers the view depths of
-/// `samples` (the depth reduction's) where given.
-pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSamples>) -> (Fit, WarpInfo) {
-    let light = &frame.light;
-    let d = light.direction.normalize_or_zero();
-    let forward = depth_plane(frame).truncate().normalize_or_zero();
+/// The angle between the view direction and the light's.
+struct Angle {
+    /// Its sine.
+    sin_g: f32,
+    /// In degrees.
+    gamma_deg: f32,
+}
+
+/// A warp's light space for `frame`'s directional light and the view's `forward` direction:
+/// `z` the view direction projected across the light (the warp axis), `y` towards the light.
+/// With the light along the view's line there is no warp axis: a fall-back axis, and why.
+fn warp_basis(frame: &Frame, forward: Vec3) -> (Basis, Angle, Option<String>) {
+    let d = frame.light.direction.normalize_or_zero();
     let cos_g = forward.dot(d).clamp(-1.0, 1.0);
     let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
     let gamma_deg = crate::math::acos(cos_g).to_degrees();
@@ -252,6 +258,37 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
         y: -d,
         z,
     };
+    (basis, Angle { sin_g, gamma_deg }, fallback)
+}
+
+/// The objects that can shadow the warp's body: their light-space box meets the body's
+/// rectangle `x` (across) by `z` (along the warp axis) and reaches above its bottom `y0`
+/// (shadows fall along y).
+fn casters_over(frame: &Frame, basis: &Basis, (lo, hi): (Vec2, Vec2), (z0, z1): (f32, f32), y0: f32) -> Vec<bool> {
+    frame
+        .scene
+        .objects
+        .iter()
+        .map(|o| {
+            o.mesh.bounds().is_some_and(|(a, b)| {
+                let (ca, cb) = corners(a, b)
+                    .iter()
+                    .map(|c| basis.of(*c))
+                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| {
+                        (p.min(c), q.max(c))
+                    });
+                ca.x <= hi.x && cb.x >= lo.x && ca.z <= z1 && cb.z >= z0 && cb.y >= y0
+            })
+        })
+        .collect()
+}
+
+/// A warped view of `frame`'s directional light at `size` texels ([`Warp`]; see the module
+/// docs), with the casters that can shadow the body. PSM covers the view depths of
+/// `samples` (the depth reduction's) where given.
+pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSamples>) -> (Fit, WarpInfo) {
+    let forward = depth_plane(frame).truncate().normalize_or_zero();
+    let (basis, Angle { sin_g, gamma_deg }, mut fallback) = warp_basis(frame, forward);
     let (lo, hi) = frame.scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
     let scene: Vec<Vec3> = corners(lo, hi).iter().map(|c| basis.of(*c)).collect();
     let (slo, shi) = scene
@@ -294,22 +331,13 @@ pub fn warp_fit(frame: &Frame, size: u32, w: &Warp, samples: Option<&DepthSample
     let eye = basis.of(frame.camera.position);
     // Casters: objects whose light-space box meets the body's rectangle and reaches above its
     // bottom (shadows fall along y).
-    let mut keep: Vec<bool> = frame
-        .scene
-        .objects
-        .iter()
-        .map(|o| {
-            o.mesh.bounds().is_some_and(|(a, b)| {
-                let (ca, cb) = corners(a, b)
-                    .iter()
-                    .map(|c| basis.of(*c))
-                    .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(p, q), c| {
-                        (p.min(c), q.max(c))
-                    });
-                ca.x <= bhi.x + margin && cb.x >= blo.x - margin && ca.z <= z1 && cb.z >= z0 && cb.y >= y0
-            })
-        })
-        .collect();
+    let mut keep = casters_over(
+        frame,
+        &basis,
+        (blo - Vec2::splat(margin), bhi + Vec2::splat(margin)),
+        (z0, z1),
+        y0,
+    );
     // PSM has no light-space `n`: its matrix comes from `psm_matrix` below.
     let (n, px) = if fallback.is_some() {
         (f32::INFINITY, eye.x)
@@ -536,45 +564,10 @@ fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -
     let bottom = lit.iter().map(|q| q.y).fold(f32::MAX, f32::min);
     let margin = (hi - lo).length().max(1e-3) * 1e-3;
     let hull = convex_hull(&lit.iter().map(|q| Vec2::new(q.x, q.z)).collect::<Vec<_>>());
-    let to_world = |q: Vec3| basis.x * q.x + basis.y * q.y + basis.z * q.z;
-    // Each object's part that can shadow the body, in world space: a box wholly inside the
-    // prism over the body's outline (above its bottom) or wholly outside one of its sides
-    // decides for the object; otherwise each triangle is clipped.
+    // Each object's part that can shadow the body, in world space.
     let floor = bottom - margin;
     let sides = prism_sides(&hull, margin, floor);
-    let outside = |q: &[Vec3]| sides.iter().any(|(n, o)| q.iter().all(|p| n.dot(*p) + o < 0.0));
-    let inside = |q: &[Vec3]| sides.iter().all(|(n, o)| q.iter().all(|p| n.dot(*p) + o >= 0.0));
-    let parts: Vec<Vec<Vec3>> = frame
-        .scene
-        .objects
-        .iter()
-        .map(|o| {
-            let m = &o.mesh;
-            let Some((a, b)) = m.bounds() else {
-                return Vec::new();
-            };
-            let boxed = corners(a, b).map(|c| basis.of(c));
-            if outside(&boxed) {
-                return Vec::new();
-            }
-            if inside(&boxed) {
-                return corners(a, b).to_vec();
-            }
-            let mut part = Vec::new();
-            for t in m.indices.chunks_exact(3) {
-                let tri = [0, 1, 2].map(|k| basis.of(m.positions[t[k] as usize]));
-                if outside(&tri) {
-                    continue;
-                }
-                if inside(&tri) {
-                    part.extend(tri.map(to_world));
-                } else {
-                    part.extend(clip_to_prism(tri, &sides).into_iter().map(to_world));
-                }
-            }
-            part
-        })
-        .collect();
+    let parts = caster_parts(frame, basis, &sides);
     let z_min = parts.iter().flatten().map(|p| depth(*p)).fold(f32::MAX, f32::min);
     // Kozlov's shift: the nearest caster at least half the virtual near distance in front.
     let shift = if w.shift { (near - 2.0 * z_min).max(0.0) } else { 0.0 };
@@ -614,28 +607,7 @@ fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -
     }
     // Rows on the virtual camera's homogeneous clip coordinates.
     let rows = if parallel {
-        // Directional there too: orthographic along the light's travel, -l.xyz.
-        let t = -lxyz.normalize();
-        let e1 = t.cross(up_for(t)).normalize();
-        let e2 = t.cross(e1);
-        let range = |e: Vec3, pts: &mut dyn Iterator<Item = &Vec3>| {
-            pts.fold((f32::MAX, f32::MIN), |(a, b), p| (a.min(e.dot(*p)), b.max(e.dot(*p))))
-        };
-        let (u0, u1) = range(e1, &mut receivers.iter());
-        let (v0, v1) = range(e2, &mut receivers.iter());
-        let (d0, d1) = range(t, &mut receivers.iter().chain(&occluders));
-        let pad = radius * 1e-3;
-        let axis = |e: Vec3, a: f32, b: f32| {
-            let (a, b) = (a - pad, b + pad);
-            form(e, Vec3::ZERO) * (2.0 / (b - a)) - Vec4::W * ((a + b) / (b - a))
-        };
-        let (d0, d1) = (d0 - pad, d1 + pad);
-        [
-            axis(e1, u0, u1),
-            axis(e2, v0, v1),
-            (form(t, Vec3::ZERO) - Vec4::W * d0) / (d1 - d0),
-            Vec4::W,
-        ]
+        parallel_rows(lxyz, radius, &receivers, &occluders)
     } else {
         let at = lxyz / l.w;
         let a = (centre - at).normalize();
@@ -694,6 +666,73 @@ fn psm_matrix(frame: &Frame, w: &Warp, (near, far): (f32, f32), basis: &Basis) -
         info,
         casters,
     }
+}
+
+/// Each object's part that can shadow PSM's body, in world space: a box wholly inside the
+/// prism over the body's outline (`sides`, above its bottom) or wholly outside one of its
+/// sides decides for the object; otherwise each triangle is clipped. Empty: no part.
+fn caster_parts(frame: &Frame, basis: &Basis, sides: &[(Vec3, f32)]) -> Vec<Vec<Vec3>> {
+    let to_world = |q: Vec3| basis.x * q.x + basis.y * q.y + basis.z * q.z;
+    let outside = |q: &[Vec3]| sides.iter().any(|(n, o)| q.iter().all(|p| n.dot(*p) + o < 0.0));
+    let inside = |q: &[Vec3]| sides.iter().all(|(n, o)| q.iter().all(|p| n.dot(*p) + o >= 0.0));
+    frame
+        .scene
+        .objects
+        .iter()
+        .map(|o| {
+            let m = &o.mesh;
+            let Some((a, b)) = m.bounds() else {
+                return Vec::new();
+            };
+            let boxed = corners(a, b).map(|c| basis.of(c));
+            if outside(&boxed) {
+                return Vec::new();
+            }
+            if inside(&boxed) {
+                return corners(a, b).to_vec();
+            }
+            let mut part = Vec::new();
+            for t in m.indices.chunks_exact(3) {
+                let tri = [0, 1, 2].map(|k| basis.of(m.positions[t[k] as usize]));
+                if outside(&tri) {
+                    continue;
+                }
+                if inside(&tri) {
+                    part.extend(tri.map(to_world));
+                } else {
+                    part.extend(clip_to_prism(tri, sides).into_iter().map(to_world));
+                }
+            }
+            part
+        })
+        .collect()
+}
+
+/// PSM's rows where the light is directional in post-perspective space too (`lxyz`, its
+/// direction there): orthographic along its travel, `-lxyz`, over the `receivers` (within
+/// `radius` of their centre) and, in depth, the `occluders`.
+fn parallel_rows(lxyz: Vec3, radius: f32, receivers: &[Vec3], occluders: &[Vec3]) -> [Vec4; 4] {
+    let t = -lxyz.normalize();
+    let e1 = t.cross(up_for(t)).normalize();
+    let e2 = t.cross(e1);
+    let range = |e: Vec3, pts: &mut dyn Iterator<Item = &Vec3>| {
+        pts.fold((f32::MAX, f32::MIN), |(a, b), p| (a.min(e.dot(*p)), b.max(e.dot(*p))))
+    };
+    let (u0, u1) = range(e1, &mut receivers.iter());
+    let (v0, v1) = range(e2, &mut receivers.iter());
+    let (d0, d1) = range(t, &mut receivers.iter().chain(occluders));
+    let pad = radius * 1e-3;
+    let axis = |e: Vec3, a: f32, b: f32| {
+        let (a, b) = (a - pad, b + pad);
+        form(e, Vec3::ZERO) * (2.0 / (b - a)) - Vec4::W * ((a + b) / (b - a))
+    };
+    let (d0, d1) = (d0 - pad, d1 + pad);
+    [
+        axis(e1, u0, u1),
+        axis(e2, v0, v1),
+        (form(t, Vec3::ZERO) - Vec4::W * d0) / (d1 - d0),
+        Vec4::W,
+    ]
 }
 
 /// World to light space relative to `origin` (rows: the basis' axes).
