@@ -7,8 +7,8 @@
 
 use super::clip::{ClipVertex, Clipper};
 use super::setup::{setup_triangle, setup_window_parts, Rejected, SetupParams, SetupTri, TriAttrs, WinVertex};
+use super::stats::DrawStats;
 use super::vertex::Varyings;
-use super::DrawStats;
 
 /// Tile side in pixels.
 pub const TILE: i32 = 64;

@@ -30,9 +30,9 @@ use super::program::{ColorFormat, FragmentProgram, RawTargets};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::spans::{depth_span, depth_span_x4};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
+use super::stats::DrawStats;
 use super::vertex::Varyings;
 use super::wide::{fragment4_at, shade_fragment4, Stores, WideState, WideTri};
-use super::DrawStats;
 use glam::Vec4;
 
 /// No triangle covers the pixel (yet).

@@ -16,9 +16,9 @@ use super::program::{blend_masked, ColorFormat, FragmentProgram, RawTargets, Til
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::spans::{depth_span, depth_span_x4, prefetch_rows, stencil_span};
 use super::state::{CompareFunc, DepthFormat, RenderState};
+use super::stats::DrawStats;
 use super::vertex::Varyings;
 use super::wide::{shade_row4, WideState, WideTri};
-use super::DrawStats;
 use glam::Vec4;
 
 /// Runs stages 5 and 6 for one tile over its triangles (in submission order).

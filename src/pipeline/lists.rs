@@ -6,8 +6,8 @@
 //! linked behind each pixel's existing list. Each pixel's list is therefore in submission
 //! order, and node indices never depend on the thread count.
 
+use super::error::PipelineError;
 use super::surface::Surface;
-use super::PipelineError;
 use glam::Vec4;
 
 /// Marks "no node".

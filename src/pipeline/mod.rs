@@ -42,6 +42,7 @@ pub mod bin;
 pub mod clip;
 pub mod compute;
 pub mod deferred;
+pub mod error;
 pub mod fixed;
 pub mod fragment;
 pub mod lanes;
@@ -54,16 +55,20 @@ pub mod samples;
 pub mod setup;
 pub mod spans;
 pub mod state;
+pub mod stats;
 pub mod surface;
 pub mod vertex;
 pub mod wide;
 
+pub(crate) use error::size_text;
+pub use error::PipelineError;
 pub use lanes::Fragment;
 pub use lanes::{Color4, Fragment4, Vec3x4};
 pub use lists::{FragmentLists, ListNode};
 pub use ordered::{OrderedProgram, PixelStore};
 pub use program::{ColorFormat, DepthOnly, DiscardingShader, FragmentProgram, Rgba8, Shader};
 pub use state::*;
+pub use stats::DrawStats;
 pub use surface::{
     check_bytes, check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Surface,
     SurfaceArray, DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
@@ -84,195 +89,6 @@ use std::fmt;
 /// 100k-triangle spheres frame took two, shaded 1.37 M instead of 1.22 M fragments and its
 /// camera pass took 14 % longer (random triangles: 11 %).
 const CHUNKS_PER_BATCH: usize = 32;
-
-/// Everything that can go wrong in the pipeline, as a value (never a panic).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum PipelineError {
-    /// A surface size of zero or above [`MAX_DIMENSION`].
-    BadSize {
-        /// Requested width.
-        width: u32,
-        /// Requested height.
-        height: u32,
-    },
-    /// Targets of one draw differ in size.
-    SizeMismatch {
-        /// Which target.
-        what: &'static str,
-        /// Size of the first target.
-        expected: (u32, u32),
-        /// Size of this one.
-        got: (u32, u32),
-    },
-    /// The index buffer's length is not a multiple of 3.
-    BadIndexCount(usize),
-    /// An index points past the vertex buffer.
-    IndexOutOfRange {
-        /// Triangle number.
-        triangle: usize,
-        /// The bad index.
-        index: u32,
-        /// Vertex count.
-        vertices: usize,
-    },
-    /// A fragment-list pool would have overflowed; nothing of this draw was appended.
-    FragmentPoolFull {
-        /// Pool capacity.
-        capacity: usize,
-        /// Nodes the pool would have needed.
-        needed: usize,
-    },
-    /// A mip level that does not exist.
-    BadMipLevel {
-        /// Requested level.
-        level: usize,
-        /// Levels in the chain.
-        levels: usize,
-    },
-    /// Any other invalid argument, described.
-    BadArgument(String),
-    /// A surface (or a set of them: a cube map's faces, an array's layers; `bytes` counts them
-    /// all) would take the live surfaces past the memory budget
-    /// ([`surface::set_memory_limit`]); nothing was allocated.
-    OverBudget {
-        /// Requested width.
-        width: u32,
-        /// Requested height.
-        height: u32,
-        /// Its bytes.
-        bytes: u64,
-        /// Bytes of the surfaces alive when it was asked for.
-        live: u64,
-        /// The budget.
-        limit: u64,
-    },
-}
-
-impl fmt::Display for PipelineError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            PipelineError::BadSize { width, height } => {
-                write!(
-                    f,
-                    "surface size {width}x{height} is invalid (each side must be 1..={MAX_DIMENSION})"
-                )
-            }
-            PipelineError::SizeMismatch { what, expected, got } => write!(
-                f,
-                "{what} target is {}x{} but the draw's other targets are {}x{}",
-                got.0, got.1, expected.0, expected.1
-            ),
-            PipelineError::BadIndexCount(n) => write!(f, "index count {n} is not a multiple of 3"),
-            PipelineError::IndexOutOfRange {
-                triangle,
-                index,
-                vertices,
-            } => {
-                write!(
-                    f,
-                    "triangle {triangle} uses vertex index {index} but there are only {vertices} vertices"
-                )
-            }
-            PipelineError::FragmentPoolFull { capacity, needed } => {
-                write!(
-                    f,
-                    "fragment-list pool full: capacity {capacity} nodes, the draw needed {needed}"
-                )
-            }
-            PipelineError::BadMipLevel { level, levels } => {
-                write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
-            }
-            PipelineError::BadArgument(s) => write!(f, "{s}"),
-            PipelineError::OverBudget {
-                width,
-                height,
-                bytes,
-                live,
-                limit,
-            } => {
-                // `live + bytes` may not fit in a u64: that is how some requests are refused.
-                write!(
-                    f,
-                    "{width}x{height} buffers of {} would bring the buffers alive to {}, beyond the memory limit of {} (lower the map size, cascades, faces or resolution, or raise the memory limit)",
-                    size_text(*bytes),
-                    size_text(live.saturating_add(*bytes)),
-                    size_text(*limit)
-                )
-            }
-        }
-    }
-}
-
-impl std::error::Error for PipelineError {}
-
-/// A byte count for messages, in the unit that shows its digits: `512 bytes`, `4.0 KiB`,
-/// `1.5 MiB`, `4096 MiB` (a budget of 1K is not "0 MiB").
-pub(crate) fn size_text(bytes: u64) -> String {
-    let (kib, mib) = (bytes as f64 / 1024.0, bytes as f64 / (1u64 << 20) as f64);
-    match bytes {
-        0..1024 => format!("{bytes} bytes"),
-        _ if mib < 1.0 && kib < 10.0 => format!("{kib:.1} KiB"),
-        _ if mib < 1.0 => format!("{kib:.0} KiB"),
-        _ if mib < 10.0 => format!("{mib:.1} MiB"),
-        _ => format!("{mib:.0} MiB"),
-    }
-}
-
-/// Per-draw counters, for users exploring internals. Summed over draws with `+=`.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
-pub struct DrawStats {
-    /// Triangles submitted.
-    pub triangles_in: u64,
-    /// Triangles dropped for non-finite (NaN/inf) coordinates or a clip-space component
-    /// beyond [`clip::MAX_CLIP_COORD`].
-    pub dropped_nonfinite: u64,
-    /// Triangles that needed clipping.
-    pub clipped: u64,
-    /// Triangles produced by clipping (fans of clipped polygons).
-    pub clip_triangles_out: u64,
-    /// Triangles culled by winding.
-    pub culled_backface: u64,
-    /// Triangles with zero area after snapping.
-    pub culled_degenerate: u64,
-    /// Triangles entirely outside the view or covering no pixel of the viewport.
-    pub culled_outside: u64,
-    /// Triangles that reached binning.
-    pub triangles_setup: u64,
-    /// (triangle, tile) pairs binned.
-    pub bin_entries: u64,
-    /// Pixels covered (fragments generated).
-    pub fragments_rasterized: u64,
-    /// Fragments killed by the early depth test (never shaded).
-    pub early_z_killed: u64,
-    /// Fragments failing the late depth test (after shading).
-    pub depth_failed: u64,
-    /// Fragments failing the stencil test.
-    pub stencil_failed: u64,
-    /// Fragment-program invocations.
-    pub fragments_shaded: u64,
-    /// Fragments that passed the depth test but were hidden by a later fragment of the same
-    /// tile before shading ([`Shading::Deferred`]), so never shaded.
-    pub fragments_hidden: u64,
-    /// Fragments discarded by the program.
-    pub fragments_discarded: u64,
-    /// Fragments that passed every test (depth/stencil written, colour blended).
-    pub fragments_passed: u64,
-    /// Nodes appended to fragment lists.
-    pub list_nodes: u64,
-}
-
-macro_rules! add_fields {
-    ($s:ident, $o:ident; $($f:ident),*) => { $( $s.$f += $o.$f; )* };
-}
-
-impl std::ops::AddAssign for DrawStats {
-    fn add_assign(&mut self, o: DrawStats) {
-        add_fields!(self, o; triangles_in, dropped_nonfinite, clipped, clip_triangles_out, culled_backface,
-            culled_degenerate, culled_outside, triangles_setup, bin_entries, fragments_rasterized,
-            early_z_killed, depth_failed, stencil_failed, fragments_shaded, fragments_hidden, fragments_discarded,
-            fragments_passed, list_nodes);
-    }
-}
 
 /// Whole triangles of indices below `vertices`, or the error that says which index is not.
 pub(crate) fn check_indices(indices: &[u32], vertices: usize) -> Result<(), PipelineError> {

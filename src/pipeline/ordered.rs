@@ -12,9 +12,9 @@
 //! ([`PixelStore::indexed`]: the irregular z-buffer's samples per texel). A draw with it is
 //! [`super::Pipeline::draw_ordered`]; the program is an [`OrderedProgram`].
 
+use super::error::PipelineError;
 use super::lanes::Fragment;
 use super::program::FragmentProgram;
-use super::PipelineError;
 use glam::Vec4;
 
 /// Per-pixel slices of user data in one pool.

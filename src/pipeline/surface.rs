@@ -3,12 +3,11 @@
 //!
 //! Storage is row-major, row 0 at the top (window origin top-left, y down).
 
-use super::PipelineError;
+use super::error::PipelineError;
 use glam::{Vec3, Vec4};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Largest width or height of any surface the pipeline accepts.
-pub const MAX_DIMENSION: u32 = 16384;
+pub use super::error::MAX_DIMENSION;
 
 /// A texel type: anything plain that can live in a surface.
 pub trait Texel: Copy + Send + Sync + 'static {}

@@ -12,8 +12,8 @@ use super::lanes::{clamp01, lane_mask, Fragment4};
 use super::program::{blend_masked, ColorFormat, FragmentProgram, RawTargets};
 use super::setup::{SetupTri, TilePlane};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState};
+use super::stats::DrawStats;
 use super::vertex::Varyings;
-use super::DrawStats;
 use glam::Vec4;
 
 /// Four floats from `p` (unaligned).
