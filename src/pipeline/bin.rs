@@ -486,6 +486,31 @@ pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
 
     // Bin: count per tile, prefix sum, fill (a stable counting sort).
     let setup_count = tris.len();
+    let (offsets, tris, binned, attrs) = bin_triangles(tris, attrs, grid, keep_attrs);
+    let n = offsets[grid.count()] as usize;
+    stats.bin_entries += n as u64;
+    stats.triangles_setup += setup_count as u64;
+    Chunk {
+        attrs,
+        offsets,
+        tris,
+        binned,
+        stats,
+    }
+}
+
+/// The chunk's set-up triangles `tris` (and their shading `attrs` where `keep_attrs`) binned
+/// into `grid`'s tiles by a stable counting sort: the per-tile offsets, and the tile lists
+/// either as indices into `tris` (coherent chunks) or as copies in tile order (scattered
+/// ones, `binned` empty).
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn bin_triangles<V: Varyings>(
+    tris: Vec<SetupTri>,
+    attrs: Vec<TriAttrs<V>>,
+    grid: &TileGrid,
+    keep_attrs: bool,
+) -> (Vec<u32>, Vec<SetupTri>, Vec<u32>, Vec<TriAttrs<V>>) {
     let ntiles = grid.count();
     let mut offsets = vec![0u32; ntiles + 1];
     let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 2);
@@ -539,13 +564,5 @@ pub fn process_chunk<V: Varyings, S: VertexSource<V>>(
         };
         (copies, Vec::new(), attr_copies)
     };
-    stats.bin_entries += n as u64;
-    stats.triangles_setup += setup_count as u64;
-    Chunk {
-        attrs,
-        offsets,
-        tris,
-        binned,
-        stats,
-    }
+    (offsets, tris, binned, attrs)
 }

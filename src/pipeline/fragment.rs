@@ -14,6 +14,7 @@ use super::lanes::Fragment;
 use super::lists::{ListNode, NONE};
 use super::program::{blend_masked, ColorFormat, FragmentProgram, RawTargets, TileLists};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
+use super::setup::{SetupTri, TilePlane};
 use super::spans::{depth_span, depth_span_x4, prefetch_rows, stencil_span};
 use super::state::{CompareFunc, DepthFormat, RenderState};
 use super::stats::DrawStats;
@@ -64,8 +65,18 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
         lists.head = vec![NONE; n];
         lists.tail = vec![NONE; n];
     }
-    let mask = state.color_mask.0;
-    let full_mask = mask == [true; 4];
+    let t = Tile {
+        state,
+        targets,
+        program,
+        origin: (ox, oy),
+        tw,
+        needs_shading,
+        depth_test,
+        depth_write,
+        stencil_on,
+        _varyings: std::marker::PhantomData,
+    };
     let mut cover = TileMask::default();
     if let Some(d) = targets.depth.as_ref() {
         prefetch_rows(d, rect);
@@ -113,26 +124,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 
         // Fast path: depth-only spans.
         if fast_depth {
-            let depth = targets.depth.as_ref().unwrap();
-            let mut passed = 0;
-            for (ly, lo, hi) in cover.spans() {
-                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
-                // SAFETY: the row start is inside this worker's tile.
-                let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
-                let w = depth_write;
-                if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
-                    let le = state.depth.func == CompareFunc::LessEqual;
-                    passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);
-                    continue;
-                }
-                passed += match state.depth.func {
-                    CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b, None),
-                    CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b, None),
-                    CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b, None),
-                    CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b, None),
-                    f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b), None),
-                };
-            }
+            let passed = t.depth_spans(&cover, zp, zoff);
             stats.fragments_passed += passed;
             stats.early_z_killed += emitted - passed;
             continue;
@@ -140,36 +132,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
 
         // Fast path: stencil counting spans.
         if let Some(deltas) = fast_stencil[tri.front as usize] {
-            let stencil = targets.stencil.as_ref().unwrap();
-            let mut passed = 0;
-            for (ly, lo, hi) in cover.spans() {
-                let zrow = (zp.c + zp.dy * ly as f32) + zoff;
-                // SAFETY: the row starts are inside this worker's tile.
-                let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
-                passed += match targets.depth.as_ref().filter(|_| depth_test) {
-                    Some(depth) => {
-                        // SAFETY: the depth row's start is inside this worker's tile, as the stencil row's is.
-                        let drow = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
-                        match state.depth.func {
-                            CompareFunc::Less => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a < b),
-                            CompareFunc::LessEqual => {
-                                stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a <= b)
-                            }
-                            f => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| f.test(a, b)),
-                        }
-                    }
-                    None => {
-                        // No depth test: every fragment passes.
-                        for x in lo..=hi {
-                            // SAFETY: lo <= x <= hi lie in the tile row that `srow` starts.
-                            let p = unsafe { srow.add(x as usize) };
-                            // SAFETY: `p` is this worker's texel (above); nothing else aliases it during the draw.
-                            unsafe { *p = (*p).wrapping_add(deltas.0) };
-                        }
-                        (hi - lo + 1) as u64
-                    }
-                };
-            }
+            let passed = t.stencil_spans(&cover, zp, zoff, deltas);
             stats.fragments_passed += passed;
             stats.early_z_killed += emitted - passed;
             continue;
@@ -210,6 +173,115 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
             }
             continue;
         }
+        // Stage 6: fragment operations, span by span.
+        t.fragments(tri, &cover, (zp, zoff), (&persp, &var), stats, lists);
+    }
+}
+
+/// What every fragment of one tile's draw shares: the state, the targets and the program, the
+/// tile's origin and width, and which tests and writes are on. Its paths are inlined into
+/// [`shade_tile`].
+struct Tile<'a, V, P, C> {
+    state: &'a RenderState,
+    targets: &'a RawTargets<C>,
+    program: &'a P,
+    origin: (i32, i32),
+    tw: usize,
+    needs_shading: bool,
+    depth_test: bool,
+    depth_write: bool,
+    stencil_on: bool,
+    _varyings: std::marker::PhantomData<V>,
+}
+
+impl<V: Varyings, P: FragmentProgram<V>, C: ColorFormat> Tile<'_, V, P, C> {
+    /// Depth-only spans (no stencil, no program, float depth) of a triangle's `cover`, depth
+    /// plane `zp` and offset `zoff`: four pixels at a time where the span allows. Returns the
+    /// fragments that passed.
+    #[inline(always)]
+    fn depth_spans(&self, cover: &TileMask, zp: TilePlane, zoff: f32) -> u64 {
+        let (state, targets, (ox, oy), tw, depth_write) =
+            (self.state, self.targets, self.origin, self.tw, self.depth_write);
+        let depth = targets.depth.as_ref().unwrap();
+        let mut passed = 0;
+        for (ly, lo, hi) in cover.spans() {
+            let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+            // SAFETY: the row start is inside this worker's tile.
+            let row = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
+            let w = depth_write;
+            if (hi | 3) < tw as u32 && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual) {
+                let le = state.depth.func == CompareFunc::LessEqual;
+                passed += depth_span_x4(row, lo, hi, zrow, zp.dx, w, le, None);
+                continue;
+            }
+            passed += match state.depth.func {
+                CompareFunc::Less => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a < b, None),
+                CompareFunc::LessEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a <= b, None),
+                CompareFunc::Greater => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a > b, None),
+                CompareFunc::GreaterEqual => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| a >= b, None),
+                f => depth_span(row, lo, hi, zrow, zp.dx, w, |a, b| f.test(a, b), None),
+            };
+        }
+        passed
+    }
+
+    /// Stencil-counting spans (shadow volumes) of a triangle's `cover`: the wrapping `deltas`
+    /// for depth pass and fail added, nothing else written. Returns the fragments that passed
+    /// the depth test.
+    #[inline(always)]
+    fn stencil_spans(&self, cover: &TileMask, zp: TilePlane, zoff: f32, deltas: (u8, u8)) -> u64 {
+        let (state, targets, (ox, oy), depth_test) = (self.state, self.targets, self.origin, self.depth_test);
+        let stencil = targets.stencil.as_ref().unwrap();
+        let mut passed = 0;
+        for (ly, lo, hi) in cover.spans() {
+            let zrow = (zp.c + zp.dy * ly as f32) + zoff;
+            // SAFETY: the row starts are inside this worker's tile.
+            let srow = unsafe { stencil.ptr.add((oy + ly) as usize * stencil.stride + ox as usize) };
+            passed += match targets.depth.as_ref().filter(|_| depth_test) {
+                Some(depth) => {
+                    // SAFETY: the depth row's start is inside this worker's tile, as the stencil row's is.
+                    let drow = unsafe { depth.ptr.add((oy + ly) as usize * depth.stride + ox as usize) };
+                    match state.depth.func {
+                        CompareFunc::Less => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a < b),
+                        CompareFunc::LessEqual => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| a <= b),
+                        f => stencil_span(srow, drow, lo, hi, zrow, zp.dx, deltas, |a, b| f.test(a, b)),
+                    }
+                }
+                None => {
+                    // No depth test: every fragment passes.
+                    for x in lo..=hi {
+                        // SAFETY: lo <= x <= hi lie in the tile row that `srow` starts.
+                        let p = unsafe { srow.add(x as usize) };
+                        // SAFETY: `p` is this worker's texel (above); nothing else aliases it during the draw.
+                        unsafe { *p = (*p).wrapping_add(deltas.0) };
+                    }
+                    (hi - lo + 1) as u64
+                }
+            };
+        }
+        passed
+    }
+
+    /// Every fragment of `tri`'s `cover`, one at a time (a triangle's row coverage is
+    /// contiguous): stencil and depth tests, the program before them where it may discard and
+    /// after them otherwise, stencil ops, depth write, blending and the fragment lists.
+    #[inline(always)]
+    fn fragments(
+        &self,
+        tri: &SetupTri,
+        cover: &TileMask,
+        (zp, zoff): (TilePlane, f32),
+        (persp, var): (&[TilePlane; 3], &[V; 3]),
+        stats: &mut DrawStats,
+        lists: &mut TileLists,
+    ) {
+        let (state, targets, program, (ox, oy), tw) = (self.state, self.targets, self.program, self.origin, self.tw);
+        let (needs_shading, depth_test, depth_write, stencil_on) =
+            (self.needs_shading, self.depth_test, self.depth_write, self.stencil_on);
+        let st = state.stencil;
+        let fmt = state.depth.format;
+        let mask = state.color_mask.0;
+        let full_mask = mask == [true; 4];
         let face = if tri.front { st.front } else { st.back };
         // Stage 6: fragment operations, span by span (a triangle's row coverage is contiguous).
         for (lyi, lo, hi) in cover.spans() {

@@ -195,6 +195,27 @@ impl<'a, C: ColorFormat> Targets<'a, C> {
         self
     }
 
+    /// The targets as tile workers see them (rows `width` texels apart), and how much room the
+    /// fragment-list pool has left.
+    fn raw(&mut self, width: u32) -> RawTargets<C> {
+        RawTargets {
+            color: self.color.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
+            depth: self.depth.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
+            stencil: self.stencil.as_mut().map(|s| RawSurface {
+                ptr: s.data_mut().as_mut_ptr(),
+                stride: width as usize,
+            }),
+            lists: self.lists.is_some(),
+            list_capacity: self.lists.as_ref().map_or(0, |l| l.capacity().saturating_sub(l.len())),
+        }
+    }
+
     /// The common size of the targets, or an error if they disagree or there are none.
     pub fn size(&self) -> Result<(u32, u32), PipelineError> {
         let mut sizes: Vec<(&'static str, (u32, u32))> = Vec::new();
@@ -335,25 +356,7 @@ impl Pipeline {
         let grid = TileGrid::new(width, height);
         let params = SetupParams::new(state, width, height);
         let clipper = Clipper::new(width, height, !state.depth.clamp);
-        let raw = RawTargets {
-            color: targets.color.as_mut().map(|s| RawSurface {
-                ptr: s.data_mut().as_mut_ptr(),
-                stride: width as usize,
-            }),
-            depth: targets.depth.as_mut().map(|s| RawSurface {
-                ptr: s.data_mut().as_mut_ptr(),
-                stride: width as usize,
-            }),
-            stencil: targets.stencil.as_mut().map(|s| RawSurface {
-                ptr: s.data_mut().as_mut_ptr(),
-                stride: width as usize,
-            }),
-            lists: targets.lists.is_some(),
-            list_capacity: targets
-                .lists
-                .as_ref()
-                .map_or(0, |l| l.capacity().saturating_sub(l.len())),
-        };
+        let raw = targets.raw(width);
         let ntri = indices.len() / 3;
         // Shading attributes are read only by fragment programs that run (see `shade_tile`).
         let needs_attrs = raw.color.is_some() || raw.lists || P::MAY_DISCARD || P::ORDERED;
@@ -439,30 +442,7 @@ impl Pipeline {
                 // The first batch visits every tile when a target is cleared with the draw, so
                 // untouched tiles are cleared too.
                 let clears = (batch == 0).then_some((depth_clear, color_clear));
-                let clearing = clears.is_some_and(|(d, c)| d.is_some() || c.is_some());
-                let tiles: Vec<usize> = (0..grid.count())
-                    .filter(|&t| clearing || chunks.iter().any(|c| !c.tile_entries(t).is_empty()))
-                    .collect();
-                let results: Vec<(DrawStats, TileLists)> = tiles
-                    .par_iter()
-                    .map(|&t| {
-                        let mut s = DrawStats::default();
-                        let mut l = TileLists::default();
-                        let rect = grid.rect(t);
-                        if let Some((dc, cc)) = clears {
-                            // SAFETY: the tile's rows are this worker's alone during the draw.
-                            if let (Some(v), Some(d)) = (dc, raw.depth.as_ref()) {
-                                unsafe { d.fill_rect(rect, v) };
-                            }
-                            if let (Some(v), Some(c)) = (cc, raw.color.as_ref()) {
-                                // SAFETY: as for the depth target: the tile's rows are this worker's alone.
-                                unsafe { c.fill_rect(rect, v) };
-                            }
-                        }
-                        shade_tile(&chunks, t, rect, state, &raw, fp, &mut s, &mut l);
-                        (s, l)
-                    })
-                    .collect();
+                let (tiles, results) = shade_tiles(&chunks, &grid, clears, state, &raw, fp);
                 times.raster_fragment += t2.elapsed().as_secs_f64();
                 for (&t, (s, l)) in tiles.iter().zip(results) {
                     stats += s;
@@ -475,21 +455,7 @@ impl Pipeline {
         });
         let t3 = std::time::Instant::now();
         if let Some(lists) = targets.lists.as_mut() {
-            let needed: usize = tile_lists
-                .iter()
-                .map(|(_, l)| l.nodes.len() + l.overflow as usize)
-                .sum();
-            if lists.len() + needed > lists.capacity() {
-                return Err(PipelineError::FragmentPoolFull {
-                    capacity: lists.capacity(),
-                    needed: lists.len() + needed,
-                });
-            }
-            // Merge per-tile pools in tile order (deterministic node indices).
-            for (t, l) in &tile_lists {
-                lists.merge_tile(grid.rect(*t), &l.nodes, &l.head, &l.tail);
-            }
-            lists.end_draw();
+            merge_lists(lists, &tile_lists, &grid)?;
         }
         times.list_merge += t3.elapsed().as_secs_f64();
         *self.times.lock().unwrap_or_else(|e| e.into_inner()) += times;
@@ -560,4 +526,68 @@ impl Pipeline {
             &ordered::Ordered::new(program, store),
         )
     }
+}
+
+/// Stages 5 and 6 of one batch of `chunks`: each tile that a chunk touches (every tile where
+/// the draw `clears` a target, so untouched tiles are cleared too) walks the chunks in order
+/// (= submission order) on the pipeline's workers. The tiles, and each one's counters and
+/// fragment lists.
+fn shade_tiles<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
+    chunks: &[bin::Chunk<V>],
+    grid: &TileGrid,
+    clears: Option<(Option<f32>, Option<C>)>,
+    state: &RenderState,
+    raw: &RawTargets<C>,
+    fp: &P,
+) -> (Vec<usize>, Vec<(DrawStats, TileLists)>) {
+    let clearing = clears.is_some_and(|(d, c)| d.is_some() || c.is_some());
+    let tiles: Vec<usize> = (0..grid.count())
+        .filter(|&t| clearing || chunks.iter().any(|c| !c.tile_entries(t).is_empty()))
+        .collect();
+    let results: Vec<(DrawStats, TileLists)> = tiles
+        .par_iter()
+        .map(|&t| {
+            let mut s = DrawStats::default();
+            let mut l = TileLists::default();
+            let rect = grid.rect(t);
+            if let Some((dc, cc)) = clears {
+                // SAFETY: the tile's rows are this worker's alone during the draw.
+                if let (Some(v), Some(d)) = (dc, raw.depth.as_ref()) {
+                    unsafe { d.fill_rect(rect, v) };
+                }
+                if let (Some(v), Some(c)) = (cc, raw.color.as_ref()) {
+                    // SAFETY: as for the depth target: the tile's rows are this worker's alone.
+                    unsafe { c.fill_rect(rect, v) };
+                }
+            }
+            shade_tile(chunks, t, rect, state, raw, fp, &mut s, &mut l);
+            (s, l)
+        })
+        .collect();
+    (tiles, results)
+}
+
+/// Merges the tiles' fragment lists into `lists` in tile order (deterministic node indices),
+/// or says that its pool is too small for them (and merges nothing).
+fn merge_lists(
+    lists: &mut FragmentLists,
+    tile_lists: &[(usize, TileLists)],
+    grid: &TileGrid,
+) -> Result<(), PipelineError> {
+    let needed: usize = tile_lists
+        .iter()
+        .map(|(_, l)| l.nodes.len() + l.overflow as usize)
+        .sum();
+    if lists.len() + needed > lists.capacity() {
+        return Err(PipelineError::FragmentPoolFull {
+            capacity: lists.capacity(),
+            needed: lists.len() + needed,
+        });
+    }
+    // Merge per-tile pools in tile order (deterministic node indices).
+    for (t, l) in tile_lists {
+        lists.merge_tile(grid.rect(*t), &l.nodes, &l.head, &l.tail);
+    }
+    lists.end_draw();
+    Ok(())
 }
