@@ -111,6 +111,17 @@ pub fn explain(f: impl FnOnce(&mut Steps) -> f32) -> Vec<Step> {
     t.0
 }
 
+/// [`explain`] of a per-pixel function that may have nothing to say (`None`: no run, or no
+/// geometry at the pixel, and no steps): its steps, closed by its value as the [`result`]
+/// where there is one.
+pub fn closed(f: impl FnOnce(&mut Steps) -> Option<f32>) -> Vec<Step> {
+    let mut t = Steps::default();
+    if let Some(v) = f(&mut t) {
+        t.0.push(result(v));
+    }
+    t.0
+}
+
 /// Where a technique's per-pixel code reports its steps: [`Steps`] records them (for
 /// `inspect`), [`NoTrace`] drops them at no cost (the timed pass), so one function computes
 /// both and the explanation can never disagree with the image.

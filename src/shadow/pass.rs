@@ -8,6 +8,7 @@
 
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
+use crate::shadow::inspect::Steps;
 use crate::shadow::technique::{ShadowTechnique, Stage, Step, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
@@ -19,8 +20,15 @@ pub trait Pass: Send {
     type Output: Into<Visibility>;
     /// Visibility per pixel of `frame` (NaN where no geometry), each pass timed into `passes`.
     fn run(&mut self, p: &Pipeline, frame: &Frame, passes: &mut Passes) -> Result<Self::Output, Error>;
-    /// What the last run did at pixel `(x, y)`, ending with the image's value there.
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step>;
+    /// What the last run did at pixel `(x, y)`, step by step into `t`, and the image's value
+    /// there, from the code that drew it (a composite reads its parts' values from here);
+    /// `None`, with no steps, where the pass has not run or the pixel has no geometry.
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32>;
+    /// What the last run did at pixel `(x, y)`: [`Pass::explain`]'s steps, closed by the
+    /// image's value as the result.
+    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+        crate::shadow::inspect::closed(|t| self.explain(frame, x, y, t))
+    }
     /// The last run's buffers for `dump`.
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error>;
     /// Work counters of the last run. Default: none.

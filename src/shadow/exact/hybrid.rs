@@ -18,7 +18,7 @@ use crate::frame::Frame;
 use crate::math;
 use crate::pipeline::{Pipeline, Surface};
 use crate::shadow::exact::irregular::{self, IrregularZBuffer};
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::map::soft::{self, SoftShadows};
 use crate::shadow::pass::Pass;
@@ -230,38 +230,16 @@ impl ShadowTechnique for Hybrid {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        // Each part's own steps, its result renamed: the hybrid's result is the blend's.
-        let part = |name: &str, what: &str, mut part: Vec<Step>| -> (Vec<Step>, f32) {
-            let v = match part.last() {
-                Some(last) if last.name == "result" => match last.values.first() {
-                    Some((_, inspect::Value::Num(v))) => *v as f32,
-                    _ => f32::NAN,
-                },
-                _ => f32::NAN,
-            };
-            if let Some(last) = part.last_mut().filter(|l| l.name == "result") {
-                last.name = format!("{name} result");
-            }
-            let mut steps = vec![Step::new(name, what)];
-            steps.extend(part);
-            (steps, v)
-        };
-        let (mut steps, soft) = part(
-            "pcss",
-            "PCSS at the pixel: the blocker search gives the penumbra",
-            self.pcss.inspect(frame, x, y),
-        );
-        let (izb, hard) = part(
-            "izb",
-            "the irregular z-buffer at the pixel: the exact hard shadow",
-            self.izb.inspect(frame, x, y),
-        );
-        steps.extend(izb);
-        let (t, px) = self.weight_at(frame, x as usize, y as usize);
-        let mut trace = Steps(steps);
-        let v = self.blend(hard, soft, t, px, &mut trace);
-        trace.0.push(inspect::result(v));
-        trace.0
+        // Each part explains the pixel with the code that drew it and gives its value, which
+        // the blend takes (the values the image blended).
+        inspect::closed(|t| {
+            t.step(|| Step::new("pcss", "PCSS at the pixel: the blocker search gives the penumbra"));
+            let soft = self.pcss.explain(frame, x, y, t)?;
+            t.step(|| Step::new("izb", "the irregular z-buffer at the pixel: the exact hard shadow"));
+            let hard = self.izb.explain(frame, x, y, t)?;
+            let (w, px) = self.weight_at(frame, x as usize, y as usize);
+            Some(self.blend(hard, soft, w, px, t))
+        })
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

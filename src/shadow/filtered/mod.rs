@@ -41,7 +41,7 @@ pub mod vsm;
 use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{self, NoTrace, Step, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{self, DepthToDistance, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::options::{within, OptionValue};
@@ -717,22 +717,20 @@ impl<M: Moments> Pass for FilteredPass<M> {
         self.maps.views()
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
         if self.views.is_empty() || frame.point(x, y).is_none() {
-            return Vec::new();
+            return None;
         }
-        inspect::explain(|t| {
-            t.step(|| {
-                Step::new("maps", "the light pass and the prefilter of the last run")
-                    .int("views", self.views.len())
-                    .int("size", self.opts.map.size)
-                    .text("prefilter", self.opts.prefilter.as_str())
-                    .int("radius", self.opts.radius)
-                    .text("storage", self.moments.storage().as_str())
-                    .int("casters culled by fitting", self.maps.culled())
-            });
-            self.lookup(frame, x as usize, y as usize, t).0
-        })
+        t.step(|| {
+            Step::new("maps", "the light pass and the prefilter of the last run")
+                .int("views", self.views.len())
+                .int("size", self.opts.map.size)
+                .text("prefilter", self.opts.prefilter.as_str())
+                .int("radius", self.opts.radius)
+                .text("storage", self.moments.storage().as_str())
+                .int("casters culled by fitting", self.maps.culled())
+        });
+        Some(self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {

@@ -26,7 +26,7 @@
 use crate::frame::Frame;
 use crate::math;
 use crate::pipeline::{Pipeline, Surface};
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{DepthToDistance, Layer, LightView, MapOptions};
@@ -422,8 +422,10 @@ impl ShadowTechnique for Chs {
                 .int("levels", self.levels(0))
                 .num("light width", self.width)
         };
-        self.lookup
-            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
+        inspect::closed(|t| {
+            self.lookup
+                .explain(t, header, |t| self.lookup(frame, x as usize, y as usize, t).0)
+        })
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -234,6 +234,25 @@ impl MultiSample {
     }
 }
 
+/// Runs `per` on each sample of `points` in order, with `frame` lit by the sample's light (a
+/// point light there for an area light; the light itself otherwise): the one sampling loop
+/// of the image and of `inspect`.
+fn each_sample(
+    frame: &Frame,
+    points: &[Vec3],
+    mut per: impl FnMut(usize, &Frame) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let mut sampled = frame.with_light(frame.light);
+    for (k, &q) in points.iter().enumerate() {
+        sampled.light = match frame.light.kind {
+            LightKind::Area(_) => MultiSample::point_light(&frame.light, q),
+            _ => frame.light,
+        };
+        per(k, &sampled)?;
+    }
+    Ok(())
+}
+
 impl ShadowTechnique for MultiSample {
     fn name(&self) -> &'static str {
         "multi-sample"
@@ -241,22 +260,19 @@ impl ShadowTechnique for MultiSample {
 
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error> {
         self.points = sample_points(&frame.light, self.opts.samples);
-        let mut sampled = frame.with_light(frame.light);
         let mut sum = vec![0.0f32; frame.points().len()];
         let mut passes = Passes::start();
         self.taps = 0.0;
-        for q in self.points.clone() {
-            sampled.light = match frame.light.kind {
-                LightKind::Area(_) => Self::point_light(&frame.light, q),
-                _ => frame.light,
-            };
-            let (v, taps) = self.sample(p, &sampled, &mut passes)?;
+        let points = self.points.clone();
+        each_sample(frame, &points, |_, sampled| {
+            let (v, taps) = self.sample(p, sampled, &mut passes)?;
             // The same order of additions at every pixel for any thread count.
             for (s, v) in sum.iter_mut().zip(&v) {
                 *s += v;
             }
             self.taps += taps as f64;
-        }
+            Ok(())
+        })?;
         let n = self.points.len() as f32;
         sum.iter_mut().for_each(|s| *s /= n);
         self.times = passes.finish();
@@ -273,27 +289,23 @@ impl ShadowTechnique for MultiSample {
         if self.points.is_empty() {
             return steps;
         }
-        // Each sample's hard visibility at the pixel, recomputed on one worker (at most 32).
+        // Each sample's hard visibility at the pixel, from the passes the image ran for it (on
+        // one worker, at most 32 listed), summed in the image's order.
         let Ok(p) = Pipeline::new(1) else { return steps };
         let i = (y * frame.width() + x) as usize;
-        let mut sampled = frame.with_light(frame.light);
         let mut sum = 0.0f32;
-        for (k, &q) in self.points.iter().enumerate() {
-            sampled.light = match frame.light.kind {
-                LightKind::Area(_) => Self::point_light(&frame.light, q),
-                _ => frame.light,
-            };
+        // The same passes as the image's, in a technique of the same options.
+        let Ok(mut again) = MultiSample::new(self.opts.clone()) else {
+            return steps;
+        };
+        let _ = each_sample(frame, &self.points, |k, sampled| {
             let v = match self.opts.method {
                 // The sample's map drawn again, and the pixel's comparison in it.
-                Method::Maps => {
-                    let mut lookup = MapLookup::new(Self::setup(&self.opts));
-                    lookup
-                        .light_pass(&p, &sampled)
-                        .map(|()| Self::hard(&lookup, &sampled, self.opts.pcf, x as usize, y as usize).0)
-                }
-                Method::Volumes => StencilVolumes::new(Mode::Auto)
-                    .run(&p, &sampled, &mut Passes::start())
-                    .map(|v| v[i]),
+                Method::Maps => again
+                    .lookup
+                    .light_pass(&p, sampled)
+                    .map(|()| Self::hard(&again.lookup, sampled, self.opts.pcf, x as usize, y as usize).0),
+                Method::Volumes => again.volume.run(&p, sampled, &mut Passes::start()).map(|v| v[i]),
             }
             .unwrap_or(f32::NAN);
             sum += v;
@@ -301,11 +313,12 @@ impl ShadowTechnique for MultiSample {
                 steps.push(
                     Step::new("sample", "one point light's hard shadow at this pixel")
                         .int("sample", k)
-                        .vec3("position", q)
+                        .vec3("position", self.points[k])
                         .num("visibility", v),
                 );
             }
-        }
+            Ok(())
+        });
         steps.push(inspect::result(sum / self.points.len() as f32));
         steps
     }

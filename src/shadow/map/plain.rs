@@ -6,7 +6,7 @@
 use crate::error::Reason;
 use crate::frame::Frame;
 use crate::pipeline::*;
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 pub use crate::shadow::light::{FitTo, Layer};
 use crate::shadow::light::{LightView, MapOptions};
 use crate::shadow::options::OptionValue;
@@ -490,10 +490,10 @@ impl Pass for MapPass {
         Ok(out)
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
         let header = || self.lookup.pass_step();
         self.lookup
-            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
+            .explain(t, header, |t| self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {

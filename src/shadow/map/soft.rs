@@ -49,7 +49,7 @@ use crate::frame::Frame;
 use crate::pipeline::lanes::floor4;
 use crate::pipeline::sampler::{texels_at4, Indices4};
 use crate::pipeline::Pipeline;
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels, world};
 use crate::shadow::light::{DepthToDistance, Layer, MapOptions};
 use crate::shadow::pass::Pass;
@@ -552,7 +552,7 @@ impl Pass for SoftShadows {
         Ok(out)
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
         let header = || {
             Step::new("map", "the light pass of the last run")
                 .int("views", self.lookup.maps().len())
@@ -561,7 +561,7 @@ impl Pass for SoftShadows {
                 .flag("hierarchy", self.opts.wide.hierarchy)
         };
         self.lookup
-            .explain(header, |t| self.lookup(frame, x as usize, y as usize, t).0)
+            .explain(t, header, |t| self.lookup(frame, x as usize, y as usize, t).0)
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {

@@ -46,7 +46,7 @@ use super::{
 };
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::options::within;
 use crate::shadow::overview::{backdrop, draw_world_segment};
@@ -388,8 +388,11 @@ impl ShadowTechnique for Pvm {
                 .int("silhouette edges", self.sil.edges.len())
                 .int("volume quads", self.quads)
         };
-        self.lookup
-            .explain(header, |t| Self::value(self.lookup(frame, x as usize, y as usize, t)))
+        inspect::closed(|t| {
+            self.lookup.explain(t, header, |t| {
+                Self::value(self.lookup(frame, x as usize, y as usize, t))
+            })
+        })
     }
 
     fn timings(&self) -> Vec<(&'static str, f64)> {

@@ -56,7 +56,7 @@ use super::{light_and_silhouettes, light_field, render_views, silhouette_notes, 
 use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
-use crate::shadow::inspect::{NoTrace, Step, Trace};
+use crate::shadow::inspect::{self, NoTrace, Step, Trace};
 use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::sample::kernel::{bilinear_compare, Class};
@@ -608,7 +608,8 @@ impl ShadowTechnique for Pvmf {
                 .int("silhouette edges", self.sil.edges.len())
                 .num("s_e", self.opts.spread)
         };
-        self.lookup.explain(header, |t| {
+        inspect::closed(|t| {
+            self.lookup.explain(t, header, |t| {
             let f = self.lookup(frame, x as usize, y as usize, t);
             let i = y as usize * frame.width() as usize + x as usize;
             if !matches!(f, Found::Filtered { .. }) || self.horizontal.is_empty() {
@@ -627,6 +628,7 @@ impl ShadowTechnique for Pvmf {
                 .num("after the vertical pass", final_v)
             });
             final_v
+        })
         })
     }
 

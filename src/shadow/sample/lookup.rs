@@ -202,18 +202,21 @@ impl MapLookup {
         self.maps.stages(p, frame)
     }
 
-    /// `inspect` of a technique whose pixels read these maps: nothing before a run; else
-    /// `header` (what the run made), the pixel's steps from `pixel` (the same per-pixel
-    /// function as the image's, recording), and its result, the value `pixel` returns.
-    pub fn explain(&self, header: impl FnOnce() -> Step, pixel: impl FnOnce(&mut Steps) -> f32) -> Vec<Step> {
-        let mut t = Steps::default();
+    /// The explanation of a pixel of a technique whose pixels read these maps: nothing before
+    /// a run (`None`); else `header` (what the run made) and the pixel's steps from `pixel`
+    /// (the same per-pixel function as the image's, recording) into `t`, and the value
+    /// `pixel` returns.
+    pub fn explain(
+        &self,
+        t: &mut Steps,
+        header: impl FnOnce() -> Step,
+        pixel: impl FnOnce(&mut Steps) -> f32,
+    ) -> Option<f32> {
         if self.maps().is_empty() {
-            return t.0;
+            return None;
         }
         t.step(header);
-        let v = pixel(&mut t);
-        t.0.push(crate::shadow::inspect::result(v));
-        t.0
+        Some(pixel(t))
     }
 
     /// `inspect`'s opening step: what the light pass made.

@@ -11,7 +11,7 @@
 use super::march::{self, DepthField, Hit, March};
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
-use crate::shadow::inspect::{explain, Trace};
+use crate::shadow::inspect::{self, Trace};
 use crate::shadow::map::plain::{self, MapPass};
 use crate::shadow::map::shadow_map;
 use crate::shadow::options::within;
@@ -144,11 +144,12 @@ impl ShadowTechnique for ContactMap {
         let Some(field) = &self.field else {
             return Vec::new();
         };
-        let mut steps = self.map.inspect(frame, x, y);
-        // The map's own answer ends with its result: the combination follows instead.
-        steps.pop();
-        steps.extend(explain(|t| self.combine(frame, field, x, y, t)));
-        steps
+        // The map's explanation (its value is the image's map visibility that `combine`
+        // reads), then the combination.
+        inspect::closed(|t| {
+            self.map.explain(frame, x, y, t)?;
+            Some(self.combine(frame, field, x, y, t))
+        })
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {

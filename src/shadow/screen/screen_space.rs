@@ -9,10 +9,10 @@
 use super::march::{self, DepthField, Hit, March};
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
-use crate::shadow::inspect::explain;
+use crate::shadow::inspect::Steps;
 use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
-use crate::shadow::technique::{Declaration, Family, Stage, Step, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Stage, TechniqueInfo};
 use crate::shadow::timing::Passes;
 use crate::Error;
 
@@ -99,11 +99,9 @@ impl Pass for ScreenPass {
         Ok(self.hits.iter().map(|h| h.v).collect())
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let Some(field) = &self.field else {
-            return Vec::new();
-        };
-        explain(|t| match frame.point(x, y) {
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
+        let field = self.field.as_ref()?;
+        Some(match frame.point(x, y) {
             None => f32::NAN,
             Some(s) => field.march(frame, &self.opts.march, x, y, s.position, t).v,
         })

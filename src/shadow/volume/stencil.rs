@@ -9,7 +9,7 @@ use super::silhouette::{self, Volume};
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::scene::LightKind;
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{homogeneous_position, scene_depth};
 use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pass::Pass;
@@ -170,12 +170,11 @@ impl Pass for StencilVolumes {
         Ok(out)
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let mut steps = Vec::new();
-        let Some(stencil) = &self.stencil else { return steps };
-        let Some(s) = frame.point(x, y) else { return steps };
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
+        let stencil = self.stencil.as_ref()?;
+        let s = frame.point(x, y)?;
         let light = homogeneous_position(&frame.light);
-        steps.push(
+        t.0.push(
             Step::new(
                 "counting",
                 if self.chose_zpass {
@@ -198,7 +197,7 @@ impl Pass for StencilVolumes {
             .filter(|(v, _)| silhouette::eye_count(std::slice::from_ref(*v), p, light) > 0)
             .map(|(_, o)| o.name.clone())
             .collect();
-        steps.push(
+        t.0.push(
             Step::new(
                 "volumes containing the point",
                 "objects whose shadow volume holds the point, by a segment test towards the light (a check of the count)",
@@ -206,10 +205,7 @@ impl Pass for StencilVolumes {
             .int("count", inside.len())
             .text("objects", inside.join(", ")),
         );
-        let mut t = Steps(steps);
-        let v = resolve(stencil.at(x, y), &mut t);
-        t.0.push(inspect::result(v));
-        t.0
+        Some(resolve(stencil.at(x, y), t))
     }
 
     fn notes(&self) -> Vec<String> {

@@ -15,7 +15,7 @@ use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
-use crate::shadow::inspect::{self, NoTrace, Step, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, merged_casters, Casters, OnView};
 use crate::shadow::pass::{Pass, PassTechnique};
 use crate::shadow::technique::{Field, Stage};
@@ -68,8 +68,8 @@ impl<L: LightPass> Pass for Volumetric<L> {
         Ok(out)
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        explain_point(frame, x, y, self.coloured, self.light.ran(), &self.light)
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
+        explain_point(frame, x, y, self.coloured, self.light.ran(), &self.light, t)
     }
 
     fn stages(&self, _: &Pipeline, _: &Frame) -> Result<Vec<Stage>, Error> {
@@ -179,10 +179,18 @@ pub fn lookup_pass(p: &Pipeline, frame: &Frame, coloured: bool, l: &impl PointLo
 
 /// `inspect` of a volumetric technique at pixel `(x, y)`: `l`'s steps at the pixel's point and
 /// its [`value`]; nothing where no geometry is, or before the first run (`ran` false).
-pub fn explain_point(frame: &Frame, x: u32, y: u32, coloured: bool, ran: bool, l: &impl PointLookup) -> Vec<Step> {
+pub fn explain_point(
+    frame: &Frame,
+    x: u32,
+    y: u32,
+    coloured: bool,
+    ran: bool,
+    l: &impl PointLookup,
+    t: &mut Steps,
+) -> Option<f32> {
     match frame.point(x, y) {
-        Some(s) if ran => inspect::explain(|t| value(coloured, l.transmittance(frame, s.position, t))),
-        _ => Vec::new(),
+        Some(s) if ran => Some(value(coloured, l.transmittance(frame, s.position, t))),
+        _ => None,
     }
 }
 

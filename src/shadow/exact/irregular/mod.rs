@@ -76,7 +76,7 @@ use crate::pipeline::lanes::Vec3x4;
 use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
-use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
+use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
 use crate::shadow::pass::Pass;
 use crate::shadow::technique::Stage;
@@ -528,16 +528,18 @@ impl Pass for IrregularZBuffer {
         Ok(out)
     }
 
-    fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
+    fn explain(&self, frame: &Frame, x: u32, y: u32, t: &mut Steps) -> Option<f32> {
         let i = (y * frame.width() + x) as usize;
-        let mut steps = vec![Step::new(
-            "grid",
-            "the light views cropped to their samples, and the lists (counting sort by texel)",
-        )
-        .int("views", self.views.len())
-        .int("size", self.opts.size)
-        .int("samples in the frame", self.total)
-        .int("occluder triangles", self.occluders)];
+        t.0.push(
+            Step::new(
+                "grid",
+                "the light views cropped to their samples, and the lists (counting sort by texel)",
+            )
+            .int("views", self.views.len())
+            .int("size", self.opts.size)
+            .int("samples in the frame", self.total)
+            .int("occluder triangles", self.occluders),
+        );
         let samples = camera_samples(frame, self.opts.samples);
         let start = samples.partition_point(|s| (s.pixel as usize) < i);
         let mut lit_sum = 0.0;
@@ -595,11 +597,10 @@ impl Pass for IrregularZBuffer {
                     .flag("faces the light", false)
                     .text("result", "unlit (faces away from the light)");
             }
-            steps.push(st);
+            t.0.push(st);
         }
         if frame.point(x, y).is_none() || self.lit.is_empty() {
-            steps.push(inspect::result(f32::NAN));
-            return steps;
+            return Some(f32::NAN);
         }
         // The image's marks of the pixel's samples: the row's first sample, then k per
         // covered pixel before this one.
@@ -609,11 +610,9 @@ impl Pass for IrregularZBuffer {
             .filter(|&&o| o != NO_OBJECT)
             .count();
         let first = self.row_start[y as usize] as usize + before * k;
-        let mut t = Steps(steps);
-        let v = resolve(&self.lit[first..first + k], &mut t);
+        let v = resolve(&self.lit[first..first + k], t);
         debug_assert_eq!(v, lit_sum / k as f32);
-        t.0.push(inspect::result(v));
-        t.0
+        Some(v)
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
