@@ -1,7 +1,7 @@
 //! Passes 1-3 of the irregular z-buffer: the camera samples, the light views cropped to
 //! them, and the lists by a parallel counting sort that gives the serial sort's result.
 
-use super::samples::{faces_light, triangle_facing, CameraSample, SampleFiller};
+use super::samples::{sample_uv, triangle_facing, CameraSample, SampleFiller};
 use super::*;
 use crate::pipeline::compute::Scatter;
 
@@ -145,13 +145,7 @@ impl IrregularZBuffer {
                 let mut cur = (usize::MAX, empty);
                 {
                     let mut one = |j: usize, s: &SamplePoint, triangle: u32| {
-                        let f = light::view_of(base, &light, s.position);
-                        let seen = if faces_light(&light, s) {
-                            base[f].lookup(s.position)
-                        } else {
-                            None
-                        };
-                        let Some((uv, _)) = seen else {
+                        let Some((f, uv)) = sample_uv(base, &light, s) else {
                             meta[j] = META_NONE;
                             rec[j] = Rec {
                                 origin: Vec3::ZERO,

@@ -224,7 +224,9 @@ struct Texel {
 struct View {
     view: LightView,
     /// The uncropped view, and the crop in its uv: a sample's texel is
-    /// `grid.texel(base.lookup(p).uv)` (see [`Grid`]).
+    /// `grid.texel(base.lookup(p).uv)` (see [`Grid`]). The tests check the lists against it,
+    /// independently of the insertion.
+    #[cfg_attr(not(test), allow(dead_code))]
     base: LightView,
     grid: Grid,
     store: PixelStore<ListSample>,
@@ -568,12 +570,15 @@ impl Pass for IrregularZBuffer {
             if let Some((v, at)) = slot {
                 let view = &self.views[v];
                 let ls = view.store.data()[at];
-                // The sample's uv in the cropped grid (as its texel was found).
-                let (uv, _) = view.base.lookup(s.point.position).unwrap_or_default();
-                let uv = (uv - view.grid.lo) * view.grid.scale / view.grid.size as f32;
-                let t = (0..(view.store.width() * view.store.height()) as usize)
-                    .find(|&t| view.store.range(t).contains(&at))
-                    .unwrap_or(0);
+                // The uv the insertion found for the sample (kept from the run), and its texel.
+                let base_uv = self.uv[start + j];
+                let uv = (base_uv - view.grid.lo) * view.grid.scale / view.grid.size as f32;
+                let (tx, ty) = view.grid.texel(base_uv);
+                let t = ty * view.store.width() as usize + tx;
+                debug_assert!(
+                    view.store.range(t).contains(&at),
+                    "the sample's record lies in its texel's list"
+                );
                 st = st
                     .int("view", v)
                     .vec2("uv", uv)

@@ -186,3 +186,15 @@ pub(super) fn to_light(light: &Light, p: Vec3) -> Vec3 {
 pub(super) fn faces_light(light: &Light, s: &SamplePoint) -> bool {
     s.normal.dot(light.to_light(s.position)) > 0.0
 }
+
+/// Where camera sample `s` falls in the `base` views: the view that sees it and its uv there
+/// ([`crate::shadow::light::locate`]); `None` where it faces away from the light or lies
+/// behind the view's eye. The one way from a sample to its texel, for the insertion and for
+/// `inspect`.
+#[inline(always)]
+pub(super) fn sample_uv(base: &[LightView], light: &Light, s: &SamplePoint) -> Option<(usize, Vec2)> {
+    if !faces_light(light, s) {
+        return None;
+    }
+    crate::shadow::light::locate(base, light, s.position).map(|m| (m.view, m.uv))
+}
