@@ -89,6 +89,64 @@ trait Channels: Copy + PartialEq + std::ops::Add<Output = Self> + std::ops::Div<
     fn trace(r: &Reference, o: Vec3, d: Vec3, tmax: f32) -> Self;
     /// [`Channels::trace`] of up to [`PACKET`] rays at once, into `out`.
     fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [Self]);
+    /// The value per colour channel (one value: the same in all three).
+    fn rgb(self) -> Vec3;
+}
+
+/// What the reference did at one point, for `inspect`: recorded by the function that computes
+/// the image's value there ([`Reference::explain`]), so the account cannot disagree with it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointReport {
+    /// The shadow rays' origin: the point moved off its surface ([`offset_origin`]).
+    pub origin: Vec3,
+    /// The hard shadow ray to the light's centre (hard lights; `None` for area sampling, or
+    /// a point at the light).
+    pub hard_ray: Option<Ray>,
+    /// Area lights: the 8 x 8 pilot strata's mean, per channel.
+    pub pilot: Option<Vec3>,
+    /// Area lights: whether the 32 rim rays agreed with a pilot that was all lit or all
+    /// shadowed (then the pilot is the answer); `None` where the pilot was mixed.
+    pub rim_agrees: Option<bool>,
+    /// Area lights: the side of the full strata grid traced after the pilot (0: none).
+    pub strata: u32,
+    /// Light samples taken at the point (each one shadow ray, or none where the point is on
+    /// or inside the light).
+    pub rays: u32,
+}
+
+/// Where [`Reference`]'s per-point function reports what it did: nowhere for the image
+/// (`()`, free), into a [`PointReport`] for `inspect`.
+trait Report {
+    fn hard_ray(&mut self, _ray: Option<Ray>) {}
+    fn origin(&mut self, _o: Vec3) {}
+    fn pilot(&mut self, _v: Vec3) {}
+    fn rim(&mut self, _agrees: bool) {}
+    fn strata(&mut self, _n: u32) {}
+    fn rays(&mut self, _n: u32) {}
+}
+
+impl Report for () {}
+
+impl Report for PointReport {
+    fn hard_ray(&mut self, ray: Option<Ray>) {
+        self.hard_ray = ray;
+        self.rays += ray.is_some() as u32;
+    }
+    fn origin(&mut self, o: Vec3) {
+        self.origin = o;
+    }
+    fn pilot(&mut self, v: Vec3) {
+        self.pilot = Some(v);
+    }
+    fn rim(&mut self, agrees: bool) {
+        self.rim_agrees = Some(agrees);
+    }
+    fn strata(&mut self, n: u32) {
+        self.strata = n;
+    }
+    fn rays(&mut self, n: u32) {
+        self.rays += n;
+    }
 }
 
 /// A shadow ray: origin, unit direction, and the distance it ends at.
@@ -105,6 +163,10 @@ impl Channels for f32 {
     fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [f32]) {
         r.transmittance_packet(rays, out);
     }
+    #[inline]
+    fn rgb(self) -> Vec3 {
+        Vec3::splat(self)
+    }
 }
 
 impl Channels for Vec3 {
@@ -117,6 +179,10 @@ impl Channels for Vec3 {
     #[inline]
     fn trace_packet(r: &Reference, rays: &[Ray], out: &mut [Vec3]) {
         r.transmittance_rgb_packet(rays, out);
+    }
+    #[inline]
+    fn rgb(self) -> Vec3 {
+        self
     }
 }
 
@@ -403,11 +469,14 @@ impl Reference {
 
     /// Hard visibility of the light's centre from `s`.
     pub fn hard(&self, s: &SamplePoint, light: &Light) -> f32 {
-        self.hard_c(s, light)
+        self.hard_c(s, light, &mut ())
     }
 
-    fn hard_c<C: Channels>(&self, s: &SamplePoint, light: &Light) -> C {
-        match Self::hard_ray(s, light) {
+    fn hard_c<C: Channels>(&self, s: &SamplePoint, light: &Light, report: &mut impl Report) -> C {
+        let ray = Self::hard_ray(s, light);
+        report.origin(offset_origin(s.position, s.face));
+        report.hard_ray(ray);
+        match ray {
             Some((o, d, t)) => C::trace(self, o, d, t),
             None => C::ONE,
         }
@@ -495,20 +564,41 @@ impl Reference {
 
     /// Area visibility (stratified, adaptive; see the module docs). `pixel` seeds the jitter.
     pub fn area(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> f32 {
-        self.area_c(s, light, pixel, opts)
+        self.area_c(s, light, pixel, opts, &mut ())
     }
 
     /// [`Reference::area`] per colour channel.
     pub fn area_rgb(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> Vec3 {
-        self.area_c(s, light, pixel, opts)
+        self.area_c(s, light, pixel, opts, &mut ())
     }
 
-    fn area_c<C: Channels>(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> C {
+    /// The value [`Reference::visibility`] gives point `s` of pixel `pixel` (per channel; one
+    /// value in all three for scenes without coloured transmittance), and what was traced
+    /// for it: the same function as the image's, reporting.
+    pub fn explain(&self, s: &SamplePoint, light: &Light, pixel: u64, opts: &ReferenceOptions) -> (Vec3, PointReport) {
+        let mut report = PointReport::default();
+        let v = if self.coloured {
+            self.area_c::<Vec3>(s, light, pixel, opts, &mut report)
+        } else {
+            self.area_c::<f32>(s, light, pixel, opts, &mut report).rgb()
+        };
+        (v, report)
+    }
+
+    fn area_c<C: Channels>(
+        &self,
+        s: &SamplePoint,
+        light: &Light,
+        pixel: u64,
+        opts: &ReferenceOptions,
+        report: &mut impl Report,
+    ) -> C {
         let shape = match light.kind {
             LightKind::Area(shape) if opts.area => shape,
-            _ => return self.hard_c(s, light),
+            _ => return self.hard_c(s, light, report),
         };
         let o = offset_origin(s.position, s.face);
+        report.origin(o);
         // The strata's samples in packets of rays, summed in the strata's order.
         let strata = |n: u32, salt: u64| -> C {
             let total = (n * n) as usize;
@@ -535,6 +625,8 @@ impl Reference {
         // cuts off even 1 % of a disk cuts a 45-degree arc of its rim, so the rim points catch
         // the slivers the strata can miss.
         let pilot = strata(8, 1);
+        report.rays(64);
+        report.pilot(pilot.rgb());
         if pilot == C::ZERO || pilot == C::ONE {
             let rim = |k: usize| {
                 let t = (k as f32 + 0.5) / 8.0;
@@ -551,11 +643,15 @@ impl Reference {
                 let vals = self.trace_chunk::<C>(PACKET, |q| rim(k + q));
                 vals.iter().all(|v| *v == pilot)
             });
+            report.rays(32);
+            report.rim(rim_agrees);
             if rim_agrees {
                 return pilot;
             }
         }
         let n = (opts.area_samples as f32).sqrt().round().max(1.0) as u32;
+        report.strata(n);
+        report.rays(n * n);
         strata(n, 2)
     }
 
@@ -592,7 +688,7 @@ impl Reference {
             for (x, v) in o.iter_mut().enumerate() {
                 let i = row * width + x;
                 if let Some(s) = &points[i] {
-                    *v = self.area_c(s, light, i as u64, opts);
+                    *v = self.area_c(s, light, i as u64, opts, &mut ());
                 }
             }
             self.flush_rays();

@@ -66,6 +66,8 @@ pub fn info() -> TechniqueInfo {
 pub struct RefTechnique {
     opts: ReferenceOptions,
     last: Option<Visibility>,
+    /// The last run's ray tracer (its BVH), for `inspect`.
+    tracer: Option<Reference>,
 }
 
 impl RefTechnique {
@@ -79,6 +81,7 @@ impl RefTechnique {
                 ..Default::default()
             },
             last: None,
+            tracer: None,
         })
     }
 }
@@ -93,22 +96,42 @@ impl ShadowTechnique for RefTechnique {
         let pts = frame.points();
         let v = p.install(|| r.visibility(pts, frame.width() as usize, &frame.light, &self.opts));
         self.last = Some(v.clone());
+        self.tracer = Some(r);
         Ok(v)
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let Some(v) = &self.last else { return Vec::new() };
+        let (Some(v), Some(r)) = (&self.last, &self.tracer) else {
+            return Vec::new();
+        };
         let i = (y * frame.width() + x) as usize;
-        vec![
-            Step::new(
-                "ray tracing",
-                "hard: one ray to the light's centre; area lights: stratified samples over the light (adaptive: 8x8 pilot and 32 rim rays, then the full count where they disagree)",
-            )
-            .flag("area", self.opts.area)
-            .int("samples", self.opts.area_samples)
-            .vec3("per channel", v.rgb(i)),
-            inspect::result(v.value(i)),
-        ]
+        let Some(s) = frame.point(x, y) else {
+            return vec![inspect::result(v.value(i))];
+        };
+        // The image's own per-point function, reporting what it traced.
+        let (rgb, report) = r.explain(&s, &frame.light, i as u64, &self.opts);
+        debug_assert_eq!(rgb, v.rgb(i), "the reference explains the value it drew");
+        let mut st = Step::new(
+            "ray tracing",
+            "hard: one ray to the light's centre; area lights: stratified samples over the light (adaptive: 8x8 pilot and 32 rim rays, then the full count where they disagree)",
+        )
+        .flag("area", self.opts.area)
+        .int("samples", self.opts.area_samples)
+        .vec3("ray origin (off the surface)", report.origin)
+        .int("light samples", report.rays);
+        if let Some((_, d, t)) = report.hard_ray {
+            st = st.vec3("ray direction", d).num("ray length", t);
+        }
+        if let Some(pilot) = report.pilot {
+            st = st.vec3("pilot (8 x 8 strata) per channel", pilot);
+        }
+        if let Some(agrees) = report.rim_agrees {
+            st = st.flag("rim rays agree with the pilot", agrees);
+        }
+        if report.strata > 0 {
+            st = st.int("strata per side", report.strata);
+        }
+        vec![st.vec3("per channel", rgb), inspect::result(v.value(i))]
     }
 
     fn stages(&self, _: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
