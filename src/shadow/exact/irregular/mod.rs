@@ -226,7 +226,7 @@ struct View {
     /// The uncropped view, and the crop in its uv: a sample's texel is
     /// `grid.texel(base.lookup(p).uv)` (see [`Grid`]). The tests check the lists against it,
     /// independently of the insertion.
-    #[cfg_attr(not(test), allow(dead_code))]
+    #[cfg_attr(not(all(test, feature = "files")), allow(dead_code))]
     base: LightView,
     grid: Grid,
     store: PixelStore<ListSample>,
