@@ -460,7 +460,7 @@ fn html_markup_is_the_plain_pages(r: &penumbra::run::RunResult, name: &str) -> b
             class: r.class,
             file: n.to_string(),
         };
-        report::report_html(&[r], &[info], &|_| None, &|_| None)
+        report::report_html(&[r], &[info], &|_| None, &|_| None, &|_, _| None)
     };
     let (hostile, plain) = (page(name), page("plain"));
     ['<', '>', '"']

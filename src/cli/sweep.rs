@@ -269,7 +269,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
         println!("data:   {}", o.out.join("results.csv").display());
         return Ok(());
     }
-    write_sweep(&o.out, &results, &manifest)?;
+    write_sweep(&o.out, &results, &manifest, &explore_command)?;
     println!(
         "sweep: {} runs on {} scene{} in {:.1} s, {} threads",
         results.len(),
@@ -454,8 +454,20 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), CliError> {
         .into());
     }
     m.shard = "0/1".into();
-    write_sweep(out, &all, &m)?;
+    write_sweep(out, &all, &m, &explore_command)?;
     println!("merged {} runs from {} folders", all.len(), dirs.len());
     print_outputs(out);
     Ok(())
+}
+
+/// The command line that opens run `r` of scene file `file` in `penumbra explore` (the
+/// report's fold-out under each run).
+fn explore_command(file: &str, r: &RunResult) -> Option<String> {
+    let sets: String = r
+        .settings
+        .split(';')
+        .filter(|kv| !kv.is_empty())
+        .map(|kv| format!(" --set {kv}"))
+        .collect();
+    Some(format!("penumbra explore {file} --technique {}{sets}", r.technique))
 }

@@ -152,8 +152,14 @@ pub fn read_sweep_data(dir: &Path) -> Result<(Vec<RunResult>, Manifest), Error> 
 /// Writes everything a sweep shows from its results: the data ([`write_sweep_data`]), one
 /// chart per scene class and per scene, `summary.md` (the README's technique table: one row
 /// per technique), `summary_all.md` (every setting: docs/techniques.md's table),
-/// `report.md` and `report.html`. Images are the runs' own ([`write_run`], in `images/`).
-pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Result<Vec<PathBuf>, Error> {
+/// `report.md` and `report.html`. Images are the runs' own ([`write_run`], in `images/`);
+/// `explore(file, r)` is the command line the page offers for opening a run (the caller's).
+pub fn write_sweep(
+    dir: &Path,
+    results: &[RunResult],
+    manifest: &Manifest,
+    explore: &dyn Fn(&str, &RunResult) -> Option<String>,
+) -> Result<Vec<PathBuf>, Error> {
     let mut files = write_sweep_data(dir, results, manifest)?;
     for c in SceneClass::ALL {
         let rs: Vec<RunResult> = results.iter().filter(|r| r.class == c).cloned().collect();
@@ -197,7 +203,7 @@ pub fn write_sweep(dir: &Path, results: &[RunResult], manifest: &Manifest) -> Re
         let s = stem(&r.scene, &r.label());
         Some(["_visibility", "_reference", "_error"].map(|k| format!("images/{s}{k}.png")))
     };
-    let html = super::html::report_html(results, &manifest.scenes, &images, &path_chart);
+    let html = super::html::report_html(results, &manifest.scenes, &images, &path_chart, explore);
     write(dir, "report.html", &html, &mut files)?;
     Ok(files)
 }

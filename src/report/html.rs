@@ -56,12 +56,14 @@ fn num(v: f64, digits: usize) -> String {
 
 /// The report page for `results` on `scenes`. `images(r)` gives the relative paths of a run's
 /// visibility, reference and error images (none: no images), `path_chart(r)` its camera-path
-/// chart.
+/// chart, `explore(file, r)` the command line that opens run `r` of scene file `file` in an
+/// explorer (none: no fold-out; the caller, which knows its command line, says it).
 pub fn report_html(
     results: &[RunResult],
     scenes: &[SceneInfo],
     images: &dyn Fn(&RunResult) -> Option<[String; 3]>,
     path_chart: &dyn Fn(&RunResult) -> Option<String>,
+    explore: &dyn Fn(&str, &RunResult) -> Option<String>,
 ) -> String {
     let mut h = format!(
         "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>penumbra sweep</title><style>{STYLE}</style></head><body>\n<h1>penumbra sweep</h1>\n<p>Every technique setting on every scene against the ray-traced reference. Time is the median of the technique's visibility pass; errors are over pixels covered by geometry and facing the light. Errors of different kinds do not average, so the charts are per scene class: hard-light scenes by wrong pixels, area-light scenes by penumbra RMSE, transparent scenes by transmittance RMSE. Hover a chart's point for its numbers, click a column to sort, click an image to enlarge it.</p>\n<nav>"
@@ -128,7 +130,7 @@ pub fn report_html(
                 num(r.flicker, 4),
                 num(r.discontinuity, 4),
                 num(r.banding, 4),
-                explore_command(s, r),
+                explore_fold(s, r, explore),
             );
             h.push_str("<td class=\"imgs\" data-v=\"\">");
             if let Some(imgs) = images(r) {
@@ -163,23 +165,18 @@ pub fn report_html(
     h
 }
 
-/// The command that opens a run in `penumbra explore`, as a fold-out under its label.
-fn explore_command(s: &SceneInfo, r: &RunResult) -> String {
+/// The command that opens a run in an explorer (`explore`'s), as a fold-out under its label.
+fn explore_fold(s: &SceneInfo, r: &RunResult, explore: &dyn Fn(&str, &RunResult) -> Option<String>) -> String {
     if s.file.is_empty() {
         return String::new();
     }
-    let sets: String = r
-        .settings
-        .split(';')
-        .filter(|kv| !kv.is_empty())
-        .map(|kv| format!(" --set {kv}"))
-        .collect();
-    format!(
-        "<details class=\"cmd\"><summary>explore</summary><code>penumbra explore {} --technique {}{}</code></details>",
-        xml(&s.file),
-        xml(&r.technique),
-        xml(&sets)
-    )
+    match explore(&s.file, r) {
+        Some(cmd) => format!(
+            "<details class=\"cmd\"><summary>explore</summary><code>{}</code></details>",
+            xml(&cmd)
+        ),
+        None => String::new(),
+    }
 }
 
 #[cfg(test)]
@@ -207,6 +204,7 @@ mod tests {
             &scenes,
             &|_| Some(["a\".png".into(), "b.png".into(), "c.png".into()]),
             &|_| None,
+            &|file, r| Some(format!("explore {file} {}", r.technique)),
         );
         assert!(!h.contains("<script>alert"), "raw HTML from a scene file");
         assert!(!h.contains("src=\"javascript:"), "a javascript: URL");
@@ -214,6 +212,6 @@ mod tests {
         assert!(!h.contains("http://") || !h.replace("http://www.w3.org/2000/svg", "").contains("http://"));
         assert!(!h.contains("https://"));
         assert_eq!(h.matches("<table>").count(), 1);
-        assert!(h.contains("<code>penumbra explore fixtures/scenes/s.toml --technique shadow-map</code>"));
+        assert!(h.contains("<code>explore fixtures/scenes/s.toml shadow-map</code>"));
     }
 }
