@@ -9,6 +9,7 @@ mod explore;
 mod filtered;
 mod fuzz;
 mod hostile;
+mod house;
 mod random;
 mod raster;
 mod reference;
