@@ -98,18 +98,26 @@ fn every_unsafe_block_says_why_it_is_sound() {
     );
 }
 
-#[test]
-fn library_errors_are_typed() {
+/// The library's lines outside test modules for which `bad` holds, as `file:line: text`.
+fn lines_where(bad: impl Fn(&str) -> bool) -> Vec<String> {
     let mut found = Vec::new();
     for (path, text) in library() {
         let tests = test_lines(&text);
         for (i, line) in text.lines().enumerate() {
-            let c = code(line).replace(' ', "");
-            if !tests[i] && c.contains("Result<") && c.contains(",String>") {
-                found.push(format!("{}:{}", path.display(), i + 1));
+            if !tests[i] && bad(line) {
+                found.push(format!("{}:{}: {}", path.display(), i + 1, line.trim()));
             }
         }
     }
+    found
+}
+
+#[test]
+fn library_errors_are_typed() {
+    let found = lines_where(|line| {
+        let c = code(line).replace(' ', "");
+        c.contains("Result<") && c.contains(",String>")
+    });
     assert!(
         found.is_empty(),
         "Result<_, String> in the library:\n{}",
@@ -167,21 +175,13 @@ fn no_library_function_runs_past_150_lines() {
 
 #[test]
 fn library_messages_name_no_command_line_flag() {
-    let mut found = Vec::new();
-    for (path, text) in library() {
-        let tests = test_lines(&text);
-        for (i, line) in text.lines().enumerate() {
-            let c = code(line);
-            // A flag in a string literal: a quote, then `--` and a letter.
-            let flag = c.split('"').skip(1).step_by(2).any(|lit| {
-                lit.match_indices("--")
-                    .any(|(k, _)| lit[k + 2..].chars().next().is_some_and(|ch| ch.is_ascii_lowercase()))
-            });
-            if flag && !tests[i] {
-                found.push(format!("{}:{}: {}", path.display(), i + 1, line.trim()));
-            }
-        }
-    }
+    // A flag in a string literal: `--` and a letter between quotes.
+    let found = lines_where(|line| {
+        code(line).split('"').skip(1).step_by(2).any(|lit| {
+            lit.match_indices("--")
+                .any(|(k, _)| lit[k + 2..].chars().next().is_some_and(|ch| ch.is_ascii_lowercase()))
+        })
+    });
     assert!(
         found.is_empty(),
         "library strings that name a flag:\n{}",
