@@ -21,12 +21,24 @@ import sys
 SPHERES = (None, None)
 PERGOLA = ("fixtures/scenes/pergola.toml", "1920x1080")
 SMOKE = ("fixtures/scenes/smoke.toml", "1920x1080")
+TERRAIN = ("fixtures/scenes/terrain.toml", "1920x1080")
 # (technique, settings, (scene file or None for the spheres scene, resolution))
 RUNS = [
     ("reference", [], SPHERES),
     ("shadow-map", [], SPHERES),
+    ("csm", [], SPHERES),
+    ("sdsm", [], SPHERES),
+    ("lispsm", [], SPHERES),
+    ("logpsm", [], SPHERES),
+    ("tsm", [], SPHERES),
+    ("psm", [], SPHERES),
     ("pcss", [], SPHERES),
     ("chs", [], SPHERES),
+    ("vsm", [], SPHERES),
+    ("convolution", [], SPHERES),
+    ("esm", [], SPHERES),
+    ("evsm", [], SPHERES),
+    ("msm", [], SPHERES),
     ("shadow-volume", [], SPHERES),
     ("planar", [], SPHERES),
     ("cookie", [], SPHERES),
@@ -40,6 +52,9 @@ RUNS = [
     ("opacity-maps", [], SMOKE),
     ("deep-shadow-map", [], SMOKE),
     ("avsm", [], SMOKE),
+    ("screen-space", [], SPHERES),
+    ("contact-map", [], SPHERES),
+    ("terrain-height", [], TERRAIN),
 ]
 
 
