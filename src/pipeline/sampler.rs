@@ -62,6 +62,44 @@ pub fn footprint(size: (u32, u32), uv: Vec2) -> (i64, i64, f32, f32) {
     (fx.clamp(-LIM, LIM) as i64, fy.clamp(-LIM, LIM) as i64, tx - fx, ty - fy)
 }
 
+/// The 2x2 footprint of a bilinear lookup at `uv` in a `size` map, clamped to the edge: its
+/// texels `[top-left, top-right, bottom-left, bottom-right]` as (column, row), and the
+/// fraction between them ([`footprint`]'s).
+#[inline(always)]
+pub fn footprint2x2(size: (u32, u32), uv: Vec2) -> ([(u32, u32); 4], Vec2) {
+    let (x, y, fx, fy) = footprint(size, uv);
+    let cx = |v: i64| v.clamp(0, size.0 as i64 - 1) as u32;
+    let cy = |v: i64| v.clamp(0, size.1 as i64 - 1) as u32;
+    let (x0, x1, y0, y1) = (cx(x), cx(x + 1), cy(y), cy(y + 1));
+    ([(x0, y0), (x1, y0), (x0, y1), (x1, y1)], Vec2::new(fx, fy))
+}
+
+/// The bilinear mix of a 2x2 footprint's values `[top-left, top-right, bottom-left,
+/// bottom-right]` at fraction `f`, in the hardware PCF's order of operations (the rows first,
+/// each `a + (b - a) fx`): every filter of a footprint mixes this way, so that they agree bit
+/// for bit.
+#[inline(always)]
+pub fn bilerp<T>(v: [T; 4], f: Vec2) -> T
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<f32, Output = T>,
+{
+    let [a, b, c, d] = v;
+    let top = a + (b - a) * f.x;
+    let bottom = c + (d - c) * f.x;
+    top + (bottom - top) * f.y
+}
+
+/// The weights [`bilerp`] gives the four texels of a footprint at fraction `f` (for
+/// explanations: the mix itself is computed by [`bilerp`]).
+pub fn bilerp_weights(f: Vec2) -> [f32; 4] {
+    [
+        (1.0 - f.x) * (1.0 - f.y),
+        f.x * (1.0 - f.y),
+        (1.0 - f.x) * f.y,
+        f.x * f.y,
+    ]
+}
+
 /// Nearest-texel lookup.
 #[inline]
 pub fn sample_nearest<T: Texel>(s: &Surface<T>, uv: Vec2, addr: Address) -> T {
@@ -153,28 +191,16 @@ impl CompareSampler {
         if let Some(b) = self.border_for(uv) {
             return b;
         }
-        let (w, h) = (s.width(), s.height());
-        let (x, y, fx, fy) = footprint((w, h), uv);
-        let x0 = x.clamp(0, w as i64 - 1) as usize;
-        let x1 = (x + 1).clamp(0, w as i64 - 1) as usize;
-        let y0 = y.clamp(0, h as i64 - 1) as usize;
-        let y1 = (y + 1).clamp(0, h as i64 - 1) as usize;
-        let d = s.data();
-        let ws = w as usize;
-        let c = |t: f32| {
-            if self.func.test(reference, t) {
+        let (texels, f) = footprint2x2((s.width(), s.height()), uv);
+        let (d, ws) = (s.data(), s.width() as usize);
+        let c = |(x, y): (u32, u32)| {
+            if self.func.test(reference, d[y as usize * ws + x as usize]) {
                 1.0f32
             } else {
                 0.0
             }
         };
-        let a = c(d[y0 * ws + x0]);
-        let b = c(d[y0 * ws + x1]);
-        let cc = c(d[y1 * ws + x0]);
-        let dd = c(d[y1 * ws + x1]);
-        let top = a + (b - a) * fx;
-        let bottom = cc + (dd - cc) * fx;
-        top + (bottom - top) * fy
+        bilerp(texels.map(c), f)
     }
 }
 

@@ -22,7 +22,7 @@ use super::kernel::{
 };
 use super::planes::PlaneChain;
 use crate::frame::Frame;
-use crate::pipeline::sampler::{footprint, sample_nearest, Address, CompareSampler};
+use crate::pipeline::sampler::{bilerp_weights, footprint2x2, sample_nearest, Address, CompareSampler};
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::cascades::{self, Blend};
@@ -758,17 +758,13 @@ fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool) -> Step {
     );
     let texels: Vec<(i64, i64, f32)> = match pcf {
         true => {
-            let (x, y, fx, fy) = footprint((w as u32, h as u32), uv);
-            step = step.vec2("fraction", Vec2::new(fx, fy));
-            [
-                (0, 0, (1.0 - fx) * (1.0 - fy)),
-                (1, 0, fx * (1.0 - fy)),
-                (0, 1, (1.0 - fx) * fy),
-                (1, 1, fx * fy),
-            ]
-            .iter()
-            .map(|&(dx, dy, wt)| ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1), wt))
-            .collect()
+            let (texels, f) = footprint2x2((w as u32, h as u32), uv);
+            step = step.vec2("fraction", f);
+            texels
+                .iter()
+                .zip(bilerp_weights(f))
+                .map(|(&(x, y), wt)| (x as i64, y as i64, wt))
+                .collect()
         }
         _ => {
             let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);

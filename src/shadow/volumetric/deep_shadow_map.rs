@@ -30,7 +30,7 @@
 use super::{LightPass, PointLookup, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
-use crate::pipeline::sampler::footprint;
+use crate::pipeline::sampler::{bilerp, footprint2x2};
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{self, light_views, merged_casters, LightView};
@@ -319,14 +319,12 @@ impl DeepShadowPass {
                 frac: None,
             },
             Filter::Bilinear => {
-                let (x, y, fx, fy) = footprint((s, s), uv);
-                let c = |v: i64| v.clamp(0, s as i64 - 1) as u32;
-                let (x0, x1, y0, y1) = (c(x), c(x + 1), c(y), c(y + 1));
+                let (texels, frac) = footprint2x2((s, s), uv);
                 Lookup {
                     view: f,
                     depth: z,
-                    texels: [(x0, y0), (x1, y0), (x0, y1), (x1, y1)],
-                    frac: Some(Vec2::new(fx, fy)),
+                    texels,
+                    frac: Some(frac),
                 }
             }
         })
@@ -362,14 +360,8 @@ impl PointLookup for DeepShadowPass {
         // The value as the lookup pass computes it; the trace reads each texel again.
         let v = match l.frac {
             None => self.at(l.view, l.texels[0], l.depth),
-            Some(fr) => {
-                let [a, b, c, d] = l.texels.map(|t| self.at(l.view, t, l.depth));
-                // The order of operations of the sampler's pcf2x2, so that opaque casters give
-                // its result bit for bit.
-                let top = a + (b - a) * fr.x;
-                let bottom = c + (d - c) * fr.x;
-                top + (bottom - top) * fr.y
-            }
+            // The sampler's PCF mix, so that opaque casters give its result bit for bit.
+            Some(fr) => bilerp(l.texels.map(|t| self.at(l.view, t, l.depth)), fr),
         };
         let n = if l.frac.is_some() { 4 } else { 1 };
         for (k, &(tx, ty)) in l.texels.iter().enumerate().take(n) {
