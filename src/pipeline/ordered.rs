@@ -10,7 +10,7 @@
 //! Storage is a [`PixelStore`]: each pixel owns a slice of `T`, either of a fixed size
 //! ([`PixelStore::fixed`]: AVSM's nodes per texel) or of its own size, indexed into one pool
 //! ([`PixelStore::indexed`]: the irregular z-buffer's samples per texel). A draw with it is
-//! [`super::Pipeline::draw_ordered`]; the program is an [`OrderedProgram`].
+//! `Pipeline::draw_ordered`; the program is an [`OrderedProgram`].
 
 use super::error::PipelineError;
 use super::lanes::Fragment;
@@ -248,7 +248,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
 }
 
 fn check_size(width: u32, height: u32) -> Result<usize, PipelineError> {
-    if width == 0 || height == 0 || width > super::MAX_DIMENSION || height > super::MAX_DIMENSION {
+    if width == 0 || height == 0 || width > super::error::MAX_DIMENSION || height > super::error::MAX_DIMENSION {
         return Err(PipelineError::BadSize { width, height });
     }
     Ok(width as usize * height as usize)
