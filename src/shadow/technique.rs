@@ -20,7 +20,9 @@ use crate::Error;
 pub trait ShadowTechnique: Send {
     /// Registry name.
     fn name(&self) -> &'static str;
-    /// Light visibility for every camera pixel of `frame`, row-major (NaN: no geometry).
+    /// Visibility of `frame.light`, the light the technique is given (never the scene's
+    /// first or any other light), for every camera pixel of `frame`, row-major (NaN: no
+    /// geometry).
     fn visibility(&mut self, p: &Pipeline, frame: &Frame) -> Result<Visibility, Error>;
     /// Intermediate buffers of the last call, which was on `frame`; `p` draws the buffers
     /// that are only worth making when somebody looks (overviews, overdraw), so that they do
