@@ -191,16 +191,30 @@ impl CompareSampler {
         if let Some(b) = self.border_for(uv) {
             return b;
         }
-        let (texels, f) = footprint2x2((s.width(), s.height()), uv);
-        let (d, ws) = (s.data(), s.width() as usize);
-        let c = |(x, y): (u32, u32)| {
-            if self.func.test(reference, d[y as usize * ws + x as usize]) {
+        // The footprint of `footprint2x2` and the mix of `bilerp`, written out: this is the
+        // innermost loop of every PCF kernel (the array form measured 15 % slower in PCSS).
+        let (w, h) = (s.width(), s.height());
+        let (x, y, fx, fy) = footprint((w, h), uv);
+        let x0 = x.clamp(0, w as i64 - 1) as usize;
+        let x1 = (x + 1).clamp(0, w as i64 - 1) as usize;
+        let y0 = y.clamp(0, h as i64 - 1) as usize;
+        let y1 = (y + 1).clamp(0, h as i64 - 1) as usize;
+        let d = s.data();
+        let ws = w as usize;
+        let c = |t: f32| {
+            if self.func.test(reference, t) {
                 1.0f32
             } else {
                 0.0
             }
         };
-        bilerp(texels.map(c), f)
+        let a = c(d[y0 * ws + x0]);
+        let b = c(d[y0 * ws + x1]);
+        let cc = c(d[y1 * ws + x0]);
+        let dd = c(d[y1 * ws + x1]);
+        let top = a + (b - a) * fx;
+        let bottom = cc + (dd - cc) * fx;
+        top + (bottom - top) * fy
     }
 }
 
