@@ -143,9 +143,12 @@ impl Hybrid {
         })
     }
 
-    /// PCSS's weight at pixel `(x, y)` (0: the IZB alone) and the penumbra in pixels.
+    /// PCSS's weight at pixel `(x, y)` (0: the IZB alone) and the penumbra in pixels, from the
+    /// penumbra world width PCSS kept for the pixel in its lookup pass (the image's and
+    /// `inspect`'s one source).
     fn weight_at(&self, frame: &Frame, x: usize, y: usize) -> (f32, f32) {
-        self.weight_of(frame, x, y, self.pcss.penumbra_world(frame, x, y))
+        let world = self.pcss.kept_penumbra().get(y * frame.width() as usize + x).copied();
+        self.weight_of(frame, x, y, world.filter(|w| !w.is_nan()))
     }
 
     /// [`Hybrid::weight_at`] from the pixel's penumbra world width (`None`: no penumbra).
@@ -214,12 +217,10 @@ impl ShadowTechnique for Hybrid {
         let this = &*self;
         // The penumbra widths PCSS kept from its lookup pass: its blocker searches are not
         // made twice.
-        let kept = this.pcss.kept_penumbra();
         let w = frame.width() as usize;
         let both = per_pixel_map(p, frame, |x, y| {
             let i = y * w + x;
-            let world = kept[i];
-            let (t, px) = this.weight_of(frame, x, y, (!world.is_nan()).then_some(world));
+            let (t, px) = this.weight_at(frame, x, y);
             (this.blend(hard[i], soft[i], t, px, &mut NoTrace), t)
         });
         let out: Vec<f32> = both.iter().map(|b| b.0).collect();
