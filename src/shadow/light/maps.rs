@@ -12,6 +12,7 @@
 //! one edge rule: `uv` in `[0, 1)²`, the coordinates whose texel `floor(uv * size)` exists.
 
 use super::cascades::{cascade_fit, cascade_of, Cascades};
+use super::pass::{Payload, ViewMaps};
 use super::sdsm::{self, DepthSamples, Partition};
 use super::warp::{warp_fit, Warp, WarpInfo};
 use super::{fit, merged_casters, Casters, DepthPass, LightView};
@@ -303,15 +304,13 @@ pub fn locate_on(views: &[impl OnView], view: usize, p: Vec3) -> Option<MapPoint
 /// The light's maps of one frame: one depth map per light view, and what the pass found.
 #[derive(Default)]
 pub struct LightMaps {
-    maps: Vec<(Surface<f32>, LightView)>,
+    maps: ViewMaps<Surface<f32>>,
     /// With [`Layer::Id`]: object id + 1 per texel (0: empty), per view.
     ids: Vec<Surface<f32>>,
     culled: usize,
     fitted: Option<LightView>,
     /// Cascades: triangles drawn into each cascade's map.
     casters: Vec<usize>,
-    /// Milliseconds of each view's pass (its casters and its draw).
-    times: Vec<f64>,
     /// The warp of the last pass, if one was asked for.
     warp: Option<WarpInfo>,
     /// SDSM: the depth samples of the last frame reduced (the next pass's with latency 1).
@@ -389,98 +388,45 @@ impl LightMaps {
         };
         self.culled = fit.culled;
         self.fitted = fit.fitted;
-        let mut old: Vec<Surface<f32>> = self.maps.drain(..).map(|(m, _)| m).collect();
-        self.ids.clear();
-        // Every map this pass allocates (views × layers), checked against the memory budget
-        // before the first is: the maps of the last run are reused, so they do not count.
-        let layers: u64 = match layer {
-            Layer::First | Layer::Second => 1,
-            Layer::Midpoint => 3,
-            Layer::Id => 2,
-        };
-        let reused = old.iter().filter(|m| m.width() == o.size).count() as u64;
-        let new_maps = (fit.views.len() as u64 * layers).saturating_sub(reused);
-        if new_maps > 0 {
-            check_room(o.size, o.size, 4, new_maps).map_err(|e| {
-                Error::from(e).within(&format!(
-                    "the light's maps ({} views, option size={})",
-                    fit.views.len(),
-                    o.size
-                ))
-            })?;
-        }
-        // Cascades merge their own casters below (a cascade with the last one's set reuses
+        // Cascades merge their own casters per view (a cascade with the last one's set reuses
         // its merge).
-        let mut casters = if fit.per_view.is_empty() {
+        let casters = if fit.per_view.is_empty() {
             merged_casters(frame, &fit.casters)?
         } else {
             Casters::default()
         };
-        self.casters = Vec::new();
-        let pass = DepthPass {
-            size: o.size,
-            format: o.format,
-            offset: PolygonOffset {
-                units: o.units,
-                factor: o.slope,
+        let mut layers = Layers {
+            frame,
+            pass: DepthPass {
+                size: o.size,
+                format: o.format,
+                offset: PolygonOffset {
+                    units: o.units,
+                    factor: o.slope,
+                },
             },
+            layer,
+            objects: &fit.casters,
+            per_view: &fit.per_view,
+            casters,
+            drawn: Vec::new(),
+            ids: Vec::new(),
         };
-        self.times.clear();
-        for (i, view) in fit.views.into_iter().enumerate() {
-            let start = std::time::Instant::now();
-            if let Some(keep) = fit.per_view.get(i) {
-                // Cascades: each draws the casters that can shadow its slice.
-                if i == 0 || fit.per_view[i - 1] != *keep {
-                    casters = merged_casters(frame, keep)?;
-                }
-                self.casters.push(casters.indices.len() / 3);
-            }
-            let reuse = old.pop();
-            let map = match layer {
-                Layer::First => pass.render(p, &casters, &view, CullMode::None, None, reuse)?,
-                Layer::Second => pass.render(p, &casters, &view, CullMode::Front, None, reuse)?,
-                Layer::Midpoint => {
-                    let d1 = pass.render(p, &casters, &view, CullMode::None, None, reuse)?;
-                    let d2 = pass.render(p, &casters, &view, CullMode::None, Some(&d1), None)?;
-                    let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
-                    Surface::from_vec(o.size, o.size, mid)?
-                }
-                Layer::Id => {
-                    // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
-                    // `dump` shows.
-                    let mut ids = Surface::new(o.size, o.size, 0.0f32)?;
-                    let mut depth = Surface::new(o.size, o.size, 1.0f32)?;
-                    for (oi, ob) in frame.scene.objects.iter().enumerate().filter(|(i, _)| fit.casters[*i]) {
-                        let id = oi as f32 + 1.0;
-                        let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
-                        p.draw(
-                            &mut Targets::color(&mut ids).with_depth(&mut depth),
-                            &RenderState::default(),
-                            &ob.mesh.positions,
-                            &ob.mesh.indices,
-                            &TransformPositions(view.matrix),
-                            &fs,
-                        )?;
-                    }
-                    self.ids.push(ids);
-                    depth
-                }
-            };
-            self.maps.push((map, view));
-            self.times.push(start.elapsed().as_secs_f64() * 1e3);
-        }
+        self.maps.render(p, fit.views, o.size, &mut layers)?;
+        self.casters = layers.drawn;
+        self.ids = layers.ids;
         Ok(())
     }
 
     /// The maps of the last pass, one per light view (six for cube maps), with their views.
     #[inline(always)]
     pub fn maps(&self) -> &[(Surface<f32>, LightView)] {
-        &self.maps
+        self.maps.maps()
     }
 
     /// The light views of the last pass.
     pub fn views(&self) -> Vec<LightView> {
-        self.maps.iter().map(|(_, v)| *v).collect()
+        self.maps.views()
     }
 
     /// Whether the pass has not run (or found no view).
@@ -492,7 +438,7 @@ impl LightMaps {
     /// The map and view of view `i`.
     #[inline(always)]
     pub fn get(&self, i: usize) -> &(Surface<f32>, LightView) {
-        &self.maps[i]
+        self.maps.get(i)
     }
 
     /// With [`Layer::Id`]: view `i`'s object ids (+1; 0 where empty).
@@ -504,12 +450,12 @@ impl LightMaps {
     /// Where world point `p` falls in the maps ([`locate`]).
     #[inline(always)]
     pub fn locate(&self, light: &Light, p: Vec3) -> Option<MapPoint> {
-        locate(&self.maps, light, p)
+        self.maps.locate(light, p)
     }
 
     /// Texels of the last pass's maps, all views.
     pub fn texels(&self) -> usize {
-        self.maps.iter().map(|(m, _)| m.data().len()).sum()
+        self.maps().iter().map(|(m, _)| m.data().len()).sum()
     }
 
     /// Casters culled by fitting in the last pass.
@@ -536,7 +482,7 @@ impl LightMaps {
 
     /// Milliseconds each view's pass took in the last pass (its casters and its draw).
     pub fn view_times(&self) -> &[f64] {
-        &self.times
+        self.maps.view_times()
     }
 
     /// The fitted view of the last pass (directional lights fitted to receivers).
@@ -547,7 +493,7 @@ impl LightMaps {
     /// Per view: the nearest caster's distance from the light (the map's least depth, at
     /// most the far plane's; [`LightView::distance`]), from a parallel reduction.
     pub fn nearest_casters(&self, p: &Pipeline) -> Vec<f32> {
-        self.maps
+        self.maps()
             .iter()
             .map(|(m, v)| v.distance(compute::least(p, m, 1.0)))
             .collect()
@@ -557,7 +503,7 @@ impl LightMaps {
     /// scene's map (RTR fig. 7.11) and the id maps.
     pub fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
         let mut v: Vec<Stage> = self
-            .maps
+            .maps()
             .iter()
             .enumerate()
             .map(|(i, (m, _))| Stage::Scalar {
@@ -578,15 +524,15 @@ impl LightMaps {
             v.push(Stage::pixels(
                 frame,
                 "texel_footprint",
-                super::texel_footprint(frame, &self.maps),
+                super::texel_footprint(frame, self.maps()),
                 0.0,
                 4.0,
             )?);
         }
-        if self.maps.first().is_some_and(|(_, v)| v.slice().is_some()) {
+        if self.maps().first().is_some_and(|(_, v)| v.slice().is_some()) {
             v.push(Stage::Color {
                 name: "cascades".into(),
-                data: cascade_image(frame, &self.maps)?,
+                data: cascade_image(frame, self.maps())?,
             });
         }
         for (i, ids) in self.ids.iter().enumerate() {
@@ -599,6 +545,96 @@ impl LightMaps {
             });
         }
         Ok(v)
+    }
+}
+
+/// The map pass's payload: the [`Layer`] of the casters each view draws (a cascade its own
+/// set), with the object ids beside the depth for [`Layer::Id`].
+struct Layers<'a> {
+    frame: &'a Frame<'a>,
+    pass: DepthPass,
+    layer: Layer,
+    /// Per scene object: whether it casts (the fit's culling).
+    objects: &'a [bool],
+    /// Cascades: per view, the objects it draws (empty: every view draws `casters`).
+    per_view: &'a [Vec<bool>],
+    /// The casters of the view being drawn.
+    casters: Casters,
+    /// Cascades: triangles drawn into each view.
+    drawn: Vec<usize>,
+    /// [`Layer::Id`]: each view's ids.
+    ids: Vec<Surface<f32>>,
+}
+
+impl Payload for Layers<'_> {
+    type Map = Surface<f32>;
+
+    fn what(&self) -> &'static str {
+        "the light's maps"
+    }
+
+    /// Every map the pass allocates (views × layers) less the maps of the last run it draws
+    /// into again.
+    fn bytes(&self, size: u32, views: usize, reused: usize) -> u64 {
+        let layers: u64 = match self.layer {
+            Layer::First | Layer::Second => 1,
+            Layer::Midpoint => 3,
+            Layer::Id => 2,
+        };
+        let new_maps = (views as u64 * layers).saturating_sub(reused as u64);
+        (size as u64 * size as u64 * 4).saturating_mul(new_maps)
+    }
+
+    fn reusable(&self, old: &Surface<f32>, size: u32) -> bool {
+        old.width() == size
+    }
+
+    fn draw(
+        &mut self,
+        p: &Pipeline,
+        i: usize,
+        view: &LightView,
+        reuse: Option<Surface<f32>>,
+    ) -> Result<Surface<f32>, Error> {
+        let (frame, pass, casters) = (self.frame, self.pass, &mut self.casters);
+        if let Some(keep) = self.per_view.get(i) {
+            // Cascades: each draws the casters that can shadow its slice.
+            if i == 0 || self.per_view[i - 1] != *keep {
+                *casters = merged_casters(frame, keep)?;
+            }
+            self.drawn.push(casters.indices.len() / 3);
+        }
+        let size = pass.size;
+        Ok(match self.layer {
+            Layer::First => pass.render(p, casters, view, CullMode::None, None, reuse)?,
+            Layer::Second => pass.render(p, casters, view, CullMode::Front, None, reuse)?,
+            Layer::Midpoint => {
+                let d1 = pass.render(p, casters, view, CullMode::None, None, reuse)?;
+                let d2 = pass.render(p, casters, view, CullMode::None, Some(&d1), None)?;
+                let mid: Vec<f32> = d1.data().iter().zip(d2.data()).map(|(a, b)| 0.5 * (a + b)).collect();
+                Surface::from_vec(size, size, mid)?
+            }
+            Layer::Id => {
+                // Object ids (+1; 0 = empty) of the nearest surface; its depth is the map
+                // `dump` shows.
+                let mut ids = Surface::new(size, size, 0.0f32)?;
+                let mut depth = Surface::new(size, size, 1.0f32)?;
+                for (oi, ob) in frame.scene.objects.iter().enumerate().filter(|(i, _)| self.objects[*i]) {
+                    let id = oi as f32 + 1.0;
+                    let fs = Shader(move |_: &Fragment<()>| Vec4::splat(id));
+                    p.draw(
+                        &mut Targets::color(&mut ids).with_depth(&mut depth),
+                        &RenderState::default(),
+                        &ob.mesh.positions,
+                        &ob.mesh.indices,
+                        &TransformPositions(view.matrix),
+                        &fs,
+                    )?;
+                }
+                self.ids.push(ids);
+                depth
+            }
+        })
     }
 }
 

@@ -12,6 +12,8 @@
 //! - [`maps`]: the map pass ([`LightMaps`], [`MapOptions`]) and [`locate`], where a world
 //!   point falls in the maps (the view that sees it, its texture coordinate and depth), with
 //!   the one edge rule [`inside`].
+//! - [`pass`]: the one light pass ([`ViewMaps::render`]): any set of views drawn in turn,
+//!   each storing what a technique's [`Payload`] keeps per texel.
 //! - [`soft`]: an area light's soft-shadow geometry (light width, blocker-search and
 //!   penumbra widths, RTR eq. 7.6).
 //! - [`LightView::lookup`] / [`project`]: a world point to one view's texture coordinates and
@@ -20,6 +22,7 @@
 pub mod cascades;
 pub mod depth;
 pub mod maps;
+pub mod pass;
 pub mod sdsm;
 pub mod soft;
 pub mod warp;
@@ -35,6 +38,7 @@ pub use depth::{merged_casters, scene_depth, Casters, DepthPass};
 pub use maps::{
     inside, inside4, locate, locate_on, texel, view_of, FitTo, Layer, LightMaps, MapOptions, MapPoint, OnView, Views,
 };
+pub use pass::{Payload, ViewMaps};
 
 /// One light view: world to light clip, and the world size of one texel at unit distance
 /// (orthographic: everywhere; perspective: times the distance to the light).

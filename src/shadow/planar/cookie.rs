@@ -16,7 +16,7 @@ use crate::frame::Frame;
 use crate::pipeline::sampler::{sample_bilinear, sample_nearest, Address};
 use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{self, light_views, LightView};
+use crate::shadow::light::{light_views, LightView, Payload, ViewMaps};
 use crate::shadow::pixels::per_pixel;
 use crate::shadow::technique::{
     object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility,
@@ -102,7 +102,7 @@ pub fn info() -> TechniqueInfo {
 pub struct Cookie {
     opts: Options,
     /// Last run: one mask and view per light view, and which objects occluded.
-    masks: Vec<(Surface<f32>, LightView)>,
+    masks: ViewMaps<Surface<f32>>,
     occluding: Vec<bool>,
     times: Vec<(&'static str, f64)>,
 }
@@ -113,7 +113,7 @@ impl Cookie {
         declaration().check(&opts)?;
         Ok(Cookie {
             opts,
-            masks: Vec::new(),
+            masks: ViewMaps::default(),
             occluding: Vec::new(),
             times: Vec::new(),
         })
@@ -156,12 +156,12 @@ impl Cookie {
             });
             return 1.0;
         }
-        let Some(at) = light::locate(&self.masks, &frame.light, s.position) else {
+        let Some(at) = self.masks.locate(&frame.light, s.position) else {
             t.step(|| Step::new("behind the light", "the point is behind the projector: lit"));
             return 1.0;
         };
         let (face, uv, inside) = (at.view, at.uv, at.inside());
-        let m = &self.masks[face].0;
+        let m = &self.masks.get(face).0;
         t.step(|| {
             Step::new(
                 "projection",
@@ -191,6 +191,50 @@ impl Cookie {
     }
 }
 
+/// The mask pass's payload: per view, 1 where an occluder covers the texel (no depth).
+struct Coverage<'a> {
+    frame: &'a Frame<'a>,
+    size: u32,
+    /// Per scene object: whether it occludes.
+    occluding: &'a [bool],
+}
+
+impl Payload for Coverage<'_> {
+    type Map = Surface<f32>;
+
+    fn what(&self) -> &'static str {
+        "the cookie's masks"
+    }
+
+    fn draw(
+        &mut self,
+        p: &Pipeline,
+        _: usize,
+        view: &LightView,
+        _: Option<Surface<f32>>,
+    ) -> Result<Surface<f32>, Error> {
+        let mut mask = Surface::new(self.size, self.size, 0.0f32)?;
+        for (o, _) in self.frame.scene.objects.iter().zip(self.occluding).filter(|(_, k)| **k) {
+            p.draw(
+                &mut Targets::color(&mut mask),
+                &RenderState {
+                    depth: DepthState {
+                        func: CompareFunc::Always,
+                        write: false,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+                &o.mesh.positions,
+                &o.mesh.indices,
+                &TransformPositions(view.matrix),
+                &Shader(|_: &Fragment<()>| Vec4::ONE),
+            )?;
+        }
+        Ok(mask)
+    }
+}
+
 impl ShadowTechnique for Cookie {
     fn name(&self) -> &'static str {
         "cookie"
@@ -201,28 +245,12 @@ impl ShadowTechnique for Cookie {
         self.occluding = self.pick(frame)?;
         let size = self.opts.size;
         // Pass 1: the occluders' silhouette, 1 where covered (no depth).
-        self.masks.clear();
-        for view in light_views(frame, size) {
-            let mut mask = Surface::new(size, size, 0.0f32)?;
-            for (o, _) in frame.scene.objects.iter().zip(&self.occluding).filter(|(_, k)| **k) {
-                p.draw(
-                    &mut Targets::color(&mut mask),
-                    &RenderState {
-                        depth: DepthState {
-                            func: CompareFunc::Always,
-                            write: false,
-                            ..Default::default()
-                        },
-                        ..Default::default()
-                    },
-                    &o.mesh.positions,
-                    &o.mesh.indices,
-                    &TransformPositions(view.matrix),
-                    &Shader(|_: &Fragment<()>| Vec4::ONE),
-                )?;
-            }
-            self.masks.push((mask, view));
-        }
+        let mut coverage = Coverage {
+            frame,
+            size,
+            occluding: &self.occluding,
+        };
+        self.masks.render(p, light_views(frame, size), size, &mut coverage)?;
         passes.end("mask pass");
         // Pass 2: project the mask onto every receiver pixel.
         let this = &*self;

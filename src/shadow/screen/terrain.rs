@@ -28,9 +28,8 @@ use crate::pipeline::{PolygonOffset, Surface, MAX_DIMENSION};
 use crate::reference::bvh::{Bvh, Tri};
 use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
-use crate::shadow::light::{
-    corners, directional_view, inside, merged_casters, scene_depth, texel, DepthPass, LightView,
-};
+use crate::shadow::light::pass::Depth;
+use crate::shadow::light::{corners, directional_view, locate_on, merged_casters, scene_depth, DepthPass, ViewMaps};
 use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
@@ -139,8 +138,7 @@ pub fn applies(scene: &Scene, light: &Light) -> bool {
 
 /// A depth map of some casters from the sun, with its view.
 struct SunMap {
-    view: LightView,
-    map: Surface<f32>,
+    maps: ViewMaps<Surface<f32>>,
 }
 
 impl SunMap {
@@ -148,27 +146,37 @@ impl SunMap {
     fn render(p: &Pipeline, frame: &Frame, keep: &[bool], receivers: &[Vec3], size: u32) -> Result<SunMap, Error> {
         let casters = merged_casters(frame, keep)?;
         let view = directional_view(frame, receivers, &casters.positions, size, false);
-        let pass = DepthPass {
-            size,
-            format: DepthFormat::F32,
-            // The light pass's default polygon offset (`MapOptions`): no acne on the terrain.
-            offset: PolygonOffset {
-                units: 4.0,
-                factor: 1.1,
+        let mut depth = Depth {
+            pass: DepthPass {
+                size,
+                format: DepthFormat::F32,
+                // The light pass's default polygon offset (`MapOptions`): no acne on the terrain.
+                offset: PolygonOffset {
+                    units: 4.0,
+                    factor: 1.1,
+                },
             },
+            casters: &casters,
         };
-        let map = pass.render(p, &casters, &view, crate::pipeline::CullMode::None, None, None)?;
-        Ok(SunMap { view, map })
+        let mut maps = ViewMaps::default();
+        maps.render(p, vec![view], size, &mut depth)?;
+        Ok(SunMap { maps })
+    }
+
+    /// The depth map.
+    fn map(&self) -> &Surface<f32> {
+        &self.maps.get(0).0
     }
 
     /// Whether the map shadows world point `q` (one comparison of the nearest texel; outside
     /// the map: lit).
     #[inline]
     fn shadows(&self, q: Vec3) -> bool {
-        match self.view.lookup(q) {
-            Some((uv, z)) if inside(uv) => {
-                let (x, y) = texel(uv, self.map.width(), self.map.height());
-                z > self.map.at(x, y)
+        match locate_on(self.maps.maps(), 0, q) {
+            Some(at) if at.inside() => {
+                let map = self.map();
+                let (x, y) = at.texel(map.width(), map.height());
+                at.depth > map.at(x, y)
             }
             _ => false,
         }
@@ -609,7 +617,7 @@ impl ShadowTechnique for TerrainHeight {
             if let Some(m) = m {
                 v.push(Stage::Scalar {
                     name: name.into(),
-                    data: m.map.clone(),
+                    data: m.map().clone(),
                     lo: 0.0,
                     hi: 1.0,
                 });

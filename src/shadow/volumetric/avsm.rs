@@ -32,7 +32,7 @@ use crate::choice_enum;
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{light_views, merged_casters, LightView};
+use crate::shadow::light::{light_views, merged_casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
@@ -246,7 +246,7 @@ fn remove_least(buf: &mut [Node], n: usize) {
 pub struct AvsmPass {
     opts: Options,
     /// Last run: one store of curves (`nodes + 1` slots per texel) and view per light view.
-    maps: Vec<(PixelStore<Node>, LightView)>,
+    maps: ViewMaps<PixelStore<Node>>,
     fragments: u64,
 }
 
@@ -261,7 +261,7 @@ impl Avsm {
             "avsm",
             AvsmPass {
                 opts,
-                maps: Vec::new(),
+                maps: ViewMaps::default(),
                 fragments: 0,
             },
         ))
@@ -273,10 +273,10 @@ impl PointLookup for AvsmPass {
     /// recording trace): the curve of the texel the point falls in, read at its depth, every
     /// step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
-        let (z, c) = (at.depth, Curve(self.maps[at.view].0.pixel(at.x, at.y)));
+        let (z, c) = (at.depth, Curve(self.maps.get(at.view).0.pixel(at.x, at.y)));
         t.step(|| at.step("the texel whose curve the point reads, and its depth there", z));
         t.step(|| {
             let mut st = Step::new(
@@ -303,6 +303,60 @@ impl PointLookup for AvsmPass {
             .vec3("transmittance", v)
         });
         v
+    }
+}
+
+/// The light pass's payload: per view, every texel's nodes, each fragment inserted in
+/// primitive order by `program`.
+struct Nodes<'a, F> {
+    size: u32,
+    /// Nodes per texel, and the header.
+    slots: usize,
+    positions: &'a [Vec3],
+    indices: &'a [u32],
+    state: RenderState,
+    program: F,
+    /// Fragments inserted, every view.
+    fragments: u64,
+}
+
+impl<F: Fn(&Fragment<()>, &mut [Node]) + Sync> Payload for Nodes<'_, F> {
+    type Map = PixelStore<Node>;
+
+    fn what(&self) -> &'static str {
+        "the AVSM node maps"
+    }
+
+    fn draw(
+        &mut self,
+        p: &Pipeline,
+        _: usize,
+        view: &LightView,
+        reuse: Option<PixelStore<Node>>,
+    ) -> Result<PixelStore<Node>, Error> {
+        let (size, slots) = (self.size, self.slots);
+        let mut store = match reuse {
+            Some(s) if s.width() == size && s.pixel(0, 0).len() == slots => s,
+            _ => PixelStore::fixed(size, size, slots, UNUSED)?,
+        };
+        p.install(|| {
+            use rayon::prelude::*;
+            store.data_mut().par_chunks_mut(slots).for_each(|px| {
+                px.fill(UNUSED);
+                px[slots - 1] = HEADER;
+            })
+        });
+        let st = p.draw_ordered(
+            &mut Targets::none(),
+            &self.state,
+            self.positions,
+            self.indices,
+            &TransformPositions(view.matrix),
+            &self.program,
+            &mut store,
+        )?;
+        self.fragments += st.fragments_shaded;
+        Ok(store)
     }
 }
 
@@ -342,33 +396,17 @@ impl LightPass for AvsmPass {
             },
             ..Default::default()
         };
-        let mut old: Vec<PixelStore<Node>> = self.maps.drain(..).map(|(s, _)| s).collect();
-        let slots = o.nodes as usize + 1;
-        self.fragments = 0;
-        for view in light_views(frame, o.size) {
-            let mut store = match old.pop() {
-                Some(s) if s.width() == o.size && s.pixel(0, 0).len() == slots => s,
-                _ => PixelStore::fixed(o.size, o.size, slots, UNUSED)?,
-            };
-            p.install(|| {
-                use rayon::prelude::*;
-                store.data_mut().par_chunks_mut(slots).for_each(|px| {
-                    px.fill(UNUSED);
-                    px[slots - 1] = HEADER;
-                })
-            });
-            let st = p.draw_ordered(
-                &mut Targets::none(),
-                &state,
-                &casters.positions,
-                &indices,
-                &TransformPositions(view.matrix),
-                &program,
-                &mut store,
-            )?;
-            self.fragments += st.fragments_shaded;
-            self.maps.push((store, view));
-        }
+        let mut payload = Nodes {
+            size: o.size,
+            slots: o.nodes as usize + 1,
+            positions: &casters.positions,
+            indices: &indices,
+            state,
+            program,
+            fragments: 0,
+        };
+        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.fragments = payload.fragments;
         Ok(())
     }
 

@@ -33,7 +33,7 @@ use crate::frame::Frame;
 use crate::pipeline::sampler::{bilerp, footprint2x2};
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::light::{light_views, merged_casters, Casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::{Error, Resource};
@@ -251,17 +251,10 @@ pub fn evaluate(v: &[Vertex], z: f32) -> Vec3 {
 
 /// One light view's compressed functions: vertices per texel in one pool.
 struct Map {
-    view: LightView,
     size: u32,
     offsets: Vec<u32>,
     vertices: Vec<Vertex>,
     fragments: u64,
-}
-
-impl crate::shadow::light::OnView for Map {
-    fn light_view(&self) -> &LightView {
-        &self.view
-    }
 }
 
 /// Where one point reads the map.
@@ -277,7 +270,7 @@ struct Lookup {
 /// The light pass of the deep shadow map: every texel's compressed function per light view.
 pub struct DeepShadowPass {
     opts: Options,
-    maps: Vec<Map>,
+    maps: ViewMaps<Map>,
     /// Most bytes held at once while building: the finished views' functions plus one view's
     /// lists (heads, tails, nodes) and its functions twice (per row, then pooled).
     peak: usize,
@@ -294,7 +287,7 @@ impl DeepShadowMap {
             "deep-shadow-map",
             DeepShadowPass {
                 opts,
-                maps: Vec::new(),
+                maps: ViewMaps::default(),
                 peak: 0,
             },
         ))
@@ -307,8 +300,8 @@ impl DeepShadowPass {
     /// hardware PCF, clamped to the map's edge, weights `(1 - fx)(1 - fy)`, `fx (1 - fy)`,
     /// `(1 - fx) fy`, `fx fy`). `None` outside every view.
     fn taps(&self, frame: &Frame, p: Vec3) -> Option<Lookup> {
-        let at = light::locate(&self.maps, &frame.light, p).filter(|at| at.inside())?;
-        let (f, uv, m) = (at.view, at.uv, &self.maps[at.view]);
+        let at = self.maps.locate(&frame.light, p).filter(|at| at.inside())?;
+        let (f, uv, m) = (at.view, at.uv, &self.maps.get(at.view).0);
         let s = m.size;
         let z = at.depth.clamp(0.0, 1.0);
         Some(match self.opts.filter {
@@ -342,7 +335,7 @@ impl DeepShadowPass {
     }
 
     fn function(&self, f: usize, tx: u32, ty: u32) -> &[Vertex] {
-        let m = &self.maps[f];
+        let m = &self.maps.get(f).0;
         let i = (ty * m.size + tx) as usize;
         &m.vertices[m.offsets[i] as usize..m.offsets[i + 1] as usize]
     }
@@ -403,6 +396,100 @@ impl PointLookup for DeepShadowPass {
     }
 }
 
+/// The light pass's payload: per view, every texel's fragments in a list, then each
+/// texel's compressed transmittance function.
+struct Functions<'a> {
+    size: u32,
+    capacity: usize,
+    tolerance: f32,
+    casters: &'a Casters,
+    /// Per triangle: its transmittance.
+    transmit: &'a [Vec4],
+    state: RenderState,
+    /// Bytes of the views' functions built so far.
+    built: usize,
+    /// Most bytes held at once ([`DeepShadowPass::peak`]).
+    peak: usize,
+}
+
+impl Payload for Functions<'_> {
+    type Map = Map;
+
+    fn what(&self) -> &'static str {
+        "the deep shadow maps"
+    }
+
+    /// Per texel of a view while it is built: the lists' heads and tails and a function's
+    /// header (40 bytes); per texel of every view kept: its offset (4).
+    fn bytes(&self, size: u32, views: usize, _: usize) -> u64 {
+        size as u64 * size as u64 * (40 + 4 * views as u64)
+    }
+
+    fn draw(&mut self, p: &Pipeline, _: usize, view: &LightView, _: Option<Map>) -> Result<Map, Error> {
+        let (size, tolerance, transmit) = (self.size, self.tolerance, self.transmit);
+        let mut lists = FragmentLists::new(size, size, self.capacity)?;
+        let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
+        p.draw(
+            &mut Targets::none().with_lists(&mut lists),
+            &self.state,
+            &self.casters.positions,
+            &self.casters.indices,
+            &TransformPositions(view.matrix),
+            &fs,
+        )
+        .map_err(|e| match e {
+            PipelineError::FragmentPoolFull { needed, capacity } => Error::budget(
+                "the fragments of one light view (option capacity)",
+                needed as u64,
+                capacity as u64,
+                Resource::Entries,
+            ),
+            e => Error::from(e),
+        })?;
+        // Per texel: sort, step function, compression (texels in parallel, gathered in
+        // order).
+        let n = size as usize;
+        let per_row: Vec<Vec<Vec<Vertex>>> = p.install(|| {
+            (0..n)
+                .into_par_iter()
+                .map(|y| {
+                    (0..n)
+                        .map(|x| {
+                            let mut frags: Vec<(f32, Vec3)> = lists
+                                .iter(x as u32, y as u32)
+                                .map(|nd| (nd.depth, nd.value.truncate()))
+                                .collect();
+                            if frags.is_empty() {
+                                return Vec::new();
+                            }
+                            compress(&step_vertices(&mut frags), tolerance)
+                        })
+                        .collect()
+                })
+                .collect()
+        });
+        let mut offsets = Vec::with_capacity(n * n + 1);
+        let mut vertices = Vec::new();
+        offsets.push(0u32);
+        for row in per_row {
+            for f in row {
+                vertices.extend_from_slice(&f);
+                offsets.push(vertices.len() as u32);
+            }
+        }
+        let lists_bytes = n * n * 8 + lists.len() * std::mem::size_of::<ListNode>();
+        let built = vertices.len() * std::mem::size_of::<Vertex>() + offsets.len() * 4;
+        self.peak = self.peak.max(self.built + lists_bytes + 2 * built);
+        self.built += built;
+        Ok(Map {
+            size,
+            offsets,
+            vertices,
+            fragments: lists.len() as u64,
+        })
+    }
+}
+
 impl LightPass for DeepShadowPass {
     const PASS: &'static str = "light pass and compression";
 
@@ -432,85 +519,18 @@ impl LightPass for DeepShadowPass {
             shading: Shading::Immediate,
             ..Default::default()
         };
-        self.maps.clear();
-        self.peak = 0;
-        let mut done = 0usize;
-        let views = light_views(frame, o.size);
-        // Per texel of a view while it is built: the lists' heads and tails and a function's
-        // header (40 bytes); per texel of every view kept: its offset (4). Checked against the
-        // memory budget before the first view.
-        let texels = o.size as u64 * o.size as u64;
-        crate::pipeline::check_bytes(o.size, o.size, texels * (40 + 4 * views.len() as u64)).map_err(|e| {
-            Error::from(e).within(&format!(
-                "the deep shadow maps ({} views, option size={})",
-                views.len(),
-                o.size
-            ))
-        })?;
-        for view in views {
-            let mut lists = FragmentLists::new(o.size, o.size, o.capacity as usize)?;
-            let fs = Shader(|f: &Fragment<()>| transmit[f.prim as usize]);
-            p.draw(
-                &mut Targets::none().with_lists(&mut lists),
-                &state,
-                &casters.positions,
-                &casters.indices,
-                &TransformPositions(view.matrix),
-                &fs,
-            )
-            .map_err(|e| match e {
-                PipelineError::FragmentPoolFull { needed, capacity } => Error::budget(
-                    "the fragments of one light view (option capacity)",
-                    needed as u64,
-                    capacity as u64,
-                    Resource::Entries,
-                ),
-                e => Error::from(e),
-            })?;
-            // Per texel: sort, step function, compression (texels in parallel, gathered in
-            // order).
-            let n = o.size as usize;
-            let per_row: Vec<Vec<Vec<Vertex>>> = p.install(|| {
-                (0..n)
-                    .into_par_iter()
-                    .map(|y| {
-                        (0..n)
-                            .map(|x| {
-                                let mut frags: Vec<(f32, Vec3)> = lists
-                                    .iter(x as u32, y as u32)
-                                    .map(|nd| (nd.depth, nd.value.truncate()))
-                                    .collect();
-                                if frags.is_empty() {
-                                    return Vec::new();
-                                }
-                                compress(&step_vertices(&mut frags), o.tolerance)
-                            })
-                            .collect()
-                    })
-                    .collect()
-            });
-            let mut offsets = Vec::with_capacity(n * n + 1);
-            let mut vertices = Vec::new();
-            offsets.push(0u32);
-            for row in per_row {
-                for f in row {
-                    vertices.extend_from_slice(&f);
-                    offsets.push(vertices.len() as u32);
-                }
-            }
-            let texels = (o.size * o.size) as usize;
-            let lists_bytes = texels * 8 + lists.len() * std::mem::size_of::<ListNode>();
-            let built = vertices.len() * std::mem::size_of::<Vertex>() + offsets.len() * 4;
-            self.peak = self.peak.max(done + lists_bytes + 2 * built);
-            done += built;
-            self.maps.push(Map {
-                view,
-                size: o.size,
-                offsets,
-                vertices,
-                fragments: lists.len() as u64,
-            });
-        }
+        let mut payload = Functions {
+            size: o.size,
+            capacity: o.capacity as usize,
+            tolerance: o.tolerance,
+            casters: &casters,
+            transmit: &transmit,
+            state,
+            built: 0,
+            peak: 0,
+        };
+        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.peak = payload.peak;
         Ok(())
     }
 
@@ -519,9 +539,9 @@ impl LightPass for DeepShadowPass {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let frags: u64 = self.maps.iter().map(|m| m.fragments).sum();
-        let verts: usize = self.maps.iter().map(|m| m.vertices.len()).sum();
-        let texels: usize = self.maps.iter().map(|m| (m.size * m.size) as usize).sum();
+        let frags: u64 = self.maps.maps().iter().map(|(m, _)| m.fragments).sum();
+        let verts: usize = self.maps.maps().iter().map(|(m, _)| m.vertices.len()).sum();
+        let texels: usize = self.maps.maps().iter().map(|(m, _)| (m.size * m.size) as usize).sum();
         vec![
             ("fragments", frags as f64),
             ("vertices", verts as f64),
@@ -546,7 +566,7 @@ impl LightPass for DeepShadowPass {
 
     fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut out = Vec::new();
-        for (i, m) in self.maps.iter().enumerate() {
+        for (i, (m, _)) in self.maps.maps().iter().enumerate() {
             let n = (m.size * m.size) as usize;
             let count: Vec<f32> = (0..n).map(|t| (m.offsets[t + 1] - m.offsets[t]) as f32).collect();
             let hi = count.iter().copied().fold(1.0f32, f32::max);

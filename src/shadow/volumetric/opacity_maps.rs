@@ -29,7 +29,7 @@ use crate::frame::Frame;
 use crate::math;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{light_views, DepthPass, LightView};
+use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
@@ -130,26 +130,19 @@ pub fn info() -> TechniqueInfo {
 
 /// One light view's maps.
 struct Maps {
-    view: LightView,
     opaque: Surface<f32>,
+    /// Slice thickness in this view's light depth.
+    step: f32,
     /// Per texel, the first slice boundary (deep) or the range's start (uniform).
     start: Surface<f32>,
     /// Optical depth per slice (RGB in xyz).
     slices: Vec<Surface<Vec4>>,
 }
 
-impl crate::shadow::light::OnView for Maps {
-    fn light_view(&self) -> &LightView {
-        &self.view
-    }
-}
-
 /// The light pass of opacity maps: the opaque depth, the first depth and the slices per light view.
 pub struct OpacityPass {
     opts: Options,
-    maps: Vec<Maps>,
-    /// Slice thickness in light depth.
-    step: f32,
+    maps: ViewMaps<Maps>,
     fragments: u64,
 }
 
@@ -164,8 +157,7 @@ impl OpacityMaps {
             "opacity-maps",
             OpacityPass {
                 opts,
-                maps: Vec::new(),
-                step: 1.0,
+                maps: ViewMaps::default(),
                 fragments: 0,
             },
         ))
@@ -176,10 +168,10 @@ impl PointLookup for OpacityPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace), every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
-        let m = &self.maps[at.view];
+        let m = &self.maps.get(at.view).0;
         let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let od = m.opaque.at(tx, ty);
@@ -195,7 +187,7 @@ impl PointLookup for OpacityPass {
         let k = m.slices.len();
         // Sigma at boundary j: the sum of slices before j.
         let sigma = |j: usize| -> Vec3 { m.slices[..j.min(k)].iter().map(|sl| sl.at(tx, ty).truncate()).sum() };
-        let x = (z - start) / self.step;
+        let x = (z - start) / m.step;
         let (j, lo, hi, v) = if x <= 0.0 {
             (0, Vec3::ZERO, Vec3::ZERO, Vec3::ONE)
         } else {
@@ -212,13 +204,88 @@ impl PointLookup for OpacityPass {
             )
             .text("layout", self.opts.layout.as_str())
             .num("first boundary", start)
-            .num("slice thickness", self.step)
+            .num("slice thickness", m.step)
             .int("slice", j)
             .vec3("sigma before", lo)
             .vec3("sigma after", hi)
         });
         t.step(|| Step::new("transmittance", "exp(-sigma) per channel").vec3("T", v));
         v
+    }
+}
+
+/// The light pass's payload: per view, the opaque casters' depth, the slices' start and the
+/// optical depth of each slice.
+struct Sliced<'a> {
+    pass: DepthPass,
+    layout: Slices,
+    slices: usize,
+    opaque: &'a Casters,
+    glass: &'a Casters,
+    /// Per transparent triangle: its optical depth per channel.
+    tau: &'a [Vec4],
+    /// Fragments accumulated into the slices, every view.
+    fragments: u64,
+}
+
+impl Payload for Sliced<'_> {
+    type Map = Maps;
+
+    fn what(&self) -> &'static str {
+        "the opacity maps"
+    }
+
+    fn draw(&mut self, p: &Pipeline, _: usize, view: &LightView, _: Option<Maps>) -> Result<Maps, Error> {
+        let (pass, k, tau) = (self.pass, self.slices, self.tau);
+        let size = pass.size;
+        let opaque = pass.render(p, self.opaque, view, CullMode::None, None, None)?;
+        // The depth range of the transparent casters in this view.
+        let (mut lo, mut hi) = (1.0f32, 0.0f32);
+        for q in &self.glass.positions {
+            if let Some((_, z)) = view.lookup(*q) {
+                lo = lo.min(z.clamp(0.0, 1.0));
+                hi = hi.max(z.clamp(0.0, 1.0));
+            }
+        }
+        if lo > hi {
+            (lo, hi) = (0.0, 1.0);
+        }
+        let step = ((hi - lo) / k as f32).max(1e-7);
+        let start = match self.layout {
+            Slices::Uniform => Surface::new(size, size, lo)?,
+            // Deep opacity maps: each texel's slices start at its first transparent depth.
+            Slices::Deep => pass.render(p, self.glass, view, CullMode::None, None, None)?,
+        };
+        let mut slices = Vec::with_capacity(k);
+        for j in 0..k {
+            let mut acc = Surface::new(size, size, Vec4::ZERO)?;
+            let st = &start;
+            // Only fragments in slice j (the last slice takes everything behind).
+            let fs = DiscardingShader(move |f: &Fragment<()>| {
+                let x = (f.z - st.at(f.x, f.y)) / step;
+                let slice = if x < 0.0 { 0 } else { (x as usize).min(k - 1) };
+                (slice == j).then(|| tau[f.prim as usize])
+            });
+            let stats = p.draw(
+                &mut Targets::color(&mut acc),
+                &RenderState {
+                    shading: Shading::Immediate,
+                    ..RenderState::accumulate()
+                },
+                &self.glass.positions,
+                &self.glass.indices,
+                &TransformPositions(view.matrix),
+                &fs,
+            )?;
+            self.fragments += stats.fragments_passed;
+            slices.push(acc);
+        }
+        Ok(Maps {
+            opaque,
+            step,
+            start,
+            slices,
+        })
     }
 }
 
@@ -241,66 +308,21 @@ impl LightPass for OpacityPass {
             units: o.units,
             factor: o.slope,
         };
-        let pass = DepthPass {
-            size: o.size,
-            format: DepthFormat::F32,
-            offset,
+        let mut payload = Sliced {
+            pass: DepthPass {
+                size: o.size,
+                format: DepthFormat::F32,
+                offset,
+            },
+            layout: o.layout,
+            slices: o.slices as usize,
+            opaque: &opaque,
+            glass: &glass,
+            tau: &tau,
+            fragments: 0,
         };
-        let k = o.slices as usize;
-        let tau = &tau;
-        self.maps.clear();
-        self.fragments = 0;
-        for view in light_views(frame, o.size) {
-            let od = pass.render(p, &opaque, &view, CullMode::None, None, None)?;
-            // The depth range of the transparent casters in this view.
-            let (mut lo, mut hi) = (1.0f32, 0.0f32);
-            for q in &glass.positions {
-                if let Some((_, z)) = view.lookup(*q) {
-                    lo = lo.min(z.clamp(0.0, 1.0));
-                    hi = hi.max(z.clamp(0.0, 1.0));
-                }
-            }
-            if lo > hi {
-                (lo, hi) = (0.0, 1.0);
-            }
-            self.step = ((hi - lo) / k as f32).max(1e-7);
-            let start = match o.layout {
-                Slices::Uniform => Surface::new(o.size, o.size, lo)?,
-                // Deep opacity maps: each texel's slices start at its first transparent depth.
-                Slices::Deep => pass.render(p, &glass, &view, CullMode::None, None, None)?,
-            };
-            let mut slices = Vec::with_capacity(k);
-            let step = self.step;
-            for j in 0..k {
-                let mut acc = Surface::new(o.size, o.size, Vec4::ZERO)?;
-                let st = &start;
-                // Only fragments in slice j (the last slice takes everything behind).
-                let fs = DiscardingShader(move |f: &Fragment<()>| {
-                    let x = (f.z - st.at(f.x, f.y)) / step;
-                    let slice = if x < 0.0 { 0 } else { (x as usize).min(k - 1) };
-                    (slice == j).then(|| tau[f.prim as usize])
-                });
-                let stats = p.draw(
-                    &mut Targets::color(&mut acc),
-                    &RenderState {
-                        shading: Shading::Immediate,
-                        ..RenderState::accumulate()
-                    },
-                    &glass.positions,
-                    &glass.indices,
-                    &TransformPositions(view.matrix),
-                    &fs,
-                )?;
-                self.fragments += stats.fragments_passed;
-                slices.push(acc);
-            }
-            self.maps.push(Maps {
-                view,
-                opaque: od,
-                start,
-                slices,
-            });
-        }
+        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.fragments = payload.fragments;
         Ok(())
     }
 
@@ -309,7 +331,7 @@ impl LightPass for OpacityPass {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let texels: usize = self.maps.iter().map(|m| m.opaque.data().len()).sum();
+        let texels: usize = self.maps.maps().iter().map(|(m, _)| m.opaque.data().len()).sum();
         // Per texel: the opaque depth, the first boundary and K RGB optical depths (as a GPU
         // would store them, 4 bytes a channel).
         let per = 8 + 12 * self.opts.slices as usize;
@@ -321,7 +343,7 @@ impl LightPass for OpacityPass {
 
     fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
-        for (i, m) in self.maps.iter().enumerate() {
+        for (i, (m, _)) in self.maps.maps().iter().enumerate() {
             v.push(Stage::Scalar {
                 name: format!("opaque_depth{i}"),
                 data: m.opaque.clone(),

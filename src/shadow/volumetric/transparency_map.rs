@@ -19,7 +19,7 @@ use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
-use crate::shadow::light::{light_views, DepthPass, LightView};
+use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
 use crate::Error;
@@ -83,22 +83,15 @@ pub fn info() -> TechniqueInfo {
 
 /// One light view's maps: opaque depth, transparent depth, transparent colour.
 struct Maps {
-    view: LightView,
     opaque: Surface<f32>,
     depth: Surface<f32>,
     colour: Surface<Vec4>,
 }
 
-impl crate::shadow::light::OnView for Maps {
-    fn light_view(&self) -> &LightView {
-        &self.view
-    }
-}
-
 /// The light pass of the coloured transparency map: both maps per light view.
 pub struct TransparencyPass {
     opts: Options,
-    maps: Vec<Maps>,
+    maps: ViewMaps<Maps>,
 }
 
 /// The coloured transparency map (see the module docs).
@@ -110,7 +103,10 @@ impl TransparencyMap {
         declaration().check(&opts)?;
         Ok(Volumetric::technique(
             "transparency-map",
-            TransparencyPass { opts, maps: Vec::new() },
+            TransparencyPass {
+                opts,
+                maps: ViewMaps::default(),
+            },
         ))
     }
 }
@@ -119,10 +115,10 @@ impl PointLookup for TransparencyPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): both maps read at the point's texel, every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(&self.maps, frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
             return Vec3::ONE;
         };
-        let m = &self.maps[at.view];
+        let m = &self.maps.get(at.view).0;
         let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let (od, td, c) = (m.opaque.at(tx, ty), m.depth.at(tx, ty), m.colour.at(tx, ty).truncate());
@@ -155,6 +151,47 @@ impl PointLookup for TransparencyPass {
     }
 }
 
+/// The light pass's payload: per view, the opaque casters' depth and the nearest
+/// transparent surface's depth and colour.
+struct Layers<'a> {
+    pass: DepthPass,
+    opaque: &'a Casters,
+    glass: &'a Casters,
+    /// Per transparent triangle: its colour.
+    colours: &'a [Vec4],
+}
+
+impl Payload for Layers<'_> {
+    type Map = Maps;
+
+    fn what(&self) -> &'static str {
+        "the transparency maps"
+    }
+
+    fn draw(&mut self, p: &Pipeline, _: usize, view: &LightView, _: Option<Maps>) -> Result<Maps, Error> {
+        let size = self.pass.size;
+        let opaque = self.pass.render(p, self.opaque, view, CullMode::None, None, None)?;
+        // The nearest transparent surface: its depth and, by the depth test, its colour.
+        let mut depth = Surface::new(size, size, 1.0f32)?;
+        let mut colour = Surface::new(size, size, Vec4::ONE)?;
+        let colours = self.colours;
+        let fs = Shader(|f: &Fragment<()>| colours[f.prim as usize]);
+        p.draw(
+            &mut Targets::color(&mut colour).with_depth(&mut depth),
+            &RenderState {
+                offset: self.pass.offset,
+                shading: Shading::Immediate,
+                ..Default::default()
+            },
+            &self.glass.positions,
+            &self.glass.indices,
+            &TransformPositions(view.matrix),
+            &fs,
+        )?;
+        Ok(Maps { opaque, depth, colour })
+    }
+}
+
 impl LightPass for TransparencyPass {
     fn render(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let o = self.opts.clone();
@@ -173,38 +210,17 @@ impl LightPass for TransparencyPass {
             units: o.units,
             factor: o.slope,
         };
-        let pass = DepthPass {
-            size: o.size,
-            format: DepthFormat::F32,
-            offset,
+        let mut payload = Layers {
+            pass: DepthPass {
+                size: o.size,
+                format: DepthFormat::F32,
+                offset,
+            },
+            opaque: &opaque,
+            glass: &glass,
+            colours: &colours,
         };
-        self.maps.clear();
-        for view in light_views(frame, o.size) {
-            let od = pass.render(p, &opaque, &view, CullMode::None, None, None)?;
-            // The nearest transparent surface: its depth and, by the depth test, its colour.
-            let mut depth = Surface::new(o.size, o.size, 1.0f32)?;
-            let mut colour = Surface::new(o.size, o.size, Vec4::ONE)?;
-            let fs = Shader(|f: &Fragment<()>| colours[f.prim as usize]);
-            p.draw(
-                &mut Targets::color(&mut colour).with_depth(&mut depth),
-                &RenderState {
-                    offset,
-                    shading: Shading::Immediate,
-                    ..Default::default()
-                },
-                &glass.positions,
-                &glass.indices,
-                &TransformPositions(view.matrix),
-                &fs,
-            )?;
-            self.maps.push(Maps {
-                view,
-                opaque: od,
-                depth,
-                colour,
-            });
-        }
-        Ok(())
+        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)
     }
 
     fn ran(&self) -> bool {
@@ -212,7 +228,7 @@ impl LightPass for TransparencyPass {
     }
 
     fn counters(&self) -> Vec<(&'static str, f64)> {
-        let texels: usize = self.maps.iter().map(|m| m.opaque.data().len()).sum();
+        let texels: usize = self.maps.maps().iter().map(|(m, _)| m.opaque.data().len()).sum();
         // Per texel: opaque depth, transparent depth, RGB colour (as a GPU would store it:
         // 4 + 4 + 4 bytes; ours keeps RGBA f32).
         vec![("light-space bytes", (texels * 12) as f64)]
@@ -220,7 +236,7 @@ impl LightPass for TransparencyPass {
 
     fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
-        for (i, m) in self.maps.iter().enumerate() {
+        for (i, (m, _)) in self.maps.maps().iter().enumerate() {
             v.push(Stage::Scalar {
                 name: format!("opaque_depth{i}"),
                 data: m.opaque.clone(),

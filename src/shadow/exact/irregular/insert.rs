@@ -4,6 +4,7 @@
 use super::samples::{sample_uv, triangle_facing, CameraSample, SampleFiller};
 use super::*;
 use crate::pipeline::compute::Scatter;
+use crate::shadow::light::Payload;
 
 /// A sample's record from pass 1: where its ray starts and the triangle it never tests
 /// ([`NO_TRIANGLE`]: none).
@@ -32,7 +33,7 @@ type Cropped = (LightView, LightView, Grid);
 type ChunkCounts = Vec<(Vec<u32>, usize)>;
 
 impl IrregularZBuffer {
-    pub(super) fn insert(&mut self, frame: &Frame) -> Result<(), Error> {
+    pub(super) fn insert(&mut self, p: &Pipeline, frame: &Frame) -> Result<(), Error> {
         let size = self.opts.size;
         // A list sample keeps a triangle id in 31 bits (see `ListSample`).
         let triangles = frame.scene.triangles();
@@ -58,7 +59,14 @@ impl IrregularZBuffer {
         let (row_at, starts) = row_starts(&counts, views.len() * size as usize);
         let inserted = row_at[row_at.len() - 1] as usize;
         self.scatter_pass(starts, chunk, inserted);
-        self.views = self.list_pass(views, &row_at)?;
+        let mut lists = Lists {
+            size,
+            crops: views.iter().map(|(_, base, grid)| (*base, *grid)).collect(),
+            by_row: &self.by_row,
+            row_at: &row_at,
+        };
+        let views = views.into_iter().map(|(view, _, _)| view).collect();
+        self.views.render(p, views, size, &mut lists)?;
         self.inserted = inserted;
         Ok(())
     }
@@ -270,84 +278,97 @@ impl IrregularZBuffer {
                 });
         }
     }
+}
 
-    /// Pass 3d, by texel rows in parallel: each row counts its records per texel, and puts
-    /// them behind the ones before them in their texel's list (a stable sort by column) into
-    /// the row's part of the store; the occluder pass's masks. Every buffer of the last run's
-    /// views is reused.
-    fn list_pass(&mut self, views: Vec<Cropped>, row_at: &[u32]) -> Result<Vec<View>, Error> {
-        let size = self.opts.size;
+/// Pass 3d, by texel rows in parallel, as the light pass's payload: each row counts its
+/// records per texel, and puts them behind the ones before them in their texel's list (a
+/// stable sort by column) into the row's part of the store; the occluder pass's masks. Every
+/// buffer of the last run's views is reused.
+struct Lists<'a> {
+    size: u32,
+    /// Per cropped view: its base view and the crop.
+    crops: Vec<(LightView, Grid)>,
+    /// The records sorted by (view, texel row).
+    by_row: &'a [Entry],
+    /// Per (view, texel row): where its records start in `by_row`.
+    row_at: &'a [u32],
+}
+
+impl Payload for Lists<'_> {
+    type Map = View;
+
+    fn what(&self) -> &'static str {
+        "the irregular z-buffer's lists"
+    }
+
+    fn draw(&mut self, _: &Pipeline, v: usize, view: &LightView, old: Option<View>) -> Result<View, Error> {
+        let size = self.size;
         let n = (size * size) as usize;
         let s = size as usize;
-        let mut old: Vec<View> = self.views.drain(..).collect();
-        let by_row = &self.by_row;
-        let mut made = Vec::with_capacity(views.len());
-        for (v, (view, base, grid)) in views.into_iter().enumerate() {
-            let (mut store, mut order, mask, mut texels) = match old.pop() {
-                Some(o) => (o.store, o.order, o.mask, o.texels),
-                None => (PixelStore::default(), Vec::new(), None, Vec::new()),
-            };
-            let axis = axis_depth(&view);
-            texels.resize(n, Texel { far: 0.0, tests: 0 });
-            let texel_rows = Scatter::new(&mut texels);
-            let runs = &row_at[v * s..=(v + 1) * s];
-            let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
-            order.resize((runs[s] - runs[0]) as usize, 0);
-            let ord = Scatter::new(&mut order);
-            store.rebuild_rows(size, size, &row_totals, ListSample::EMPTY, |ty, starts, part| {
-                let run = &by_row[runs[ty] as usize..runs[ty + 1] as usize];
-                let first = (runs[ty] - runs[0]) as usize;
-                starts.fill(0);
-                for e in run {
-                    starts[e.column as usize] += 1;
-                }
-                let mut acc = 0;
-                for st in starts.iter_mut() {
-                    let c = *st;
-                    *st = acc;
-                    acc += c;
-                }
-                let mut cursor = starts.to_vec();
-                let mut row_far = vec![f32::NEG_INFINITY; s];
-                for e in run {
-                    let f = &mut row_far[e.column as usize];
-                    *f = f.max(axis_at(axis, e.rec.origin));
-                    let at = &mut cursor[e.column as usize];
-                    part[*at as usize] = ListSample {
-                        position: e.rec.origin,
-                        state: e.rec.triangle,
-                    };
-                    // SAFETY: every record of the view is in one row's run once.
-                    unsafe { ord.write(first + *at as usize, e.sample) };
-                    *at += 1;
-                }
-                for (x, far) in row_far.into_iter().enumerate() {
-                    // SAFETY: row `ty` alone writes texels `ty * s .. (ty + 1) * s`.
-                    unsafe { texel_rows.write(ty * s + x, Texel { far, tests: 0 }) };
-                }
-            })?;
-            let mut mask = match mask {
-                Some(m) if m.width() == size => m,
-                _ => Surface::new(size, size, 0.0f32)?,
-            };
-            let offsets = store.offsets();
-            mask.data_mut()
-                .par_iter_mut()
-                .zip(offsets.par_windows(2))
-                .for_each(|(m, o)| *m = if o[1] > o[0] { 1.0 } else { -1.0 });
-            made.push(View {
-                view,
-                base,
-                grid,
-                store,
-                order,
-                mask: Some(mask),
-                texels,
-                fragments: 0,
-                rasterized: 0,
-            });
-        }
-        Ok(made)
+        let by_row = self.by_row;
+        let (base, grid) = self.crops[v];
+        let (mut store, mut order, mask, mut texels) = match old {
+            Some(o) => (o.store, o.order, o.mask, o.texels),
+            None => (PixelStore::default(), Vec::new(), None, Vec::new()),
+        };
+        let axis = axis_depth(view);
+        texels.resize(n, Texel { far: 0.0, tests: 0 });
+        let texel_rows = Scatter::new(&mut texels);
+        let runs = &self.row_at[v * s..=(v + 1) * s];
+        let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
+        order.resize((runs[s] - runs[0]) as usize, 0);
+        let ord = Scatter::new(&mut order);
+        store.rebuild_rows(size, size, &row_totals, ListSample::EMPTY, |ty, starts, part| {
+            let run = &by_row[runs[ty] as usize..runs[ty + 1] as usize];
+            let first = (runs[ty] - runs[0]) as usize;
+            starts.fill(0);
+            for e in run {
+                starts[e.column as usize] += 1;
+            }
+            let mut acc = 0;
+            for st in starts.iter_mut() {
+                let c = *st;
+                *st = acc;
+                acc += c;
+            }
+            let mut cursor = starts.to_vec();
+            let mut row_far = vec![f32::NEG_INFINITY; s];
+            for e in run {
+                let f = &mut row_far[e.column as usize];
+                *f = f.max(axis_at(axis, e.rec.origin));
+                let at = &mut cursor[e.column as usize];
+                part[*at as usize] = ListSample {
+                    position: e.rec.origin,
+                    state: e.rec.triangle,
+                };
+                // SAFETY: every record of the view is in one row's run once.
+                unsafe { ord.write(first + *at as usize, e.sample) };
+                *at += 1;
+            }
+            for (x, far) in row_far.into_iter().enumerate() {
+                // SAFETY: row `ty` alone writes texels `ty * s .. (ty + 1) * s`.
+                unsafe { texel_rows.write(ty * s + x, Texel { far, tests: 0 }) };
+            }
+        })?;
+        let mut mask = match mask {
+            Some(m) if m.width() == size => m,
+            _ => Surface::new(size, size, 0.0f32)?,
+        };
+        let offsets = store.offsets();
+        mask.data_mut()
+            .par_iter_mut()
+            .zip(offsets.par_windows(2))
+            .for_each(|(m, o)| *m = if o[1] > o[0] { 1.0 } else { -1.0 });
+        Ok(View {
+            base,
+            grid,
+            store,
+            order,
+            mask: Some(mask),
+            texels,
+            fragments: 0,
+            rasterized: 0,
+        })
     }
 }
 

@@ -77,7 +77,7 @@ use crate::pipeline::*;
 use crate::reference::{offset_origin, SamplePoint};
 use crate::scene::{Light, LightKind};
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{self, light_views, merged_casters, LightView};
+use crate::shadow::light::{self, light_views, merged_casters, LightView, ViewMaps};
 use crate::shadow::pass::Pass;
 use crate::shadow::technique::Stage;
 use crate::shadow::timing::Passes;
@@ -222,7 +222,6 @@ struct Texel {
 /// One light view of the grid: its cropped matrix, the store of lists, and which sample
 /// each stored record is.
 struct View {
-    view: LightView,
     /// The uncropped view, and the crop in its uv: a sample's texel is
     /// `grid.texel(base.lookup(p).uv)` (see [`Grid`]). The tests check the lists against it,
     /// independently of the insertion.
@@ -251,7 +250,7 @@ pub struct IrregularZBuffer {
     /// Samples of the last run, and of them in the lists.
     total: usize,
     inserted: usize,
-    views: Vec<View>,
+    views: ViewMaps<View>,
     occluders: usize,
     /// Per scene object: closed (manifold, no degenerate triangles), from edge adjacency,
     /// with the fingerprint of the mesh it was found for (recomputed when it changes).
@@ -277,7 +276,7 @@ impl IrregularZBuffer {
             opts,
             total: 0,
             inserted: 0,
-            views: Vec::new(),
+            views: ViewMaps::default(),
             occluders: 0,
             closed: Vec::new(),
             own_tested: 0,
@@ -314,7 +313,7 @@ impl IrregularZBuffer {
         self.views
             .iter()
             .enumerate()
-            .find_map(|(v, view)| view.order.iter().position(|&o| o as usize == i).map(|at| (v, at)))
+            .find_map(|(v, (view, _))| view.order.iter().position(|&o| o as usize == i).map(|at| (v, at)))
     }
 
     /// Pass 4: occluders through the pipeline, conservatively, testing each texel's samples.
@@ -378,8 +377,8 @@ impl IrregularZBuffer {
             .bounds()
             .map_or(Vec3::ONE, |(lo, hi)| lo.abs().max(hi.abs()));
         let mut near = Vec::new();
-        for v in &mut self.views {
-            let axis = axis_depth(&v.view);
+        for (v, view) in self.views.maps_mut() {
+            let axis = axis_depth(view);
             let margin = 1e-5 * (axis.truncate().abs().dot(extent) + axis.w.abs());
             // Per occluder: its nearest vertex's axis depth, less the margin.
             near.clear();
@@ -416,7 +415,7 @@ impl IrregularZBuffer {
                 &state,
                 &casters.positions,
                 &indices,
-                &TransformPositions(v.view.matrix),
+                &TransformPositions(view.matrix),
                 &program,
                 &mut v.store,
             )?;
@@ -428,7 +427,7 @@ impl IrregularZBuffer {
 
     /// Per texel list lengths of view `v`.
     fn lengths(&self, v: usize) -> Surface<f32> {
-        let s = &self.views[v].store;
+        let s = &self.views.get(v).0.store;
         let data = (0..(s.width() * s.height()) as usize)
             .map(|i| s.range(i).len() as f32)
             .collect();
@@ -437,7 +436,7 @@ impl IrregularZBuffer {
 
     fn list_stats(&self) -> (usize, usize, u64) {
         let (mut nonempty, mut max, mut tests) = (0usize, 0usize, 0u64);
-        for v in &self.views {
+        for (v, _) in self.views.iter() {
             let s = &v.store;
             for i in 0..(s.width() * s.height()) as usize {
                 let n = s.range(i).len();
@@ -480,7 +479,7 @@ impl Pass for IrregularZBuffer {
             ))
         })?;
         passes.skip();
-        p.install(|| self.insert(frame))?;
+        p.install(|| self.insert(p, frame))?;
         passes.end("sample insertion");
         self.occlude(p, frame)?;
         passes.end("occluder pass");
@@ -499,7 +498,7 @@ impl Pass for IrregularZBuffer {
         p.install(|| {
             {
                 let marks = Scatter::new(lit);
-                for v in views {
+                for (v, _) in views.iter() {
                     v.store
                         .data()
                         .par_chunks(MIN_CHUNK)
@@ -568,7 +567,7 @@ impl Pass for IrregularZBuffer {
             .vec3("position", s.point.position)
             .text("on", names(s.triangle));
             if let Some((v, at)) = slot {
-                let view = &self.views[v];
+                let view = &self.views.get(v).0;
                 let ls = view.store.data()[at];
                 // The uv the insertion found for the sample (kept from the run), and its texel.
                 let base_uv = self.uv[start + j];
@@ -623,7 +622,7 @@ impl Pass for IrregularZBuffer {
     fn counters(&self) -> Vec<(&'static str, f64)> {
         let (nonempty, max, tests) = self.list_stats();
         let inserted = self.inserted;
-        let bytes: usize = self.views.iter().map(|v| v.store.bytes()).sum();
+        let bytes: usize = self.views.iter().map(|(v, _)| v.store.bytes()).sum();
         vec![
             ("samples", self.total as f64),
             ("samples inserted", inserted as f64),
@@ -634,7 +633,7 @@ impl Pass for IrregularZBuffer {
             ("occluder triangles", self.occluders as f64),
             (
                 "occluder fragments",
-                self.views.iter().map(|v| v.fragments).sum::<u64>() as f64,
+                self.views.iter().map(|(v, _)| v.fragments).sum::<u64>() as f64,
             ),
             ("triangle-sample tests", tests as f64),
             ("list bytes", bytes as f64),
@@ -653,8 +652,8 @@ impl Pass for IrregularZBuffer {
                 hi,
             });
             // Triangle-sample tests per texel (the occluder pass's work where it went).
-            let s = &self.views[i].store;
-            let tests = self.views[i].texels.iter().map(|t| t.tests as f32).collect();
+            let s = &self.views.get(i).0.store;
+            let tests = self.views.get(i).0.texels.iter().map(|t| t.tests as f32).collect();
             let tests = Surface::from_vec(s.width(), s.height(), tests)?;
             let hi = tests.data().iter().copied().fold(1.0f32, f32::max);
             v.push(Stage::Scalar {
@@ -667,7 +666,7 @@ impl Pass for IrregularZBuffer {
         if self.views.len() == 1 && frame.light.kind != LightKind::Point {
             v.push(Stage::Color {
                 name: "grid_over_light_view".into(),
-                data: light::fitted_overview(p, frame, &self.views[0].view)?,
+                data: light::fitted_overview(p, frame, &self.views.get(0).1)?,
             });
         }
         // Shadowed samples per pixel.
