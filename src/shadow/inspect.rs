@@ -128,6 +128,13 @@ pub fn closed(f: impl FnOnce(&mut Steps) -> Option<f32>) -> Vec<Step> {
 pub trait Trace {
     /// Records the step `f` builds (not called at all by [`NoTrace`]).
     fn step(&mut self, f: impl FnOnce() -> Step);
+
+    /// Whether steps are recorded: a loop keeps what its step will show only then (false
+    /// for [`NoTrace`], where the check compiles away).
+    #[inline(always)]
+    fn records(&self) -> bool {
+        true
+    }
 }
 
 /// Drops every step.
@@ -136,6 +143,11 @@ pub struct NoTrace;
 impl Trace for NoTrace {
     #[inline(always)]
     fn step(&mut self, _: impl FnOnce() -> Step) {}
+
+    #[inline(always)]
+    fn records(&self) -> bool {
+        false
+    }
 }
 
 /// Records every step.

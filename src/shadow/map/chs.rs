@@ -221,7 +221,7 @@ impl Chs {
     }
 
     /// PCF of the kernel at level `l` (both chains averaged above level 0).
-    fn pcf_at(&self, at: &At, l: usize, x: usize, y: usize) -> (f32, u32) {
+    fn pcf_at(&self, at: &At, l: usize, x: usize, y: usize, t: &mut impl Trace) -> (f32, u32) {
         let scale = (1u32 << l) as f32;
         let r = Reference {
             z: at.r.z,
@@ -233,11 +233,11 @@ impl Chs {
             taps: 16,
             width: self.opts.kernel as f32,
         };
-        let lo = k.filter(self.level(at.face, l, false), at.uv, &r, x as u32, y as u32);
+        let lo = k.filter(self.level(at.face, l, false), at.uv, &r, x as u32, y as u32, t);
         if l == 0 {
             return (lo.value, lo.taps);
         }
-        let hi = k.filter(self.level(at.face, l, true), at.uv, &r, x as u32, y as u32);
+        let hi = k.filter(self.level(at.face, l, true), at.uv, &r, x as u32, y as u32, t);
         (0.5 * (lo.value + hi.value), lo.taps + hi.taps)
     }
 
@@ -294,9 +294,9 @@ impl Chs {
             .max(0.0)
             .min((self.levels(at.face) - 1) as f32);
         let (l0, frac) = (lf.floor() as usize, lf.fract());
-        let (v0, n0) = self.pcf_at(&at, l0, x, y);
+        let (v0, n0) = self.pcf_at(&at, l0, x, y, t);
         let (v, n) = if frac > 0.0 && l0 + 1 < self.levels(at.face) {
-            let (v1, n1) = self.pcf_at(&at, l0 + 1, x, y);
+            let (v1, n1) = self.pcf_at(&at, l0 + 1, x, y, t);
             (v0 + (v1 - v0) * frac, n0 + n1)
         } else {
             (v0, n0)
@@ -480,6 +480,18 @@ mod tests {
 
     /// The lookup pass (four pixels prepared together) gives every pixel the one-pixel
     /// lookup's value, and the one-pixel taps in all, with and without the receiver plane.
+    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
+    /// fixture, for every setting of the sweep.
+    #[test]
+    #[cfg(feature = "files")]
+    fn the_image_is_the_traced_lookup_on_every_fixture() {
+        crate::shadow::sample::testing::assert_lookups_on_fixtures(
+            "chs",
+            |pairs| Chs::new(declaration().parse(pairs).unwrap()).unwrap(),
+            |t, f, x, y| t.lookup(f, x, y, &mut NoTrace).0,
+        );
+    }
+
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
         let sets: [&[(&str, &str)]; 3] = [

@@ -87,6 +87,18 @@ mod tests {
     use crate::shadow::inspect::NoTrace;
     use crate::shadow::sample::testing::assert_lookups;
 
+    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
+    /// fixture, for every setting of the sweep.
+    #[test]
+    #[cfg(feature = "files")]
+    fn the_image_is_the_traced_lookup_on_every_fixture() {
+        crate::shadow::sample::testing::assert_lookups_on_fixtures(
+            "pcss",
+            |pairs| Pcss::new(declaration().parse(pairs).unwrap()).unwrap(),
+            |t, f, x, y| t.pass.lookup(f, x, y, &mut NoTrace).0,
+        );
+    }
+
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
         let sets: [&[(&str, &str)]; 6] = [

@@ -141,6 +141,18 @@ mod tests {
         assert_eq!(sm.culled(), 1);
     }
 
+    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
+    /// fixture, for every setting of the sweep.
+    #[test]
+    #[cfg(feature = "files")]
+    fn the_image_is_the_traced_lookup_on_every_fixture() {
+        crate::shadow::sample::testing::assert_lookups_on_fixtures(
+            "shadow-map",
+            |pairs| ShadowMap::new(declaration().parse(pairs).unwrap()).unwrap(),
+            |t, f, x, y| t.pass().lookup(f, x, y, &mut NoTrace).0,
+        );
+    }
+
     #[test]
     fn four_pixel_lookups_equal_one_pixel_ones() {
         use crate::shadow::sample::testing::assert_lookups;

@@ -34,7 +34,7 @@ use crate::math;
 use crate::pipeline::compute::min_max_chains;
 use crate::pipeline::sampler::{footprint, sample_bilinear, Address, CompareSampler};
 use crate::pipeline::{MipChain, Pipeline, Surface};
-use crate::shadow::inspect::Step;
+use crate::shadow::inspect::{Step, Trace};
 use glam::{Vec2, Vec4};
 use std::sync::OnceLock;
 
@@ -287,17 +287,21 @@ impl Kernel {
         }
     }
 
-    /// The kernel's visibility at `uv` of `map` for pixel `(x, y)`, lit outside the map. Flat
-    /// grids and tents take the separable path (texel comparisons with collapsed weights);
-    /// everything else compares tap by tap with each tap's own reference.
-    pub fn filter(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32) -> Filtered {
+    /// The kernel's visibility at `uv` of `map` for pixel `(x, y)`, lit outside the map, and
+    /// its account to `t` from the same loop: the kernel, and each tap (at most 32) with its
+    /// offset, weight, reference depth and the comparison the sum took. Flat grids and tents
+    /// take the separable path (texel comparisons with collapsed weights); everything else
+    /// compares tap by tap with each tap's own reference.
+    pub fn filter(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32, t: &mut impl Trace) -> Filtered {
         if !crate::shadow::light::inside(uv) {
+            t.step(|| self.step(r, 0).flag("inside the map", false));
             return Filtered { value: 1.0, taps: 0 };
         }
         let size = Vec2::new(map.width() as f32, map.height() as f32);
         match self.pattern {
             Pattern::DepthBilinear => {
                 let d = sample_bilinear(map, uv, Address::Clamp);
+                t.step(|| self.step(r, 1).num("filtered depth", d));
                 Filtered {
                     value: if r.z <= d { 1.0 } else { 0.0 },
                     taps: 1,
@@ -305,6 +309,12 @@ impl Kernel {
             }
             Pattern::Grid | Pattern::Tent if r.is_flat() => {
                 let n = self.grid_n();
+                t.step(|| {
+                    self.step(r, (n * n) as usize).text(
+                        "path",
+                        "separable: each texel compared once, weighted by the taps' collapsed bilinear weights",
+                    )
+                });
                 Filtered {
                     value: if n < 16 {
                         let mut t = [0.0f32; 16];
@@ -318,21 +328,65 @@ impl Kernel {
                     taps: n * n,
                 }
             }
-            _ => TAPS.with(|t| {
-                let mut taps = t.borrow_mut();
+            _ => TAPS.with(|taps| {
+                let mut taps = taps.borrow_mut();
                 self.taps_at(x, y, &mut taps);
                 let mut sums = TapSums::default();
+                // What the sums took, per tap (kept only for a recording trace).
+                let mut seen: Vec<f32> = Vec::new();
                 let mut chunks = taps.chunks_exact(4);
                 for c in &mut chunks {
-                    sums.four(map, uv, size, r, c.try_into().expect("four taps"));
+                    let v = sums.four(map, uv, size, r, c.try_into().expect("four taps"));
+                    if t.records() {
+                        seen.extend(v.to_array());
+                    }
                 }
-                sums.each(map, uv, size, r, chunks.remainder());
+                for &(d, w) in chunks.remainder() {
+                    let v = sums.one(map, uv, size, r, d, w);
+                    if t.records() {
+                        seen.push(v);
+                    }
+                }
+                t.step(|| {
+                    let mut st = self.step(r, taps.len());
+                    for (i, (&(d, w), lit)) in taps.iter().zip(&seen).enumerate().take(32) {
+                        st = st
+                            .vec2(&format!("tap {i} offset"), d)
+                            .num(&format!("tap {i} weight"), w)
+                            .num(&format!("tap {i} reference"), r.at(d))
+                            .num(&format!("tap {i} lit"), *lit);
+                    }
+                    st
+                });
                 Filtered {
                     value: sums.lit / sums.total,
                     taps: taps.len() as u32,
                 }
             }),
         }
+    }
+
+    /// The head of the kernel's step in `inspect`: the kernel, its `taps` and the reference.
+    fn step(&self, r: &Reference, taps: usize) -> Step {
+        Step::new(
+            "kernel",
+            match self.pattern {
+                Pattern::DepthBilinear => {
+                    "the four nearest depths filtered bilinearly, then one comparison (the wrong order)"
+                }
+                Pattern::Grid => "n x n hardware 2x2 comparisons at whole-texel offsets, equal weights",
+                Pattern::Tent => "n x n hardware 2x2 comparisons at whole-texel offsets, tent weights",
+                Pattern::Poisson => "hardware 2x2 comparisons on a fixed Poisson disk",
+                Pattern::Rotated => "hardware 2x2 comparisons on a Poisson disk rotated by the pixel's hashed angle",
+                Pattern::Spiral => "hardware 2x2 comparisons on a Vogel spiral rotated by interleaved gradient noise",
+            },
+        )
+        .text("pattern", self.pattern.as_str())
+        .int("taps", taps)
+        .num("width in texels", self.width)
+        .num("reference depth", r.z)
+        .vec2("receiver-plane gradient per texel", r.gradient)
+        .num("bias cone per texel", r.cone)
     }
 }
 
@@ -457,7 +511,7 @@ impl TapSums {
     /// Four taps `(offset in texels, weight)` around `uv` of a `size` map against `r`, in
     /// one vector of 2x2 comparisons, summed in order (as one at a time, bit for bit).
     #[inline(always)]
-    fn four(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, c: &[(Vec2, f32); 4]) {
+    fn four(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, c: &[(Vec2, f32); 4]) -> Vec4 {
         let p: [Vec2; 4] = std::array::from_fn(|i| uv + c[i].0 / size);
         let z = if r.is_flat() {
             Vec4::splat(r.z)
@@ -471,15 +525,17 @@ impl TapSums {
             self.lit += c[i].1 * v[i];
             self.total += c[i].1;
         }
+        v
     }
 
-    /// Taps one at a time (fewer than four at the end of a kernel).
+    /// One tap at offset `d` with weight `w` (the taps after the last four of a kernel);
+    /// the comparison it took.
     #[inline(always)]
-    fn each(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, taps: &[(Vec2, f32)]) {
-        for &(d, w) in taps {
-            self.lit += w * bilinear_compare(map, uv + d / size, r.at(d));
-            self.total += w;
-        }
+    fn one(&mut self, map: &Surface<f32>, uv: Vec2, size: Vec2, r: &Reference, d: Vec2, w: f32) -> f32 {
+        let v = bilinear_compare(map, uv + d / size, r.at(d));
+        self.lit += w * v;
+        self.total += w;
+        v
     }
 }
 
@@ -728,46 +784,6 @@ fn disk_sum(map: &Surface<f32>, disk: &Disk4, r: &Reference4, at: impl Fn(Vec4, 
     lit / total
 }
 
-impl Kernel {
-    /// `inspect`'s account of one filtered lookup: the kernel, and each tap (at most 32) with
-    /// its offset, reference depth and result.
-    pub fn explain(&self, map: &Surface<f32>, uv: Vec2, r: &Reference, x: u32, y: u32) -> Step {
-        let mut taps = Vec::new();
-        self.taps_at(x, y, &mut taps);
-        let size = Vec2::new(map.width() as f32, map.height() as f32);
-        let mut st = Step::new(
-            "kernel",
-            match self.pattern {
-                Pattern::DepthBilinear => {
-                    "the four nearest depths filtered bilinearly, then one comparison (the wrong order)"
-                }
-                Pattern::Grid => "n x n hardware 2x2 comparisons at whole-texel offsets, equal weights",
-                Pattern::Tent => "n x n hardware 2x2 comparisons at whole-texel offsets, tent weights",
-                Pattern::Poisson => "hardware 2x2 comparisons on a fixed Poisson disk",
-                Pattern::Rotated => "hardware 2x2 comparisons on a Poisson disk rotated by the pixel's hashed angle",
-                Pattern::Spiral => "hardware 2x2 comparisons on a Vogel spiral rotated by interleaved gradient noise",
-            },
-        )
-        .text("pattern", self.pattern.as_str())
-        .int("taps", taps.len())
-        .num("width in texels", self.width)
-        .num("reference depth", r.z)
-        .vec2("receiver-plane gradient per texel", r.gradient)
-        .num("bias cone per texel", r.cone);
-        if self.pattern == Pattern::DepthBilinear {
-            return st.num("filtered depth", sample_bilinear(map, uv, Address::Clamp));
-        }
-        for (i, &(d, w)) in taps.iter().enumerate().take(32) {
-            st = st
-                .vec2(&format!("tap {i} offset"), d)
-                .num(&format!("tap {i} weight"), w)
-                .num(&format!("tap {i} reference"), r.at(d))
-                .num(&format!("tap {i} lit"), bilinear_compare(map, uv + d / size, r.at(d)));
-        }
-        st
-    }
-}
-
 thread_local! {
     /// Scratch tap list per worker (contents never outlive one call).
     static TAPS: std::cell::RefCell<Vec<(Vec2, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
@@ -882,6 +898,7 @@ impl MinMax {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shadow::inspect::NoTrace;
 
     #[test]
     fn disks_are_deterministic_and_inside_the_unit_disk() {
@@ -970,7 +987,14 @@ mod tests {
                     let four = separable4(&map, lu, lv, z, &t);
                     for l in 0..4 {
                         let one = k
-                            .filter(&map, Vec2::new(lu[l], lv[l]), &Reference::flat(z[l]), 0, 0)
+                            .filter(
+                                &map,
+                                Vec2::new(lu[l], lv[l]),
+                                &Reference::flat(z[l]),
+                                0,
+                                0,
+                                &mut NoTrace,
+                            )
                             .value;
                         assert_eq!(four[l].to_bits(), one.to_bits(), "{pattern:?} {width} lane {l}");
                     }
@@ -1006,7 +1030,7 @@ mod tests {
                             continue;
                         }
                         let lane = Kernel { width: widths[l], ..k };
-                        let one = lane.filter(&map, uv(l), &refs[l], xs[l], y);
+                        let one = lane.filter(&map, uv(l), &refs[l], xs[l], y, &mut NoTrace);
                         assert_eq!(
                             values[l].to_bits(),
                             one.value.to_bits(),
@@ -1036,14 +1060,14 @@ mod tests {
                 for _ in 0..50 {
                     let uv = Vec2::new(rng.next_f32(), rng.next_f32()) * 0.8 + Vec2::splat(0.1);
                     let z = rng.next_f32();
-                    let fast = k.filter(&map, uv, &Reference::flat(z), 0, 0).value;
+                    let fast = k.filter(&map, uv, &Reference::flat(z), 0, 0, &mut NoTrace).value;
                     // A tiny gradient forces the tap-by-tap path.
                     let r = Reference {
                         z,
                         gradient: Vec2::new(1e-30, 0.0),
                         cone: 0.0,
                     };
-                    let slow = k.filter(&map, uv, &r, 0, 0).value;
+                    let slow = k.filter(&map, uv, &r, 0, 0, &mut NoTrace).value;
                     assert!((fast - slow).abs() < 1e-5, "{pattern:?} {width}: {fast} vs {slow}");
                 }
             }

@@ -22,7 +22,7 @@ use super::kernel::{
 };
 use super::planes::PlaneChain;
 use crate::frame::Frame;
-use crate::pipeline::sampler::{bilerp_weights, footprint2x2, sample_nearest, Address, CompareSampler};
+use crate::pipeline::sampler::{bilerp, bilerp_weights, footprint2x2, sample_nearest, Address};
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::cascades::{self, Blend};
@@ -280,15 +280,7 @@ impl MapLookup {
     /// to `t`.
     #[inline(always)]
     pub fn compare(&self, at: &At, pcf: bool, t: &mut impl Trace) -> f32 {
-        let map = &self.maps.maps()[at.face].0;
-        let sampler = CompareSampler::default();
-        let v = if pcf {
-            sampler.pcf2x2(map, at.uv, at.r.z)
-        } else {
-            sampler.nearest(map, at.uv, at.r.z)
-        };
-        t.step(|| texel_steps(map, at.uv, at.r.z, pcf));
-        v
+        compare(&self.maps.maps()[at.face].0, at.uv, at.r.z, pcf, t)
     }
 
     /// Prepares pixels `x .. x + n` of row `y` for a four-lane lookup: the pixels decided
@@ -455,7 +447,7 @@ impl MapLookup {
             _ => {
                 for l in 0..4 {
                     if let (Some(k), Some(at)) = (kernels[l], &ats[l]) {
-                        let f = k.filter(map, at.uv, &at.r, xs[l], y as u32);
+                        let f = k.filter(map, at.uv, &at.r, xs[l], y as u32, &mut NoTrace);
                         (out[l], *count) = (f.value, *count + f.taps as u64);
                     }
                 }
@@ -657,8 +649,7 @@ impl MapLookup {
             Class::Shadowed => return (0.0, 1),
             Class::Mixed => {}
         }
-        let f = kernel.filter(map, at.uv, r, x as u32, y as u32);
-        t.step(|| kernel.explain(map, at.uv, r, x as u32, y as u32));
+        let f = kernel.filter(map, at.uv, r, x as u32, y as u32, t);
         (f.value, f.taps as u64)
     }
 
@@ -746,39 +737,49 @@ pub struct Estimate {
     pub class: Class,
 }
 
-/// The texels a lookup compared, with their stored depths and outcomes (for `inspect`).
-fn texel_steps(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool) -> Step {
-    let (w, h) = (map.width() as i64, map.height() as i64);
-    let mut step = Step::new(
-        "comparison",
-        match pcf {
-            true => "four texels compared, then weighted bilinearly by the fraction (hardware PCF)",
-            _ => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
-        },
-    );
-    let texels: Vec<(i64, i64, f32)> = match pcf {
-        true => {
-            let (texels, f) = footprint2x2((w as u32, h as u32), uv);
-            step = step.vec2("fraction", f);
-            texels
-                .iter()
-                .zip(bilerp_weights(f))
-                .map(|(&(x, y), wt)| (x as i64, y as i64, wt))
-                .collect()
-        }
-        _ => {
-            let tx = ((uv.x * w as f32).floor() as i64).clamp(0, w - 1);
-            let ty = ((uv.y * h as f32).floor() as i64).clamp(0, h - 1);
-            vec![(tx, ty, 1.0)]
-        }
-    };
-    for (i, (tx, ty, wt)) in texels.into_iter().enumerate() {
-        let d = map.at(tx as u32, ty as u32);
-        step = step
-            .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
-            .num(&format!("stored depth {i}"), d)
-            .flag(&format!("lit {i}"), z <= d)
-            .num(&format!("weight {i}"), wt);
+/// One comparison of reference depth `z` at `uv` of `map`: the nearest texel's, or with `pcf`
+/// the hardware 2x2 PCF of the four texels around it, weighted bilinearly (lit outside the
+/// map, the samplers' border); the texels it compared, with their stored depths and
+/// outcomes, reported to `t` from the same values. Bit for bit the pipeline's
+/// [`CompareSampler::pcf2x2`](crate::pipeline::sampler::CompareSampler::pcf2x2) and `nearest` (the four-lane path's), which
+/// the tests hold it to.
+#[inline(always)]
+fn compare(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool, t: &mut impl Trace) -> f32 {
+    if !light::inside(uv) {
+        t.step(|| Step::new("comparison", "outside the map: lit (the samplers' border)").vec2("uv", uv));
+        return 1.0;
     }
-    step
+    let size = (map.width(), map.height());
+    let (texels, f) = match pcf {
+        true => footprint2x2(size, uv),
+        false => ([light::texel(uv, size.0, size.1); 4], Vec2::ZERO),
+    };
+    let lit = texels.map(|(x, y)| if z <= map.at(x, y) { 1.0f32 } else { 0.0 });
+    let v = if pcf { bilerp(lit, f) } else { lit[0] };
+    t.step(|| {
+        let mut step = Step::new(
+            "comparison",
+            match pcf {
+                true => "four texels compared, then weighted bilinearly by the fraction (hardware PCF)",
+                _ => "the nearest texel's stored depth against the reference depth (lit if less-equal)",
+            },
+        );
+        let n = if pcf {
+            step = step.vec2("fraction", f);
+            4
+        } else {
+            1
+        };
+        let weights = if pcf { bilerp_weights(f) } else { [1.0; 4] };
+        for i in 0..n {
+            let (tx, ty) = texels[i];
+            step = step
+                .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
+                .num(&format!("stored depth {i}"), map.at(tx, ty))
+                .flag(&format!("lit {i}"), lit[i] == 1.0)
+                .num(&format!("weight {i}"), weights[i]);
+        }
+        step
+    });
+    v
 }

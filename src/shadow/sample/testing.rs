@@ -56,3 +56,59 @@ pub(crate) fn assert_lookups<T: ShadowTechnique>(
         }
     }
 }
+
+/// For every fixture scene (`fixtures/scenes`) on which technique `name` applies and every
+/// option set of its registry sweep: the image `make` draws equals its one-pixel `lookup`
+/// (the code `inspect` runs, with a recording trace instead of [`NoTrace`](crate::shadow::inspect::NoTrace))
+/// at every pixel, bit for bit. This holds the four-lane image paths to the traced one on
+/// every fixture, not only on [`scene`].
+#[cfg(feature = "files")]
+pub(crate) fn assert_lookups_on_fixtures<T: ShadowTechnique + Sync>(
+    name: &str,
+    make: impl Fn(&[(String, String)]) -> T,
+    lookup: impl Fn(&T, &Frame, usize, usize) -> f32 + Sync,
+) {
+    use rayon::prelude::*;
+    let p = Pipeline::new(2).unwrap();
+    let info = crate::shadow::registry::registry()
+        .into_iter()
+        .find(|t| t.name == name)
+        .expect("a registered technique");
+    let mut paths: Vec<_> = std::fs::read_dir("fixtures/scenes")
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    let mut checked = 0usize;
+    for path in &paths {
+        let s = crate::scene::file::load(path).unwrap();
+        if !info.applies_to(&s) {
+            continue;
+        }
+        let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
+        let (w, h) = (f.width() as usize, f.height() as usize);
+        for set in info.sweep {
+            let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+            let mut t = make(&pairs);
+            let v = t.visibility(&p, &f).unwrap();
+            let (t, f, lookup) = (&t, &f, &lookup);
+            let wrong = p.install(|| {
+                (0..h)
+                    .into_par_iter()
+                    .flat_map_iter(|y| (0..w).map(move |x| (x, y)))
+                    .find_first(|&(x, y)| lookup(t, f, x, y).to_bits() != v.value(y * w + x).to_bits())
+            });
+            if let Some((x, y)) = wrong {
+                panic!(
+                    "{name} {set:?} on {}: at ({x}, {y}) the image has {} where the lookup gives {}",
+                    path.display(),
+                    v.value(y * w + x),
+                    lookup(t, f, x, y)
+                );
+            }
+            checked += w * h;
+        }
+    }
+    assert!(checked > 1_000_000, "{name}: {checked} pixels checked");
+}

@@ -113,23 +113,23 @@ fn parallel_list_sort_equals_the_serial_one() {
         let samples = camera_samples(&f, t.opts.samples);
         assert_eq!(samples.len(), t.total);
         let mut slot = vec![None; samples.len()];
-        for (v, view) in t.views.iter().enumerate() {
+        for (v, (view, _)) in t.views.iter().enumerate() {
             for (at, &i) in view.order.iter().enumerate() {
                 assert!(slot[i as usize].is_none(), "{scene}: sample {i} stored twice");
                 slot[i as usize] = Some((v, at));
             }
         }
-        let mut cursors: Vec<Vec<u32>> = t.views.iter().map(|v| v.store.offsets().to_vec()).collect();
+        let mut cursors: Vec<Vec<u32>> = t.views.iter().map(|(v, _)| v.store.offsets().to_vec()).collect();
         let mut inserted = 0;
         for (i, smp) in samples.iter().enumerate() {
             let Some((v, at)) = slot[i] else { continue };
             inserted += 1;
-            let (uv, _) = t.views[v].base.lookup(smp.point.position).unwrap();
-            let (tx, ty) = t.views[v].grid.texel(uv);
+            let (uv, _) = t.views.get(v).0.base.lookup(smp.point.position).unwrap();
+            let (tx, ty) = t.views.get(v).0.grid.texel(uv);
             let c = &mut cursors[v][ty * size as usize + tx];
             assert_eq!(at as u32, *c, "{scene}: sample {i} out of the serial order");
             *c += 1;
-            let rec = t.views[v].store.data()[at];
+            let rec = t.views.get(v).0.store.data()[at];
             assert_eq!(rec.position, offset_origin(smp.point.position, smp.point.face));
             assert_eq!(t.slot(i), Some((v, at)));
         }
