@@ -190,6 +190,12 @@ impl<O: Clone + Default + 'static> Field<O> {
         }
     }
 
+    /// The `size` field of a map, grid or texture side in texels: 16 to the pipeline's
+    /// largest target side ([`crate::pipeline::MAX_DIMENSION`]).
+    pub fn size(doc: &'static str, access: fn(&mut O) -> &mut u32) -> Self {
+        Self::range("size", doc, 16, crate::pipeline::MAX_DIMENSION, access)
+    }
+
     /// A numeric field that must lie in `[lo, hi]` (NaN never does).
     pub fn range<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
         key: &'static str,

@@ -7,7 +7,6 @@ use super::irregular::IrregularZBuffer;
 pub use super::irregular::{
     camera_samples, camera_samples_grid, CameraSample, OccluderRaster, Options, SamplesPerPixel,
 };
-use crate::pipeline::MAX_DIMENSION;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
 use crate::Error;
@@ -17,11 +16,8 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "izb",
         fields: vec![
-            Field::range(
-                "size",
+            Field::size(
                 "light-space grid side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
                 |o: &mut Options| &mut o.size,
             ),
             Field::new(

@@ -166,13 +166,7 @@ impl MapOptions {
     /// [`crate::shadow::options::within`].
     pub fn fields() -> Vec<Field<MapOptions>> {
         vec![
-            Field::range(
-                "size",
-                "map side in texels (a cube map has six faces of this size)",
-                16,
-                MAX_DIMENSION,
-                |m: &mut MapOptions| &mut m.size,
-            ),
+            Field::size("map side in texels (a cube map has six faces of this size)", |m: &mut MapOptions| &mut m.size),
             Field::new("format", "depth storage: f32, u24 or u16", |m: &mut MapOptions| {
                 &mut m.format
             }),

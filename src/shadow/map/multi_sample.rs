@@ -86,13 +86,7 @@ pub fn declaration() -> Declaration<Options> {
                 "hard shadow per sample: maps (cube shadow maps) or volumes (stencil shadow volumes, exact)",
                 |o: &mut Options| &mut o.method,
             ),
-            Field::range(
-                "size",
-                "maps: side of each cube face in texels",
-                16,
-                crate::pipeline::MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+            Field::size("maps: side of each cube face in texels", |o: &mut Options| &mut o.size),
             Field::new("pcf", "maps: 2x2 PCF (false: one comparison)", |o: &mut Options| {
                 &mut o.pcf
             }),

@@ -67,13 +67,7 @@ pub fn declaration() -> Declaration<Options> {
                 "comma-separated names of the objects drawn into the texture, or auto: every non-planar object; all others receive",
                 |o: &mut Options| &mut o.occluders,
             ),
-            Field::range(
-                "size",
-                "texture side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+            Field::size("texture side in texels (per cube face for point lights)", |o: &mut Options| &mut o.size),
             Field::new(
                 "filter",
                 "nearest (hard edge) or bilinear (a one-texel soft edge, as cookies are usually sampled)",

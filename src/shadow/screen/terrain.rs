@@ -24,7 +24,7 @@
 
 use crate::frame::Frame;
 use crate::pipeline::{DepthFormat, Pipeline};
-use crate::pipeline::{PolygonOffset, Surface, MAX_DIMENSION};
+use crate::pipeline::{PolygonOffset, Surface};
 use crate::reference::bvh::{Bvh, Tri};
 use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
@@ -93,13 +93,7 @@ pub fn declaration() -> Declaration<Options> {
                 1e6,
                 |o: &mut Options| &mut o.band,
             ),
-            Field::range(
-                "size",
-                "sun shadow-map side, texels",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+            Field::size("sun shadow-map side, texels", |o: &mut Options| &mut o.size),
             Field::new(
                 "objects",
                 "also shadow by a shadow map of the objects that are not terrain",

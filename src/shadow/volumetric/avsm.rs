@@ -27,6 +27,7 @@
 //! fragments in reverse submission order, and the difference is measured on `smoke`. With too
 //! few nodes for the layers of a texel, far layers merge and light leaks.
 
+pub use super::PassOptions;
 use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -54,43 +55,31 @@ choice_enum! {
 /// Options of the adaptive volumetric shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// Map side in texels (per cube face for point lights). Default: 512.
-    pub size: u32,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
     /// Nodes per texel, 1 to 64. Default: 8 (the paper's common setting).
     pub nodes: u32,
     /// Insertion order. Default: forward.
     pub order: Order,
-    /// Constant polygon offset of the light pass (a surface must not shadow itself), in the
-    /// depth format's steps. Default: 4 (the shadow map's).
-    pub units: f32,
-    /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
-    pub slope: f32,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Options {
-            size: 512,
+            pass: PassOptions::sized(512),
             nodes: 8,
             order: Order::Forward,
-            units: 4.0,
-            slope: 1.1,
         }
     }
 }
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "avsm",
-        fields: vec![
-            Field::range(
-                "size",
-                "map side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+    super::declaration(
+        "avsm",
+        |o: &mut Options| &mut o.pass,
+        vec![
             Field::range(
                 "nodes",
                 "nodes per texel (the compressed curve's size)",
@@ -103,14 +92,8 @@ pub fn declaration() -> Declaration<Options> {
                 "forward (submission order) or reverse (each texel's fragments backwards: order dependence)",
                 |o: &mut Options| &mut o.order,
             ),
-        ]
-        .into_iter()
-        .chain(super::offset_fields(
-            |o: &mut Options| &mut o.units,
-            |o: &mut Options| &mut o.slope,
-        ))
-        .collect(),
-    }
+        ],
+    )
 }
 
 /// Registry entry.
@@ -273,7 +256,7 @@ impl PointLookup for AvsmPass {
     /// recording trace): the curve of the texel the point falls in, read at its depth, every
     /// step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
         let (z, c) = (at.depth, Curve(self.maps.get(at.view).0.pixel(at.x, at.y)));
@@ -385,10 +368,7 @@ impl LightPass for AvsmPass {
             insert(px, f.z, transmit[tri as usize]);
         };
         let state = RenderState {
-            offset: PolygonOffset {
-                units: o.units,
-                factor: o.slope,
-            },
+            offset: o.pass.offset(),
             depth: DepthState {
                 func: CompareFunc::Always,
                 write: false,
@@ -397,7 +377,7 @@ impl LightPass for AvsmPass {
             ..Default::default()
         };
         let mut payload = Nodes {
-            size: o.size,
+            size: o.pass.size,
             slots: o.nodes as usize + 1,
             positions: &casters.positions,
             indices: &indices,
@@ -405,7 +385,8 @@ impl LightPass for AvsmPass {
             program,
             fragments: 0,
         };
-        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.maps
+            .render(p, light_views(frame, o.pass.size), o.pass.size, &mut payload)?;
         self.fragments = payload.fragments;
         Ok(())
     }

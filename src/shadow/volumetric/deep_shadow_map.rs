@@ -27,6 +27,7 @@
 //! Known failure: resolution; one function per texel, so thin occluders alias as in a shadow
 //! map (softened, not removed, by the bilinear filter).
 
+pub use super::PassOptions;
 use super::{LightPass, PointLookup, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -54,16 +55,13 @@ choice_enum! {
 /// Options of the deep shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// Map side in texels (per cube face for point lights). Default: 512.
-    pub size: u32,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
     /// Compression tolerance of the transmittance functions, in (0, 1). Default: 0.01.
     pub tolerance: f32,
     /// Fragments the lists may hold per view. Default: 16777216.
     pub capacity: u32,
-    /// Constant polygon offset of the light pass. Default: 4 (the shadow map's).
-    pub units: f32,
-    /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
-    pub slope: f32,
     /// Filtering between texels. Default: bilinear.
     pub filter: Filter,
 }
@@ -71,11 +69,9 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            size: 512,
+            pass: PassOptions::sized(512),
             tolerance: 0.01,
             capacity: 1 << 24,
-            units: 4.0,
-            slope: 1.1,
             filter: Filter::Bilinear,
         }
     }
@@ -83,16 +79,10 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "deep-shadow-map",
-        fields: vec![
-            Field::range(
-                "size",
-                "map side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+    super::declaration(
+        "deep-shadow-map",
+        |o: &mut Options| &mut o.pass,
+        vec![
             Field::range(
                 "tolerance",
                 "compression tolerance of each texel's transmittance function, in (0, 1)",
@@ -112,14 +102,8 @@ pub fn declaration() -> Declaration<Options> {
                 "nearest (one texel's function) or bilinear (four texels' transmittances weighted bilinearly)",
                 |o: &mut Options| &mut o.filter,
             ),
-        ]
-        .into_iter()
-        .chain(super::offset_fields(
-            |o: &mut Options| &mut o.units,
-            |o: &mut Options| &mut o.slope,
-        ))
-        .collect(),
-    }
+        ],
+    )
 }
 
 /// Registry entry.
@@ -507,10 +491,7 @@ impl LightPass for DeepShadowPass {
             })
             .collect();
         let state = RenderState {
-            offset: PolygonOffset {
-                units: o.units,
-                factor: o.slope,
-            },
+            offset: o.pass.offset(),
             depth: DepthState {
                 func: CompareFunc::Always,
                 write: false,
@@ -520,7 +501,7 @@ impl LightPass for DeepShadowPass {
             ..Default::default()
         };
         let mut payload = Functions {
-            size: o.size,
+            size: o.pass.size,
             capacity: o.capacity as usize,
             tolerance: o.tolerance,
             casters: &casters,
@@ -529,7 +510,8 @@ impl LightPass for DeepShadowPass {
             built: 0,
             peak: 0,
         };
-        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.maps
+            .render(p, light_views(frame, o.pass.size), o.pass.size, &mut payload)?;
         self.peak = payload.peak;
         Ok(())
     }

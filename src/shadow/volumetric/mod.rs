@@ -12,13 +12,14 @@ pub mod opacity_maps;
 pub mod transparency_map;
 
 use crate::frame::Frame;
-use crate::pipeline::Pipeline;
+use crate::pipeline::{DepthFormat, Pipeline, PolygonOffset};
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{self, merged_casters, Casters, OnView};
+use crate::shadow::light::{self, merged_casters, Casters, DepthPass, OnView};
+use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
-use crate::shadow::technique::{Field, Stage};
+use crate::shadow::technique::{Declaration, Field, Stage};
 use crate::shadow::timing::Passes;
 use crate::visibility::{Visibility, LUMINANCE};
 use crate::Error;
@@ -204,21 +205,86 @@ pub fn value(coloured: bool, t: Vec3) -> f32 {
     }
 }
 
-/// The light pass's polygon offset as two option fields, `units` (constant, in depth steps)
-/// and `slope` (slope-scaled), with the shadow map's ranges: every volumetric technique keeps
-/// its casters' own fragments behind their surfaces this way.
-pub fn offset_fields<O: Clone + Default + 'static>(
-    units: fn(&mut O) -> &mut f32,
-    slope: fn(&mut O) -> &mut f32,
-) -> [Field<O>; 2] {
-    [
-        Field::range("units", "constant polygon offset of the light pass", -1e6, 1e6, units),
-        Field::range(
-            "slope",
-            "slope-scaled polygon offset of the light pass",
-            -1e3,
-            1e3,
-            slope,
-        ),
-    ]
+/// The light pass of every volumetric technique: the maps' side and the polygon offset that
+/// keeps the casters' own fragments behind their surfaces (the shadow map's defaults).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PassOptions {
+    /// Map side in texels (per cube face for point lights). Default: 512.
+    pub size: u32,
+    /// Constant polygon offset of the light pass, in depth steps. Default: 4 (the shadow
+    /// map's).
+    pub units: f32,
+    /// Slope-scaled polygon offset of the light pass. Default: 1.1 (the shadow map's).
+    pub slope: f32,
+}
+
+impl Default for PassOptions {
+    fn default() -> Self {
+        PassOptions::sized(512)
+    }
+}
+
+impl PassOptions {
+    /// The default pass with maps of `size` texels.
+    pub const fn sized(size: u32) -> PassOptions {
+        PassOptions {
+            size,
+            units: 4.0,
+            slope: 1.1,
+        }
+    }
+
+    /// The pass's polygon offset.
+    pub fn offset(&self) -> PolygonOffset {
+        PolygonOffset {
+            units: self.units,
+            factor: self.slope,
+        }
+    }
+
+    /// The depth pass of the opaque casters (f32 depth with the pass's offset).
+    pub fn depth(&self) -> DepthPass {
+        DepthPass {
+            size: self.size,
+            format: DepthFormat::F32,
+            offset: self.offset(),
+        }
+    }
+
+    /// The declaration of the pass's fields (`size`, `units`, `slope`), with the shadow
+    /// map's ranges; a technique's options declare them with [`within`].
+    pub fn fields() -> Vec<Field<PassOptions>> {
+        vec![
+            Field::size(
+                "map side in texels (per cube face for point lights)",
+                |o: &mut PassOptions| &mut o.size,
+            ),
+            Field::range(
+                "units",
+                "constant polygon offset of the light pass",
+                -1e6,
+                1e6,
+                |o: &mut PassOptions| &mut o.units,
+            ),
+            Field::range(
+                "slope",
+                "slope-scaled polygon offset of the light pass",
+                -1e3,
+                1e3,
+                |o: &mut PassOptions| &mut o.slope,
+            ),
+        ]
+    }
+}
+
+/// A volumetric technique's declaration: its light pass's fields ([`PassOptions::fields`],
+/// reached through `pass`), then its own `fields`.
+pub fn declaration<O: Clone + Default + 'static>(
+    technique: &'static str,
+    pass: fn(&mut O) -> &mut PassOptions,
+    fields: Vec<Field<O>>,
+) -> Declaration<O> {
+    let mut all = within(PassOptions::fields(), pass);
+    all.extend(fields);
+    Declaration { technique, fields: all }
 }

@@ -23,6 +23,7 @@
 //! `smoke`, `layers` and `stained_glass`: deep opacity maps, whose first boundary lies on the
 //! first layer, reach a lower error with 4 slices than uniform slices with 16.
 
+pub use super::PassOptions;
 use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::choice_enum;
 use crate::frame::Frame;
@@ -51,8 +52,9 @@ choice_enum! {
 /// Options of opacity shadow maps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// Map side in texels (per cube face for point lights). Default: 512.
-    pub size: u32,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
     /// Slices, 1 to 64. Default: 4.
     pub slices: u32,
     /// Uniform slices (opacity shadow maps) or slices from the first depth (deep opacity
@@ -61,36 +63,24 @@ pub struct Options {
     /// generated scenes with translucent casters (0.0787 against 0.0871, `penumbra
     /// defaults`). `layout=uniform slices=16` is Kim and Neumann's.
     pub layout: Slices,
-    /// Constant polygon offset of the opaque map and the first-depth map. Default: 4.
-    pub units: f32,
-    /// Slope-scaled polygon offset of those maps. Default: 1.1.
-    pub slope: f32,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Options {
-            size: 512,
+            pass: PassOptions::sized(512),
             slices: 4,
             layout: Slices::Deep,
-            units: 4.0,
-            slope: 1.1,
         }
     }
 }
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "opacity-maps",
-        fields: vec![
-            Field::range(
-                "size",
-                "map side in texels (per cube face for point lights)",
-                16,
-                MAX_DIMENSION,
-                |o: &mut Options| &mut o.size,
-            ),
+    super::declaration(
+        "opacity-maps",
+        |o: &mut Options| &mut o.pass,
+        vec![
             Field::range("slices", "opacity slices", 1, MAX_SLICES, |o: &mut Options| {
                 &mut o.slices
             }),
@@ -99,14 +89,8 @@ pub fn declaration() -> Declaration<Options> {
                 "uniform (opacity shadow maps) or deep (deep opacity maps: slices from the first depth)",
                 |o: &mut Options| &mut o.layout,
             ),
-        ]
-        .into_iter()
-        .chain(super::offset_fields(
-            |o: &mut Options| &mut o.units,
-            |o: &mut Options| &mut o.slope,
-        ))
-        .collect(),
-    }
+        ],
+    )
 }
 
 /// Registry entry.
@@ -168,7 +152,7 @@ impl PointLookup for OpacityPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace), every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
         let m = &self.maps.get(at.view).0;
@@ -304,16 +288,8 @@ impl LightPass for OpacityPass {
                 Vec4::new(od(t.x), od(t.y), od(t.z), 0.0)
             })
             .collect();
-        let offset = PolygonOffset {
-            units: o.units,
-            factor: o.slope,
-        };
         let mut payload = Sliced {
-            pass: DepthPass {
-                size: o.size,
-                format: DepthFormat::F32,
-                offset,
-            },
+            pass: o.pass.depth(),
             layout: o.layout,
             slices: o.slices as usize,
             opaque: &opaque,
@@ -321,7 +297,8 @@ impl LightPass for OpacityPass {
             tau: &tau,
             fragments: 0,
         };
-        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)?;
+        self.maps
+            .render(p, light_views(frame, o.pass.size), o.pass.size, &mut payload)?;
         self.fragments = payload.fragments;
         Ok(())
     }

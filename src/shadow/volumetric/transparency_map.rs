@@ -15,55 +15,36 @@
 //! Both maps come from the shared light pass ([`crate::shadow::light`]); the colour map is a
 //! colour target drawn with a depth test, so its colour is the nearest transparent surface's.
 
+pub use super::PassOptions;
 use super::{LightPass, PointLookup, Texel, Volumetric};
 use crate::frame::Frame;
 use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Family, Stage, TechniqueInfo};
 use crate::Error;
 use glam::{Vec3, Vec4};
 
 /// Options of the coloured transparency map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// Map side in texels (per cube face for point lights). Default: 1024.
-    pub size: u32,
-    /// Constant polygon offset of both maps, in depth steps. Default: 4 (the shadow map's).
-    pub units: f32,
-    /// Slope-scaled polygon offset of both maps. Default: 1.1 (the shadow map's).
-    pub slope: f32,
+    /// The light pass: map side, polygon offset. Default: 1024 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Options {
-            size: 1024,
-            units: 4.0,
-            slope: 1.1,
+            pass: PassOptions::sized(1024),
         }
     }
 }
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "transparency-map",
-        fields: vec![Field::range(
-            "size",
-            "map side in texels (per cube face for point lights)",
-            16,
-            MAX_DIMENSION,
-            |o: &mut Options| &mut o.size,
-        )]
-        .into_iter()
-        .chain(super::offset_fields(
-            |o: &mut Options| &mut o.units,
-            |o: &mut Options| &mut o.slope,
-        ))
-        .collect(),
-    }
+    super::declaration("transparency-map", |o: &mut Options| &mut o.pass, Vec::new())
 }
 
 /// Registry entry.
@@ -115,7 +96,7 @@ impl PointLookup for TransparencyPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): both maps read at the point's texel, every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.size, t) else {
+        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
         let m = &self.maps.get(at.view).0;
@@ -206,21 +187,14 @@ impl LightPass for TransparencyPass {
                     .extend(1.0)
             })
             .collect();
-        let offset = PolygonOffset {
-            units: o.units,
-            factor: o.slope,
-        };
         let mut payload = Layers {
-            pass: DepthPass {
-                size: o.size,
-                format: DepthFormat::F32,
-                offset,
-            },
+            pass: o.pass.depth(),
             opaque: &opaque,
             glass: &glass,
             colours: &colours,
         };
-        self.maps.render(p, light_views(frame, o.size), o.size, &mut payload)
+        self.maps
+            .render(p, light_views(frame, o.pass.size), o.pass.size, &mut payload)
     }
 
     fn ran(&self) -> bool {
