@@ -5,8 +5,17 @@ use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Surface};
 use crate::reference::{Reference, ReferenceOptions};
 use crate::shadow::inspect::{self, Step};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "reference",
+    family: Family::Reference,
+    summary: "BVH ray tracer: exact hard visibility; area lights by stratified sampling (ground truth)",
+    sweep: &[&[]],
+    ..Entry::BASE
+};
 
 /// Options of the reference technique.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,21 +53,6 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.samples,
             ),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "reference",
-        family: Family::Reference,
-        summary: "BVH ray tracer: exact hard visibility; area lights by stratified sampling (ground truth)",
-        options: declaration().infos(),
-        sweep: &[&[]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(RefTechnique::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

@@ -15,13 +15,19 @@ impl Family {
 }
 
 /// Declares the registry from one list, each technique written once: its module (whose
-/// `info()` is its registry entry) and its type, re-exported with the module in
+/// `ENTRY` and `declaration()` make its registry record) and its type, built by `Type::new`
+/// (or by the module's function named after `by`), re-exported with the module in
 /// [`techniques`].
 macro_rules! techniques {
-    ($($($seg:ident)::+ => $ty:ident,)*) => {
+    ($($($seg:ident)::+ => $ty:ident $(by $make:ident)?,)*) => {
         /// All techniques, in chart order.
         pub fn registry() -> Vec<TechniqueInfo> {
-            vec![$($($seg)::+::info(),)*]
+            vec![$(
+                $($seg)::+::ENTRY.info($($seg)::+::declaration().infos(), |pairs| {
+                    let options = $($seg)::+::declaration().parse(pairs)?;
+                    Ok(Box::new(constructor!([$($seg)::+] $ty $($make)?)(options)?))
+                }),
+            )*]
         }
 
         /// Every technique's type, and its module with its `Options`, under one name: build
@@ -35,15 +41,26 @@ macro_rules! techniques {
     };
 }
 
+/// A technique's constructor from its options: `Type::new`, or the module's function `by`
+/// names (for types shared by several techniques, as the warped maps share theirs).
+macro_rules! constructor {
+    ([$($path:tt)*] $ty:ident) => {
+        $($path)*::$ty::new
+    };
+    ([$($path:tt)*] $ty:ident $make:ident) => {
+        $($path)*::$make
+    };
+}
+
 techniques! {
     reference => RefTechnique,
     map::shadow_map => ShadowMap,
-    map::cascaded => Csm,
-    map::sdsm => Sdsm,
-    map::lispsm => Lispsm,
-    map::logpsm => Logpsm,
-    map::tsm => Tsm,
-    map::psm => Psm,
+    map::cascaded => Csm by csm,
+    map::sdsm => Sdsm by sdsm,
+    map::lispsm => Lispsm by lispsm,
+    map::logpsm => Logpsm by logpsm,
+    map::tsm => Tsm by tsm,
+    map::psm => Psm by psm,
     map::pcss => Pcss,
     map::chs => Chs,
     map::multi_sample => MultiSample,

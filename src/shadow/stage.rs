@@ -34,6 +34,17 @@ impl Stage {
         }
     }
 
+    /// A scalar stage of values in `[0, 1]` (depths, visibilities, masks), shown over that
+    /// range.
+    pub fn unit(name: impl Into<String>, data: Surface<f32>) -> Stage {
+        Stage::Scalar {
+            name: name.into(),
+            data,
+            lo: 0.0,
+            hi: 1.0,
+        }
+    }
+
     /// Per-pixel values of `frame` (row-major) as a scalar stage shown from `lo` to `hi`.
     pub fn pixels(frame: &Frame, name: &str, data: Vec<f32>, lo: f32, hi: f32) -> Result<Stage, Error> {
         Ok(Stage::Scalar {

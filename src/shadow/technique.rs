@@ -116,6 +116,59 @@ impl Family {
     }
 }
 
+/// What a technique's module says of it for the registry ([`TechniqueInfo`] without the
+/// options and the constructor, which the registry takes from the module's declaration and
+/// type): its name, family, summary, sweep sets, the lights it works on and what it models.
+#[derive(Copy, Clone)]
+pub struct Entry {
+    /// Name for `--technique`.
+    pub name: &'static str,
+    /// Its family (its folder).
+    pub family: Family,
+    /// One line: what it is, the source, the failure it is known for.
+    pub summary: &'static str,
+    /// Option sets the sweep runs ([`TechniqueInfo::sweep`]).
+    pub sweep: &'static [&'static [(&'static str, &'static str)]],
+    /// Option sets only `penumbra sweep --all` runs ([`TechniqueInfo::extended`]). Default:
+    /// none.
+    pub extended: &'static [&'static [(&'static str, &'static str)]],
+    /// The lights it works on ([`TechniqueInfo::applies`]). Default: every light.
+    pub applies: Option<fn(&Scene, &Light) -> bool>,
+    /// What it models beyond a hard shadow of opaque casters ([`TechniqueInfo::models`]).
+    /// Default: nothing.
+    pub models: &'static [Effect],
+}
+
+impl Entry {
+    /// The defaults an entry's struct update takes (`..Entry::BASE`): no extended sets, every
+    /// light, nothing modelled beyond a hard shadow; the name, family, summary and sweep are
+    /// each entry's own.
+    pub const BASE: Entry = Entry {
+        name: "",
+        family: Family::Map,
+        summary: "",
+        sweep: &[&[]],
+        extended: &[],
+        applies: None,
+        models: &[],
+    };
+
+    /// The registry's record of the technique: this entry with its options and constructor.
+    pub fn info(self, options: Vec<OptionInfo>, create: Constructor) -> TechniqueInfo {
+        TechniqueInfo {
+            name: self.name,
+            family: self.family,
+            summary: self.summary,
+            options,
+            sweep: self.sweep,
+            extended: self.extended,
+            create,
+            applies: self.applies,
+            models: self.models,
+        }
+    }
+}
+
 /// A registered technique.
 pub struct TechniqueInfo {
     /// Name for `--technique`.

@@ -24,9 +24,20 @@ use crate::shadow::map::soft::{self, SoftShadows};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_map;
 use crate::shadow::sample::lookup::lookup_fields;
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "hybrid",
+    family: Family::Exact,
+    summary: "hybrid frustum-traced shadows (Story and Wyman): the IZB's exact shadow where PCSS's penumbra is narrow, PCSS where wide",
+    sweep: &[&[], &[("units", "100000")]],
+    extended: &[&[("from", "0"), ("to", "1")], &[("from", "2"), ("to", "12")]],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 /// Options of the hybrid.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,21 +101,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "hybrid",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "hybrid",
-        family: Family::Exact,
-        summary: "hybrid frustum-traced shadows (Story and Wyman): the IZB's exact shadow where PCSS's penumbra is narrow, PCSS where wide",
-        options: declaration().infos(),
-        sweep: &[&[], &[("units", "100000")]],
-        extended: &[&[("from", "0"), ("to", "1")], &[("from", "2"), ("to", "12")]],
-        create: |pairs| Ok(Box::new(Hybrid::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 
@@ -256,12 +252,10 @@ impl ShadowTechnique for Hybrid {
     }
 
     fn stages(&self, p: &Pipeline, frame: &Frame) -> Result<Vec<Stage>, Error> {
-        let mut v = vec![Stage::Scalar {
-            name: "pcss_weight".into(),
-            data: Surface::from_vec(frame.width(), frame.height(), self.weight.clone())?,
-            lo: 0.0,
-            hi: 1.0,
-        }];
+        let mut v = vec![Stage::unit(
+            "pcss_weight",
+            Surface::from_vec(frame.width(), frame.height(), self.weight.clone())?,
+        )];
         v.extend(self.pcss.stages(p, frame)?);
         v.extend(self.izb.stages(p, frame)?);
         Ok(v)

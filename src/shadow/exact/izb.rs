@@ -8,8 +8,22 @@ pub use super::irregular::{
     camera_samples, camera_samples_grid, CameraSample, OccluderRaster, Options, SamplesPerPixel,
 };
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "izb",
+    family: Family::Exact,
+    summary: "irregular z-buffer (RTR 7.9): camera samples in light-space lists, occluders conservatively rasterized and tested exactly; long lists at grazing views",
+    sweep: &[
+        &[],
+        &[("size", "256")],
+        &[("raster", "standard")],
+        &[("samples", "4")],
+    ],
+    ..Entry::BASE
+};
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -38,26 +52,6 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.capacity,
             ),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "izb",
-        family: Family::Exact,
-        summary: "irregular z-buffer (RTR 7.9): camera samples in light-space lists, occluders conservatively rasterized and tested exactly; long lists at grazing views",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("size", "256")],
-            &[("raster", "standard")],
-            &[("samples", "4")],
-        ],
-        extended: &[],
-        create: |pairs| Ok(Box::new(Izb::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

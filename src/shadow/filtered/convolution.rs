@@ -26,10 +26,20 @@ use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
 use glam::{Vec2, Vec4};
 use std::f32::consts::PI;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "convolution",
+    family: Family::Filtered,
+    summary: "convolution shadow map (Annen et al. 2007): the depth test as a Fourier series, filtered: rings around the step",
+    sweep: &[&[], &[("terms", "4")]],
+    extended: &[&[("terms", "16")], &[("damping", "2")]],
+    ..Entry::BASE
+};
 
 /// Options of the convolution shadow map.
 #[derive(Clone, Debug, PartialEq)]
@@ -91,21 +101,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "convolution",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "convolution",
-        family: Family::Filtered,
-        summary: "convolution shadow map (Annen et al. 2007): the depth test as a Fourier series, filtered: rings around the step",
-        options: declaration().infos(),
-        sweep: &[&[], &[("terms", "4")]],
-        extended: &[&[("terms", "16")], &[("damping", "2")]],
-        create: |pairs| Ok(Box::new(Convolution::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

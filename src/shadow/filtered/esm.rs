@@ -23,9 +23,19 @@ use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
 use glam::{Vec2, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "esm",
+    family: Family::Filtered,
+    summary: "exponential shadow map (Salvi 2008; Annen et al. 2008): e^(c z) prefiltered in log space: too much light near contact",
+    sweep: &[&[], &[("exponent", "30")], &[("log", "false"), ("prefilter", "sat")]],
+    extended: &[&[("prefilter", "mips")], &[("storage", "f16"), ("exponent", "10"), ("log", "false")]],
+    ..Entry::BASE
+};
 
 /// The largest exponent `c` whose `e^c` a 32-bit float holds (`ln(f32::MAX)`): past it no
 /// exponential map exists in any storage.
@@ -81,21 +91,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "esm",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "esm",
-        family: Family::Filtered,
-        summary: "exponential shadow map (Salvi 2008; Annen et al. 2008): e^(c z) prefiltered in log space: too much light near contact",
-        options: declaration().infos(),
-        sweep: &[&[], &[("exponent", "30")], &[("log", "false"), ("prefilter", "sat")]],
-        extended: &[&[("prefilter", "mips")], &[("storage", "f16"), ("exponent", "10"), ("log", "false")]],
-        create: |pairs| Ok(Box::new(Esm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

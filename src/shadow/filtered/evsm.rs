@@ -23,9 +23,19 @@ use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
 use glam::{Vec2, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "evsm",
+    family: Family::Filtered,
+    summary: "exponential variance shadow map (Lauritzen and McCool 2008): VSM of two exponential warps: less bleeding, exponent limits of the storage",
+    sweep: &[&[], &[("components", "2")], &[("storage", "f16"), ("positive", "5.54")]],
+    extended: &[&[("positive", "80")]],
+    ..Entry::BASE
+};
 
 /// The largest exponent whose warp's second moment `e^(2 c)` a 32-bit float holds.
 pub const F32_LIMIT: f32 = 44.36;
@@ -106,21 +116,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "evsm",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "evsm",
-        family: Family::Filtered,
-        summary: "exponential variance shadow map (Lauritzen and McCool 2008): VSM of two exponential warps: less bleeding, exponent limits of the storage",
-        options: declaration().infos(),
-        sweep: &[&[], &[("components", "2")], &[("storage", "f16"), ("positive", "5.54")]],
-        extended: &[&[("positive", "80")]],
-        create: |pairs| Ok(Box::new(Evsm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

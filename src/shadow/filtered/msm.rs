@@ -36,9 +36,19 @@ use super::{bleeding_field, check, reduce_bleeding, FilteredPass, Filtering, Mom
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
 use glam::{Mat4, Vec2, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "msm",
+    family: Family::Filtered,
+    summary: "moment shadow map (Peters and Klein 2015): four moments, Hamburger reconstruction: leaks with three or more layers in a kernel",
+    sweep: &[&[], &[("storage", "u16"), ("bias", "0.00003")]],
+    extended: &[&[("prefilter", "sat")]],
+    ..Entry::BASE
+};
 
 /// Options of the moment shadow map.
 #[derive(Clone, Debug, PartialEq)]
@@ -95,21 +105,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "msm",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "msm",
-        family: Family::Filtered,
-        summary: "moment shadow map (Peters and Klein 2015): four moments, Hamburger reconstruction: leaks with three or more layers in a kernel",
-        options: declaration().infos(),
-        sweep: &[&[], &[("storage", "u16"), ("bias", "0.00003")]],
-        extended: &[&[("prefilter", "sat")]],
-        create: |pairs| Ok(Box::new(Msm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

@@ -25,9 +25,29 @@ use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
 use glam::{Vec2, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "vsm",
+    family: Family::Filtered,
+    summary: "variance shadow map (Donnelly and Lauritzen 2006; RTR eqs. 7.7-7.8): two moments prefiltered, Chebyshev's bound: light bleeding where occluders overlap",
+    sweep: &[
+        &[],
+        &[("bleeding", "0.3")],
+        &[("prefilter", "box"), ("radius", "2")],
+        &[("prefilter", "sat"), ("variable", "true")],
+    ],
+    extended: &[
+        &[("prefilter", "mips")],
+        &[("storage", "f16")],
+        &[("radius", "8"), ("size", "1024")],
+        &[("cascades", "4")],
+    ],
+    ..Entry::BASE
+};
 
 /// Options of the variance shadow map.
 #[derive(Clone, Debug, PartialEq)]
@@ -98,31 +118,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "vsm",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "vsm",
-        family: Family::Filtered,
-        summary: "variance shadow map (Donnelly and Lauritzen 2006; RTR eqs. 7.7-7.8): two moments prefiltered, Chebyshev's bound: light bleeding where occluders overlap",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("bleeding", "0.3")],
-            &[("prefilter", "box"), ("radius", "2")],
-            &[("prefilter", "sat"), ("variable", "true")],
-        ],
-        extended: &[
-            &[("prefilter", "mips")],
-            &[("storage", "f16")],
-            &[("radius", "8"), ("size", "1024")],
-            &[("cascades", "4")],
-        ],
-        create: |pairs| Ok(Box::new(Vsm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

@@ -500,12 +500,7 @@ impl LightMaps {
             .maps()
             .iter()
             .enumerate()
-            .map(|(i, (m, _))| Stage::Scalar {
-                name: format!("depth_map{i}"),
-                data: m.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            })
+            .map(|(i, (m, _))| Stage::unit(format!("depth_map{i}"), m.clone()))
             .collect();
         if let Some(fitted) = &self.fitted {
             v.push(Stage::Color {

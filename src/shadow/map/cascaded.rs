@@ -27,8 +27,36 @@ use crate::shadow::light::cascades::Cascades;
 use crate::shadow::light::MapOptions;
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "csm",
+    family: Family::Map,
+    summary: "cascaded / parallel-split shadow maps (RTR 7.4.1, Zhang et al. 2006): a map per slice of the view range; seams at the splits, texels wasted by stable fitting",
+    sweep: &[
+        &[],
+        &[("cascades", "2"), ("size", "1448")],
+        &[("split", "log")],
+        &[("split", "uniform")],
+        &[("snap", "true")],
+        &[("blend", "dither")],
+        &[("filter", "pcf2")],
+    ],
+    extended: &[
+        &[("cascades", "8"), ("size", "724")],
+        &[("cascades", "1"), ("size", "2048")],
+        &[("lambda", "0.9")],
+        &[("select", "bounds")],
+        &[("band", "0")],
+        &[("band", "0"), ("filter", "poisson"), ("kernel", "7")],
+        &[("filter", "poisson"), ("kernel", "7")],
+        &[("size", "2048")],
+    ],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 /// Options of the cascaded shadow map.
 #[derive(Clone, Debug, PartialEq)]
@@ -83,38 +111,6 @@ pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTech
 /// cascades'.
 pub fn declaration() -> Declaration<Options> {
     cascaded_declaration("csm", Vec::new())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "csm",
-        family: Family::Map,
-        summary: "cascaded / parallel-split shadow maps (RTR 7.4.1, Zhang et al. 2006): a map per slice of the view range; seams at the splits, texels wasted by stable fitting",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("cascades", "2"), ("size", "1448")],
-            &[("split", "log")],
-            &[("split", "uniform")],
-            &[("snap", "true")],
-            &[("blend", "dither")],
-            &[("filter", "pcf2")],
-        ],
-        extended: &[
-            &[("cascades", "8"), ("size", "724")],
-            &[("cascades", "1"), ("size", "2048")],
-            &[("lambda", "0.9")],
-            &[("select", "bounds")],
-            &[("band", "0")],
-            &[("band", "0"), ("filter", "poisson"), ("kernel", "7")],
-            &[("filter", "poisson"), ("kernel", "7")],
-            &[("size", "2048")],
-        ],
-        create: |pairs| Ok(Box::new(csm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// The cascaded shadow map (see the module docs): the plain map's pass over cascades, the

@@ -35,10 +35,21 @@ use crate::shadow::pixels::{per_pixel, per_pixel4_counted};
 use crate::shadow::sample::kernel::{Kernel, MinMax, Pattern, Reference, Reference4};
 use crate::shadow::sample::lookup::cone_field;
 use crate::shadow::sample::lookup::{At, Bias, Estimate, MapLookup, Prepared, Setup, Wide};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::{Vec2, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "chs",
+    family: Family::Map,
+    summary: "contact-hardening shadows (AMD): PCSS on a min/max mip chain, 8x8 search, filter level from the penumbra",
+    sweep: &[&[], &[("size", "512")]],
+    extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 /// Taps per axis of the blocker search (8x8 texels in 16 gathers).
 pub const SEARCH: u32 = 8;
@@ -97,22 +108,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "chs",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "chs",
-        family: Family::Map,
-        summary:
-            "contact-hardening shadows (AMD): PCSS on a min/max mip chain, 8x8 search, filter level from the penumbra",
-        options: declaration().infos(),
-        sweep: &[&[], &[("size", "512")]],
-        extended: &[&[("kernel", "3")], &[("kernel", "11")], &[("size", "4096")]],
-        create: |pairs| Ok(Box::new(Chs::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 
@@ -461,12 +456,7 @@ impl ShadowTechnique for Chs {
             (self.levels(0) - 1) as f32,
         )?);
         for l in 1..4.min(self.levels(0)) {
-            v.push(Stage::Scalar {
-                name: format!("min_level{l}"),
-                data: self.level(0, l, false).clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
+            v.push(Stage::unit(format!("min_level{l}"), self.level(0, l, false).clone()));
         }
         Ok(v)
     }

@@ -20,8 +20,30 @@ use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "lispsm",
+    family: Family::Map,
+    summary: "light space perspective shadow maps (Wimmer et al. 2004): one map warped towards the eye by n_opt; gains nothing when the light faces the camera",
+    sweep: &[
+        &[],
+        &[("n_scale", "0.5")],
+        &[("n_scale", "4")],
+        &[("size", "1024")],
+        &[("filter", "pcf2")],
+    ],
+    extended: &[
+        &[("n_scale", "0.25")],
+        &[("n_scale", "100")],
+        &[("filter", "poisson"), ("kernel", "7")],
+        &[("size", "4096")],
+    ],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 super::warped::warped_options!(
     "LiSPSM",
@@ -33,32 +55,6 @@ super::warped::warped_options!(
 /// and `n_scale`.
 pub fn declaration() -> Declaration<Options> {
     warped_declaration("lispsm", Warp::lispsm_fields())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "lispsm",
-        family: Family::Map,
-        summary: "light space perspective shadow maps (Wimmer et al. 2004): one map warped towards the eye by n_opt; gains nothing when the light faces the camera",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("n_scale", "0.5")],
-            &[("n_scale", "4")],
-            &[("size", "1024")],
-            &[("filter", "pcf2")],
-        ],
-        extended: &[
-            &[("n_scale", "0.25")],
-            &[("n_scale", "100")],
-            &[("filter", "poisson"), ("kernel", "7")],
-            &[("size", "4096")],
-        ],
-        create: |pairs| Ok(Box::new(lispsm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// LiSPSM (see the module docs): the plain map's pass over one warped view, the same type as

@@ -39,8 +39,25 @@ use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "logpsm",
+    family: Family::Map,
+    summary: "logarithmic perspective shadow maps (Lloyd et al. 2008): LiSPSM's warp with logarithmic rows, drawn by logarithmic rasterization at a sample table; gains nothing when the light faces the camera",
+    sweep: &[&[], &[("n_scale", "4")], &[("filter", "pcf2")]],
+    extended: &[
+        &[("size", "1024")],
+        &[("n_scale", "0.25")],
+        &[("n_scale", "20")],
+        &[("filter", "poisson"), ("kernel", "7")],
+        &[("size", "4096")],
+    ],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 super::warped::warped_options!(
     "LogPSM",
@@ -52,27 +69,6 @@ super::warped::warped_options!(
 /// and `n_scale`.
 pub fn declaration() -> Declaration<Options> {
     warped_declaration("logpsm", Warp::logpsm_fields())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "logpsm",
-        family: Family::Map,
-        summary: "logarithmic perspective shadow maps (Lloyd et al. 2008): LiSPSM's warp with logarithmic rows, drawn by logarithmic rasterization at a sample table; gains nothing when the light faces the camera",
-        options: declaration().infos(),
-        sweep: &[&[], &[("n_scale", "4")], &[("filter", "pcf2")]],
-        extended: &[
-            &[("size", "1024")],
-            &[("n_scale", "0.25")],
-            &[("n_scale", "20")],
-            &[("filter", "poisson"), ("kernel", "7")],
-            &[("size", "4096")],
-        ],
-        create: |pairs| Ok(Box::new(logpsm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// LogPSM (see the module docs): the plain map's pass over one warped view with logarithmic

@@ -26,11 +26,31 @@ use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pass::Pass;
 use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::sample::lookup::{MapLookup, Prepared, Setup};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::stencil::{Mode, StencilVolumes};
 use crate::Error;
 use glam::{Vec2, Vec3};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "multi-sample",
+    family: Family::Map,
+    summary: "N hard shadows from points over the area light, averaged (Heckbert and Herf): converges to the reference",
+    sweep: &[
+        &[("samples", "4"), ("size", "512")],
+        &[("samples", "16"), ("size", "512")],
+        &[("samples", "16"), ("method", "volumes")],
+    ],
+    extended: &[
+        &[],
+        &[("samples", "64"), ("size", "512")],
+        &[("samples", "256"), ("size", "512")],
+        &[("samples", "64"), ("method", "volumes")],
+    ],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 choice_enum! {
     /// How each sample's hard shadow is computed.
@@ -91,31 +111,6 @@ pub fn declaration() -> Declaration<Options> {
                 &mut o.pcf
             }),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "multi-sample",
-        family: Family::Map,
-        summary:
-            "N hard shadows from points over the area light, averaged (Heckbert and Herf): converges to the reference",
-        options: declaration().infos(),
-        sweep: &[
-            &[("samples", "4"), ("size", "512")],
-            &[("samples", "16"), ("size", "512")],
-            &[("samples", "16"), ("method", "volumes")],
-        ],
-        extended: &[
-            &[],
-            &[("samples", "64"), ("size", "512")],
-            &[("samples", "256"), ("size", "512")],
-            &[("samples", "64"), ("method", "volumes")],
-        ],
-        create: |pairs| Ok(Box::new(MultiSample::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -13,8 +13,29 @@ use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::pass::PassTechnique;
 use crate::shadow::sample::kernel::MAX_TAPS;
 use crate::shadow::sample::lookup::lookup_fields;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "pcss",
+    family: Family::Map,
+    summary: "percentage-closer soft shadows (Fernando 2005): blocker search, penumbra by RTR eq. 7.6, PCF that wide",
+    sweep: &[
+        &[],
+        &[("blockers", "32"), ("taps", "64")],
+        &[("disk", "rotated")],
+        &[("size", "512")],
+    ],
+    extended: &[
+        &[("hierarchy", "true")],
+        &[("disk", "spiral"), ("taps", "32")],
+        &[("receiver", "true"), ("units", "0"), ("slope", "0")],
+        &[("angle", "1")],
+    ],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
@@ -41,32 +62,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "pcss",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "pcss",
-        family: Family::Map,
-        summary:
-            "percentage-closer soft shadows (Fernando 2005): blocker search, penumbra by RTR eq. 7.6, PCF that wide",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("blockers", "32"), ("taps", "64")],
-            &[("disk", "rotated")],
-            &[("size", "512")],
-        ],
-        extended: &[
-            &[("hierarchy", "true")],
-            &[("disk", "spiral"), ("taps", "32")],
-            &[("receiver", "true"), ("units", "0"), ("slope", "0")],
-            &[("angle", "1")],
-        ],
-        create: |pairs| Ok(Box::new(Pcss::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -28,8 +28,19 @@ use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "psm",
+    family: Family::Map,
+    summary: "perspective shadow maps (Stamminger and Drettakis 2002): the map in the camera's post-perspective space; casters behind the eye need the virtual camera moved back (shift); falls back near the view axis",
+    sweep: &[&[], &[("shift", "false")], &[("filter", "pcf2")]],
+    extended: &[&[("size", "1024")], &[("filter", "poisson"), ("kernel", "7")]],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 super::warped::warped_options!(
     "PSM",
@@ -40,21 +51,6 @@ super::warped::warped_options!(
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `shift`.
 pub fn declaration() -> Declaration<Options> {
     warped_declaration("psm", Warp::psm_fields())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "psm",
-        family: Family::Map,
-        summary: "perspective shadow maps (Stamminger and Drettakis 2002): the map in the camera's post-perspective space; casters behind the eye need the virtual camera moved back (shift); falls back near the view axis",
-        options: declaration().infos(),
-        sweep: &[&[], &[("shift", "false")], &[("filter", "pcf2")]],
-        extended: &[&[("size", "1024")], &[("filter", "poisson"), ("kernel", "7")]],
-        create: |pairs| Ok(Box::new(psm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// PSM (see the module docs): the plain map's pass over one post-perspective view, built by

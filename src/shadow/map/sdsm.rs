@@ -22,8 +22,30 @@ use super::warped::directional;
 use crate::shadow::light::cascades::{Cascades, Split};
 use crate::shadow::light::sdsm::Partition;
 use crate::shadow::light::MapOptions;
-use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "sdsm",
+    family: Family::Map,
+    summary: "sample distribution shadow maps (Lauritzen et al. 2011): cascades over the depths the camera sees, by a reduction and a histogram; a frame late after a sudden view change with latency=1",
+    sweep: &[
+        &[],
+        &[("partition", "minmax")],
+        &[("split", "practical")],
+        &[("latency", "1")],
+        &[("filter", "pcf2")],
+    ],
+    extended: &[
+        &[("cascades", "2"), ("size", "1448")],
+        &[("partition", "view")],
+        &[("snap", "true")],
+        &[("blend", "dither")],
+    ],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 /// Options of SDSM.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,32 +81,6 @@ impl HoldsMapPass for Options {
 /// The option declaration: `csm`'s and SDSM's `partition` and `latency`.
 pub fn declaration() -> Declaration<Options> {
     cascaded_declaration("sdsm", Cascades::sdsm_fields())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "sdsm",
-        family: Family::Map,
-        summary: "sample distribution shadow maps (Lauritzen et al. 2011): cascades over the depths the camera sees, by a reduction and a histogram; a frame late after a sudden view change with latency=1",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("partition", "minmax")],
-            &[("split", "practical")],
-            &[("latency", "1")],
-            &[("filter", "pcf2")],
-        ],
-        extended: &[
-            &[("cascades", "2"), ("size", "1448")],
-            &[("partition", "view")],
-            &[("snap", "true")],
-            &[("blend", "dither")],
-        ],
-        create: |pairs| Ok(Box::new(sdsm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// SDSM (see the module docs): the cascaded map's pass with the depths' partition, built by

@@ -28,61 +28,55 @@ pub use super::plain::{declaration, Filter, FitTo, Layer, Options};
 use crate::pipeline::Surface;
 use crate::shadow::light::LightView;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Family, TechniqueInfo};
+use crate::shadow::technique::{Entry, Family};
 use crate::Error;
 
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "shadow-map",
-        family: Family::Map,
-        summary:
-            "depth map from the light, one comparison per pixel (RTR 7.4): acne, Peter Panning, aliasing, shimmering",
-        options: declaration().infos(),
-        sweep: &[
-            &[("size", "256")],
-            &[("size", "512")],
-            &[("size", "2048")],
-            &[("units", "0"), ("slope", "0")],
-            &[("units", "100000")],
-            &[("units", "0"), ("slope", "0"), ("normal", "1.5")],
-            &[("units", "0"), ("slope", "0"), ("receiver", "true")],
-            &[("layer", "second"), ("units", "0"), ("slope", "0")],
-            &[("layer", "midpoint"), ("units", "0"), ("slope", "0")],
-            &[("layer", "id")],
-            &[("fit", "receivers"), ("snap", "true")],
-            &[("filter", "pcf2")],
-            &[("filter", "depth-bilinear")],
-            &[("filter", "grid")],
-            &[("filter", "tent")],
-            &[("filter", "poisson")],
-            &[("filter", "rotated")],
-            &[("filter", "spiral")],
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "shadow-map",
+    family: Family::Map,
+    summary: "depth map from the light, one comparison per pixel (RTR 7.4): acne, Peter Panning, aliasing, shimmering",
+    sweep: &[
+        &[("size", "256")],
+        &[("size", "512")],
+        &[("size", "2048")],
+        &[("units", "0"), ("slope", "0")],
+        &[("units", "100000")],
+        &[("units", "0"), ("slope", "0"), ("normal", "1.5")],
+        &[("units", "0"), ("slope", "0"), ("receiver", "true")],
+        &[("layer", "second"), ("units", "0"), ("slope", "0")],
+        &[("layer", "midpoint"), ("units", "0"), ("slope", "0")],
+        &[("layer", "id")],
+        &[("fit", "receivers"), ("snap", "true")],
+        &[("filter", "pcf2")],
+        &[("filter", "depth-bilinear")],
+        &[("filter", "grid")],
+        &[("filter", "tent")],
+        &[("filter", "poisson")],
+        &[("filter", "rotated")],
+        &[("filter", "spiral")],
+    ],
+    extended: &[
+        &[("size", "1024")],
+        &[("size", "4096")],
+        &[("format", "u16")],
+        &[("filter", "grid"), ("kernel", "9"), ("cone", "2")],
+        &[("format", "u24")],
+        &[("fit", "receivers")],
+        &[("filter", "grid"), ("hierarchy", "true")],
+        &[("filter", "grid"), ("kernel", "9")],
+        &[
+            ("filter", "grid"),
+            ("kernel", "9"),
+            ("receiver", "true"),
+            ("units", "0"),
+            ("slope", "0"),
         ],
-        extended: &[
-            &[("size", "1024")],
-            &[("size", "4096")],
-            &[("format", "u16")],
-            &[("filter", "grid"), ("kernel", "9"), ("cone", "2")],
-            &[("format", "u24")],
-            &[("fit", "receivers")],
-            &[("filter", "grid"), ("hierarchy", "true")],
-            &[("filter", "grid"), ("kernel", "9")],
-            &[
-                ("filter", "grid"),
-                ("kernel", "9"),
-                ("receiver", "true"),
-                ("units", "0"),
-                ("slope", "0"),
-            ],
-            &[("filter", "poisson"), ("taps", "64")],
-            &[("filter", "poisson"), ("world", "0.1")],
-        ],
-        create: |pairs| Ok(Box::new(ShadowMap::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
-    }
-}
+        &[("filter", "poisson"), ("taps", "64")],
+        &[("filter", "poisson"), ("world", "0.1")],
+    ],
+    ..Entry::BASE
+};
 
 /// The shadow-map technique (see the module docs): the plain map's pass.
 pub type ShadowMap = PassTechnique<MapPass>;

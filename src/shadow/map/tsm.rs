@@ -27,8 +27,19 @@ use super::plain::MapPass;
 use super::warped::{build, declaration as warped_declaration, directional};
 use crate::shadow::light::warp::{Warp, WarpKind};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "tsm",
+    family: Family::Map,
+    summary: "trapezoidal shadow maps (Martin and Tan 2004): the view's trapezoid from the light mapped onto the map, the focus on the 80 % line; gains nothing when the light faces the camera",
+    sweep: &[&[], &[("focus", "0.2")], &[("focus", "0.8")], &[("filter", "pcf2")]],
+    extended: &[&[("size", "1024")], &[("focus", "0.05")], &[("filter", "poisson"), ("kernel", "7")]],
+    applies: Some(directional),
+    ..Entry::BASE
+};
 
 super::warped::warped_options!(
     "TSM",
@@ -39,21 +50,6 @@ super::warped::warped_options!(
 /// The option declaration: the shadow map's (but `fit` and `snap`) and `focus`.
 pub fn declaration() -> Declaration<Options> {
     warped_declaration("tsm", Warp::tsm_fields())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "tsm",
-        family: Family::Map,
-        summary: "trapezoidal shadow maps (Martin and Tan 2004): the view's trapezoid from the light mapped onto the map, the focus on the 80 % line; gains nothing when the light faces the camera",
-        options: declaration().infos(),
-        sweep: &[&[], &[("focus", "0.2")], &[("focus", "0.8")], &[("filter", "pcf2")]],
-        extended: &[&[("size", "1024")], &[("focus", "0.05")], &[("filter", "poisson"), ("kernel", "7")]],
-        create: |pairs| Ok(Box::new(tsm(declaration().parse(pairs)?)?)),
-        applies: Some(directional),
-        models: &[],
-    }
 }
 
 /// TSM (see the module docs): the plain map's pass over one warped view, built by [`tsm`].

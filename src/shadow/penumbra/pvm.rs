@@ -53,10 +53,21 @@ use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
 use crate::shadow::sample::kernel::bilinear_compare;
 use crate::shadow::sample::lookup::{Bias, MapLookup, Prepared, Setup};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "pvm",
+    family: Family::Penumbra,
+    summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
+    sweep: &[&[], &[("smooth", "true")]],
+    extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 /// Options of penumbra volume maps.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,21 +113,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "pvm",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "pvm",
-        family: Family::Penumbra,
-        summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
-        options: declaration().infos(),
-        sweep: &[&[], &[("smooth", "true")]],
-        extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
-        create: |pairs| Ok(Box::new(Pvm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -61,10 +61,30 @@ use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::sample::kernel::{bilinear_compare, Class};
 use crate::shadow::sample::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::{Vec2, Vec3};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "pvmf",
+    family: Family::Penumbra,
+    summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
+    sweep: &[&[], &[("size", "2048")], &[("blur", "12")]],
+    extended: &[
+        &[("pcf", "3")],
+        &[("jitter", "false")],
+        &[("layer", "second")],
+        &[("layer", "first")],
+        &[("pcf", "12"), ("size", "1024")],
+        &[("spread", "1")],
+        &[("ids", "group"), ("blur", "12")],
+        &[("blur", "4")],
+    ],
+    models: &[crate::shadow::technique::Effect::AreaLight],
+    ..Entry::BASE
+};
 
 crate::choice_enum! {
     /// What the blur's `B(u, v, s, t)` compares (Cournia 5.3).
@@ -216,30 +236,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "pvmf",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "pvmf",
-        family: Family::Penumbra,
-        summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
-        options: declaration().infos(),
-        sweep: &[&[], &[("size", "2048")], &[("blur", "12")]],
-        extended: &[
-            &[("pcf", "3")],
-            &[("jitter", "false")],
-            &[("layer", "second")],
-            &[("layer", "first")],
-            &[("pcf", "12"), ("size", "1024")],
-            &[("spread", "1")],
-            &[("ids", "group"), ("blur", "12")],
-            &[("blur", "4")],
-        ],
-        create: |pairs| Ok(Box::new(Pvmf::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::AreaLight],
     }
 }
 

@@ -18,12 +18,19 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{light_views, LightView, Payload, ViewMaps};
 use crate::shadow::pixels::per_pixel;
-use crate::shadow::technique::{
-    object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility,
-};
+use crate::shadow::technique::{object_named, Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::Vec4;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "cookie",
+    family: Family::Planar,
+    summary: "projective shadow texture (RTR 7.2): occluder mask projected from the light; no self-shadowing, shadows cast backward",
+    sweep: &[&[], &[("filter", "bilinear")]],
+    ..Entry::BASE
+};
 
 choice_enum! {
     /// How the mask is sampled.
@@ -74,21 +81,6 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.filter,
             ),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "cookie",
-        family: Family::Planar,
-        summary: "projective shadow texture (RTR 7.2): occluder mask projected from the light; no self-shadowing, shadows cast backward",
-        options: declaration().infos(),
-        sweep: &[&[], &[("filter", "bilinear")]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(Cookie::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 
@@ -277,12 +269,7 @@ impl ShadowTechnique for Cookie {
             .masks
             .iter()
             .enumerate()
-            .map(|(i, (m, _))| Stage::Scalar {
-                name: format!("cookie{i}"),
-                data: m.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            })
+            .map(|(i, (m, _))| Stage::unit(format!("cookie{i}"), m.clone()))
             .collect())
     }
 }

@@ -27,12 +27,19 @@ use crate::pipeline::*;
 use crate::scene::Mesh;
 use crate::shadow::inspect::{self, NoTrace, Step, Steps, Trace};
 use crate::shadow::light::homogeneous_position;
-use crate::shadow::technique::{
-    object_named, Declaration, Family, Field, ShadowTechnique, Stage, TechniqueInfo, Visibility,
-};
+use crate::shadow::technique::{object_named, Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::{DVec3, Mat4, Vec3, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "planar",
+    family: Family::Planar,
+    summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
+    sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
+    ..Entry::BASE
+};
 
 /// Options of planar projected shadows.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,21 +96,6 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.clip,
             ),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "planar",
-        family: Family::Planar,
-        summary: "planar projected shadows with stencil (Blinn; RTR 7.2): exact on planes, nothing on other surfaces",
-        options: declaration().infos(),
-        sweep: &[&[], &[("stencil", "off"), ("darkness", "0.5")]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(Planar::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 
@@ -437,20 +429,15 @@ impl ShadowTechnique for Planar {
         let mut v: Vec<Stage> = self
             .masks
             .iter()
-            .map(|(r, m)| Stage::Scalar {
-                name: format!("receiver_stencil_{}", frame.scene.objects[*r].name),
-                data: m.map(|x| x as f32),
-                lo: 0.0,
-                hi: 1.0,
+            .map(|(r, m)| {
+                Stage::unit(
+                    format!("receiver_stencil_{}", frame.scene.objects[*r].name),
+                    m.map(|x| x as f32),
+                )
             })
             .collect();
         if let Some(s) = &self.shadow {
-            v.push(Stage::Scalar {
-                name: "flattened_shadows".into(),
-                data: s.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
+            v.push(Stage::unit("flattened_shadows", s.clone()));
         }
         Ok(v)
     }

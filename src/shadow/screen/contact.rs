@@ -16,9 +16,24 @@ use crate::shadow::map::plain::{self, MapPass};
 use crate::shadow::map::shadow_map;
 use crate::shadow::options::within;
 use crate::shadow::pass::Pass;
-use crate::shadow::technique::{Declaration, Family, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, ShadowTechnique, Stage, Step, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "contact-map",
+    family: Family::Screen,
+    summary: "a shadow map plus a short screen-space march to the light (HDRP, Unreal; RTR 7.10): contact shadows the bias lost, within the march's length",
+    sweep: &[
+        &[],
+        &[("units", "100000")],
+        &[("length", "0.5")],
+        &[("filter", "pcf2"), ("steps", "8")],
+    ],
+    extended: &[&[("size", "512")], &[("steps", "32"), ("jitter", "false")]],
+    ..Entry::BASE
+};
 
 /// Options of the shadow map with contact shadows.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,26 +62,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "contact-map",
         fields,
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "contact-map",
-        family: Family::Screen,
-        summary: "a shadow map plus a short screen-space march to the light (HDRP, Unreal; RTR 7.10): contact shadows the bias lost, within the march's length",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("units", "100000")],
-            &[("length", "0.5")],
-            &[("filter", "pcf2"), ("steps", "8")],
-        ],
-        extended: &[&[("size", "512")], &[("steps", "32"), ("jitter", "false")]],
-        create: |pairs| Ok(Box::new(ContactMap::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

@@ -12,9 +12,26 @@ use crate::pipeline::Pipeline;
 use crate::shadow::inspect::Steps;
 use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
-use crate::shadow::technique::{Declaration, Family, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Stage};
 use crate::shadow::timing::Passes;
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "screen-space",
+    family: Family::Screen,
+    summary: "a ray march through the camera's depth buffer towards the light (RTR 7.10): occluders off screen, hidden or behind their front faces cast nothing",
+    sweep: &[
+        &[],
+        &[("steps", "8")],
+        &[("steps", "32")],
+        &[("jitter", "false")],
+        &[("thickness", "0.05")],
+        &[("thickness", "5")],
+    ],
+    extended: &[&[("steps", "64")], &[("length", "0.5")]],
+    ..Entry::BASE
+};
 
 /// Options of screen-space shadows.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,28 +54,6 @@ pub fn declaration() -> Declaration<Options> {
     Declaration {
         technique: "screen-space",
         fields: within(March::fields(), |o: &mut Options| &mut o.march),
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "screen-space",
-        family: Family::Screen,
-        summary: "a ray march through the camera's depth buffer towards the light (RTR 7.10): occluders off screen, hidden or behind their front faces cast nothing",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("steps", "8")],
-            &[("steps", "32")],
-            &[("jitter", "false")],
-            &[("thickness", "0.05")],
-            &[("thickness", "5")],
-        ],
-        extended: &[&[("steps", "64")], &[("length", "0.5")]],
-        create: |pairs| Ok(Box::new(ScreenSpace::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

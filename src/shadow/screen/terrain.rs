@@ -30,11 +30,28 @@ use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
 use crate::shadow::light::pass::Depth;
 use crate::shadow::light::{corners, directional_view, locate_on, merged_casters, scene_depth, DepthPass, ViewMaps};
-use crate::shadow::technique::{Declaration, Family, Field, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Step, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "terrain-height",
+    family: Family::Screen,
+    summary: "per terrain-grid location, the height above which the sun is visible (Gollent 2014; RTR 7.10): soft terrain shadows on everything above it; objects that are not terrain shadow nothing",
+    sweep: &[
+        &[],
+        &[("objects", "true")],
+        &[("grid", "128")],
+        &[("band", "0")],
+        &[("step", "1"), ("iterations", "2")],
+    ],
+    extended: &[&[("grid", "1024"), ("size", "4096")], &[("iterations", "0")]],
+    applies: Some(applies),
+    ..Entry::BASE
+};
 
 /// Options of terrain occlusion height.
 #[derive(Clone, Debug, PartialEq)]
@@ -100,27 +117,6 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.objects,
             ),
         ],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "terrain-height",
-        family: Family::Screen,
-        summary: "per terrain-grid location, the height above which the sun is visible (Gollent 2014; RTR 7.10): soft terrain shadows on everything above it; objects that are not terrain shadow nothing",
-        options: declaration().infos(),
-        sweep: &[
-            &[],
-            &[("objects", "true")],
-            &[("grid", "128")],
-            &[("band", "0")],
-            &[("step", "1"), ("iterations", "2")],
-        ],
-        extended: &[&[("grid", "1024"), ("size", "4096")], &[("iterations", "0")]],
-        create: |pairs| Ok(Box::new(TerrainHeight::new(declaration().parse(pairs)?)?)),
-        applies: Some(applies),
-        models: &[],
     }
 }
 
@@ -609,12 +605,7 @@ impl ShadowTechnique for TerrainHeight {
             ("objects_sun_map", &self.objects_map),
         ] {
             if let Some(m) = m {
-                v.push(Stage::Scalar {
-                    name: name.into(),
-                    data: m.map().clone(),
-                    lo: 0.0,
-                    hi: 1.0,
-                });
+                v.push(Stage::unit(name, m.map().clone()));
             }
         }
         Ok(v)

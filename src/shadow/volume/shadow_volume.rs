@@ -25,8 +25,23 @@ pub use super::stencil::zpass_is_safe;
 pub use super::stencil::Mode;
 use super::stencil::StencilVolumes;
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field};
 use crate::Error;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "shadow-volume",
+    family: Family::Volume,
+    summary:
+        "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
+    sweep: &[
+        &[],
+        &[("mode", "zfail")],
+        &[("mode", "zfail-infinite")],
+        &[("mode", "zpass")],
+    ],
+    ..Entry::BASE
+};
 
 /// Options of stencil shadow volumes.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,21 +65,6 @@ pub fn declaration() -> Declaration<Options> {
             "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zfail-infinite (capped, infinite far plane projection and its own depth pre-pass), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
             |o: &mut Options| &mut o.mode,
         )],
-    }
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "shadow-volume",
-        family: Family::Volume,
-        summary: "stencil shadow volumes, silhouettes by adjacency (RTR 7.3): exact; z-pass fails with the eye inside a volume",
-        options: declaration().infos(),
-        sweep: &[&[], &[("mode", "zfail")], &[("mode", "zfail-infinite")], &[("mode", "zpass")]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(ShadowVolume::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[],
     }
 }
 

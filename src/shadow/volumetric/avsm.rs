@@ -35,9 +35,19 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, merged_casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
 use crate::Error;
 use glam::Vec3;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "avsm",
+    family: Family::Volumetric,
+    summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
+    sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
+    models: &[crate::shadow::technique::Effect::Transmittance],
+    ..Entry::BASE
+};
 
 /// Most nodes a texel may keep.
 pub const MAX_NODES: usize = 64;
@@ -94,21 +104,6 @@ pub fn declaration() -> Declaration<Options> {
             ),
         ],
     )
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "avsm",
-        family: Family::Volumetric,
-        summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
-        options: declaration().infos(),
-        sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(Avsm::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::Transmittance],
-    }
 }
 
 /// One node of a texel's curve: the transmittance per channel behind `depth`.
@@ -444,12 +439,10 @@ impl LightPass for AvsmPass {
                 lo: 0.0,
                 hi: most as f32,
             });
-            v.push(Stage::Scalar {
-                name: format!("transmittance_behind_all{i}"),
-                data: of(&|c| c.at(1.0).dot(crate::visibility::LUMINANCE))?,
-                lo: 0.0,
-                hi: 1.0,
-            });
+            v.push(Stage::unit(
+                format!("transmittance_behind_all{i}"),
+                of(&|c| c.at(1.0).dot(crate::visibility::LUMINANCE))?,
+            ));
         }
         Ok(v)
     }

@@ -36,10 +36,21 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, merged_casters, Casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "deep-shadow-map",
+    family: Family::Volumetric,
+    summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
+    sweep: &[&[]],
+    extended: &[&[("filter", "nearest")]],
+    models: &[crate::shadow::technique::Effect::Transmittance],
+    ..Entry::BASE
+};
 
 choice_enum! {
     /// How the lookup combines texels.
@@ -104,21 +115,6 @@ pub fn declaration() -> Declaration<Options> {
             ),
         ],
     )
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "deep-shadow-map",
-        family: Family::Volumetric,
-        summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
-        options: declaration().infos(),
-        sweep: &[&[]],
-        extended: &[&[("filter", "nearest")]],
-        create: |pairs| Ok(Box::new(DeepShadowMap::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::Transmittance],
-    }
 }
 
 /// A vertex of a texel's function.

@@ -32,9 +32,24 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Field, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
 use crate::Error;
 use glam::{Vec3, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "opacity-maps",
+    family: Family::Volumetric,
+    summary: "opacity shadow maps (Kim and Neumann 2001) and deep opacity maps (Yuksel and Keyser 2008): optical depth in K slices, interpolated; banding between slices",
+    sweep: &[
+        &[("layout", "uniform"), ("slices", "4")],
+        &[("layout", "uniform"), ("slices", "16")],
+        &[],
+    ],
+    extended: &[&[("slices", "16")]],
+    models: &[crate::shadow::technique::Effect::Transmittance],
+    ..Entry::BASE
+};
 
 /// Most slices.
 pub const MAX_SLICES: u32 = 64;
@@ -91,25 +106,6 @@ pub fn declaration() -> Declaration<Options> {
             ),
         ],
     )
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "opacity-maps",
-        family: Family::Volumetric,
-        summary: "opacity shadow maps (Kim and Neumann 2001) and deep opacity maps (Yuksel and Keyser 2008): optical depth in K slices, interpolated; banding between slices",
-        options: declaration().infos(),
-        sweep: &[
-            &[("layout", "uniform"), ("slices", "4")],
-            &[("layout", "uniform"), ("slices", "16")],
-            &[],
-        ],
-        extended: &[&[("slices", "16")]],
-        create: |pairs| Ok(Box::new(OpacityMaps::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::Transmittance],
-    }
 }
 
 /// One light view's maps.
@@ -321,18 +317,8 @@ impl LightPass for OpacityPass {
     fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, (m, _)) in self.maps.maps().iter().enumerate() {
-            v.push(Stage::Scalar {
-                name: format!("opaque_depth{i}"),
-                data: m.opaque.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
-            v.push(Stage::Scalar {
-                name: format!("first_boundary{i}"),
-                data: m.start.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
+            v.push(Stage::unit(format!("opaque_depth{i}"), m.opaque.clone()));
+            v.push(Stage::unit(format!("first_boundary{i}"), m.start.clone()));
             for (j, sl) in m.slices.iter().enumerate() {
                 v.push(Stage::Scalar {
                     name: format!("slice{i}_{j:02}_optical_depth"),

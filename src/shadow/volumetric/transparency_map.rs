@@ -22,9 +22,19 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Family, Stage, TechniqueInfo};
+use crate::shadow::technique::{Declaration, Entry, Family, Stage};
 use crate::Error;
 use glam::{Vec3, Vec4};
+
+/// Registry entry (its options and constructor: `registry.rs`).
+pub const ENTRY: Entry = Entry {
+    name: "transparency-map",
+    family: Family::Volumetric,
+    summary: "coloured transparency map (RTR 7.8): opaque depth map plus the nearest transparent surface's depth and colour; one layer only, transparent receivers wrong",
+    sweep: &[&[], &[("size", "512")]],
+    models: &[crate::shadow::technique::Effect::Transmittance],
+    ..Entry::BASE
+};
 
 /// Options of the coloured transparency map.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,21 +55,6 @@ impl Default for Options {
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
     super::declaration("transparency-map", |o: &mut Options| &mut o.pass, Vec::new())
-}
-
-/// Registry entry.
-pub fn info() -> TechniqueInfo {
-    TechniqueInfo {
-        name: "transparency-map",
-        family: Family::Volumetric,
-        summary: "coloured transparency map (RTR 7.8): opaque depth map plus the nearest transparent surface's depth and colour; one layer only, transparent receivers wrong",
-        options: declaration().infos(),
-        sweep: &[&[], &[("size", "512")]],
-        extended: &[],
-        create: |pairs| Ok(Box::new(TransparencyMap::new(declaration().parse(pairs)?)?)),
-        applies: None,
-        models: &[crate::shadow::technique::Effect::Transmittance],
-    }
 }
 
 /// One light view's maps: opaque depth, transparent depth, transparent colour.
@@ -211,18 +206,8 @@ impl LightPass for TransparencyPass {
     fn stages(&self) -> Result<Vec<Stage>, Error> {
         let mut v = Vec::new();
         for (i, (m, _)) in self.maps.maps().iter().enumerate() {
-            v.push(Stage::Scalar {
-                name: format!("opaque_depth{i}"),
-                data: m.opaque.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
-            v.push(Stage::Scalar {
-                name: format!("transparent_depth{i}"),
-                data: m.depth.clone(),
-                lo: 0.0,
-                hi: 1.0,
-            });
+            v.push(Stage::unit(format!("opaque_depth{i}"), m.opaque.clone()));
+            v.push(Stage::unit(format!("transparent_depth{i}"), m.depth.clone()));
             v.push(Stage::Color {
                 name: format!("transparent_colour{i}"),
                 data: m
