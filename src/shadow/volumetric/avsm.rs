@@ -251,10 +251,10 @@ impl PointLookup for AvsmPass {
     /// recording trace): the curve of the texel the point falls in, read at its depth, every
     /// step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
+        let Some((store, at)) = Texel::of(&self.maps, frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
-        let (z, c) = (at.depth, Curve(self.maps.get(at.view).0.pixel(at.x, at.y)));
+        let (z, c) = (at.depth, Curve(store.pixel(at.x, at.y)));
         t.step(|| at.step("the texel whose curve the point reads, and its depth there", z));
         t.step(|| {
             let mut st = Step::new(
@@ -344,11 +344,7 @@ impl LightPass for AvsmPass {
         let scene = frame.scene;
         // Casters in scene order, each triangle with its material's transmittance.
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
-        let transmit: Vec<Vec3> = casters
-            .object
-            .iter()
-            .map(|&ob| scene.materials[scene.objects[ob as usize].material].transmittance_rgb())
-            .collect();
+        let transmit = super::transmittances(scene, &casters);
         let mut indices = casters.indices.clone();
         if o.order == Order::Reverse {
             // Every texel then sees its fragments backwards (triangles reversed; a triangle

@@ -477,14 +477,9 @@ impl LightPass for DeepShadowPass {
         let o = self.opts.clone();
         let scene = frame.scene;
         let casters = merged_casters(frame, &vec![true; scene.objects.len()])?;
-        let transmit: Vec<Vec4> = casters
-            .object
+        let transmit: Vec<Vec4> = super::transmittances(scene, &casters)
             .iter()
-            .map(|&ob| {
-                scene.materials[scene.objects[ob as usize].material]
-                    .transmittance_rgb()
-                    .extend(1.0)
-            })
+            .map(|t| t.extend(1.0))
             .collect();
         let state = RenderState {
             offset: o.pass.offset(),

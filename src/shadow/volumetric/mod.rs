@@ -16,7 +16,7 @@ use crate::pipeline::{DepthFormat, Pipeline, PolygonOffset};
 use crate::reference::SamplePoint;
 use crate::scene::Scene;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
-use crate::shadow::light::{self, merged_casters, Casters, DepthPass, OnView};
+use crate::shadow::light::{merged_casters, Casters, DepthPass, ViewMaps};
 use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
 use crate::shadow::technique::{Declaration, Field, Stage};
@@ -97,20 +97,28 @@ pub struct Texel {
 }
 
 impl Texel {
-    /// The texel of world point `p` in `maps` (each `size` texels square); `None`, reported
-    /// to `t` as lit, where `p` is outside every map (the light side's one edge rule).
-    pub fn of(maps: &[impl OnView], frame: &Frame, p: Vec3, size: u32, t: &mut impl Trace) -> Option<Texel> {
-        let Some(at) = light::locate(maps, &frame.light, p).filter(|at| at.inside()) else {
+    /// The texel of world point `p` in `maps` (each `size` texels square), with the map of
+    /// its view; `None`, reported to `t` as lit, where `p` is outside every map (the light
+    /// side's one edge rule).
+    pub fn of<'m, M>(
+        maps: &'m ViewMaps<M>,
+        frame: &Frame,
+        p: Vec3,
+        size: u32,
+        t: &mut impl Trace,
+    ) -> Option<(&'m M, Texel)> {
+        let Some(at) = maps.locate(&frame.light, p).filter(|at| at.inside()) else {
             t.step(|| Step::new("outside", "the point is outside the light's maps: lit"));
             return None;
         };
         let (x, y) = at.texel(size, size);
-        Some(Texel {
+        let texel = Texel {
             view: at.view,
             x,
             y,
             depth: at.depth,
-        })
+        };
+        Some((&maps.get(at.view).0, texel))
     }
 
     /// The `inspect` step that says where the point was read (`what`: what is read there),
@@ -121,6 +129,16 @@ impl Texel {
             .vec2("texel", Vec2::new(self.x as f32, self.y as f32))
             .num("depth", z)
     }
+}
+
+/// Per triangle of `casters`: its material's transmittance per channel (RGB), in triangle
+/// order.
+pub fn transmittances(scene: &Scene, casters: &Casters) -> Vec<Vec3> {
+    casters
+        .object
+        .iter()
+        .map(|&ob| scene.materials[scene.objects[ob as usize].material].transmittance_rgb())
+        .collect()
 }
 
 /// Whether some material of `scene` transmits a colour (different per channel): the

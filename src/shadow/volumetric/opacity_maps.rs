@@ -148,10 +148,9 @@ impl PointLookup for OpacityPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace), every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
+        let Some((m, at)) = Texel::of(&self.maps, frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
-        let m = &self.maps.get(at.view).0;
         let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let od = m.opaque.at(tx, ty);
@@ -275,14 +274,10 @@ impl LightPass for OpacityPass {
         let scene = frame.scene;
         let (opaque, glass) = super::opaque_and_transparent(frame)?;
         // Optical depth per triangle (a fully opaque channel would be infinite: capped).
-        let tau: Vec<Vec4> = glass
-            .object
+        let od = |x: f32| (-math::ln(x.max(1e-6))).min(30.0);
+        let tau: Vec<Vec4> = super::transmittances(scene, &glass)
             .iter()
-            .map(|&ob| {
-                let t = scene.materials[scene.objects[ob as usize].material].transmittance_rgb();
-                let od = |x: f32| (-math::ln(x.max(1e-6))).min(30.0);
-                Vec4::new(od(t.x), od(t.y), od(t.z), 0.0)
-            })
+            .map(|t| Vec4::new(od(t.x), od(t.y), od(t.z), 0.0))
             .collect();
         let mut payload = Sliced {
             pass: o.pass.depth(),

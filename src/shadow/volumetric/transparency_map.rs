@@ -91,10 +91,9 @@ impl PointLookup for TransparencyPass {
     /// The transmittance at world point `p` (the per-pixel pass, and `inspect` with a
     /// recording trace): both maps read at the point's texel, every step reported to `t`.
     fn transmittance(&self, frame: &Frame, p: Vec3, t: &mut impl Trace) -> Vec3 {
-        let Some(at) = Texel::of(self.maps.maps(), frame, p, self.opts.pass.size, t) else {
+        let Some((m, at)) = Texel::of(&self.maps, frame, p, self.opts.pass.size, t) else {
             return Vec3::ONE;
         };
-        let m = &self.maps.get(at.view).0;
         let (tx, ty) = (at.x, at.y);
         let z = at.depth.clamp(0.0, 1.0);
         let (od, td, c) = (m.opaque.at(tx, ty), m.depth.at(tx, ty), m.colour.at(tx, ty).truncate());
@@ -173,14 +172,9 @@ impl LightPass for TransparencyPass {
         let o = self.opts.clone();
         let scene = frame.scene;
         let (opaque, glass) = super::opaque_and_transparent(frame)?;
-        let colours: Vec<Vec4> = glass
-            .object
+        let colours: Vec<Vec4> = super::transmittances(scene, &glass)
             .iter()
-            .map(|&ob| {
-                scene.materials[scene.objects[ob as usize].material]
-                    .transmittance_rgb()
-                    .extend(1.0)
-            })
+            .map(|t| t.extend(1.0))
             .collect();
         let mut payload = Layers {
             pass: o.pass.depth(),
