@@ -491,6 +491,28 @@ fn gltf_node_graphs_are_counted_before_they_are_built() {
     ];
     let e = gltf_error("cycle.gltf", &with_nodes("0", &cycle));
     assert!(e.contains("cycle.gltf") && e.contains("node"), "{e}");
+    // 2^18 = 262,144 instances of one named node (a few KB): within the instance budget,
+    // and loaded in time linear in the objects (each instance's name made unique by a
+    // suffix, not by comparing it with every name so far).
+    let mut doubling: Vec<String> = (0..18)
+        .map(|i| format!(r#"{{"children": [{}, {}]}}"#, i + 1, i + 1))
+        .collect();
+    doubling.push(r#"{"mesh": 0, "name": "leaf"}"#.into());
+    doubling.push(r#"{"camera": 0, "translation": [0, 3, 6]}"#.into());
+    doubling.push(
+        r#"{"rotation": [-0.7071068, 0, 0, 0.7071068], "extensions": {"KHR_lights_punctual": {"light": 0}}}"#.into(),
+    );
+    let p = common::temp_file("hostile-gltf", "doubling.gltf", &with_nodes("0, 19, 20", &doubling));
+    let start = std::time::Instant::now();
+    let s = penumbra::scene::file::load(std::path::Path::new(&p)).unwrap();
+    assert_eq!(s.objects.len(), 1 << 18);
+    let names: std::collections::HashSet<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names.len(), 1 << 18, "every object's name is its own");
+    assert!(
+        s.objects.iter().all(|o| o.name.len() < 64),
+        "suffixes, not ever longer names"
+    );
+    assert!(start.elapsed().as_secs() < 20, "{:?}", start.elapsed());
     // A chain 300 deep.
     let mut chain: Vec<String> = (0..299).map(|i| format!(r#"{{"children": [{}]}}"#, i + 1)).collect();
     chain.push(r#"{"mesh": 0}"#.into());

@@ -191,6 +191,14 @@ impl CompareSampler {
         if let Some(b) = self.border_for(uv) {
             return b;
         }
+        self.pcf2x2_parts(s, uv, reference).value
+    }
+
+    /// [`CompareSampler::pcf2x2`] on the map (the border not applied), with its parts: the
+    /// one code of the comparison, whose unused parts compile away in `pcf2x2`, so that an
+    /// explanation reads the texels and outcomes the value was mixed from.
+    #[inline(always)]
+    pub fn pcf2x2_parts(&self, s: &Surface<f32>, uv: Vec2, reference: f32) -> Pcf2x2 {
         // The footprint of `footprint2x2` and the mix of `bilerp`, written out: this is the
         // innermost loop of every PCF kernel (the array form measured 15 % slower in PCSS).
         let (w, h) = (s.width(), s.height());
@@ -214,8 +222,27 @@ impl CompareSampler {
         let dd = c(d[y1 * ws + x1]);
         let top = a + (b - a) * fx;
         let bottom = cc + (dd - cc) * fx;
-        top + (bottom - top) * fy
+        Pcf2x2 {
+            texels: [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| (x as u32, y as u32)),
+            lit: [a, b, cc, dd],
+            fraction: Vec2::new(fx, fy),
+            value: top + (bottom - top) * fy,
+        }
     }
+}
+
+/// One hardware 2x2 comparison and what it was mixed from ([`CompareSampler::pcf2x2_parts`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Pcf2x2 {
+    /// The footprint's texels: top-left, top-right, bottom-left, bottom-right (clamped to
+    /// the map).
+    pub texels: [(u32, u32); 4],
+    /// Each texel's comparison: 1 lit, 0 not.
+    pub lit: [f32; 4],
+    /// The bilinear fraction.
+    pub fraction: Vec2,
+    /// The mix: the comparison's value.
+    pub value: f32,
 }
 
 impl CompareSampler {

@@ -584,12 +584,12 @@ impl Ctx<'_> {
     ) -> Result<Vec<Light>, Error> {
         {
             let base = materials.len();
+            let mut names = Names::of(materials.iter().map(|m| m.name.as_str()));
             for mut m in g.materials {
-                while materials.iter().any(|x| x.name == m.name) {
-                    m.name = format!("gltf:{}", m.name);
-                }
+                m.name = names.prefixed(m.name);
                 materials.push(m);
             }
+            let mut names = Names::of(objects.iter().map(|o| o.name.as_str()));
             for o in g.objects {
                 *triangles += o.mesh.triangles() as u64;
                 if *triangles > budget {
@@ -604,14 +604,8 @@ impl Ctx<'_> {
                         format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
                     );
                 }
-                let mut name = o.name;
-                let mut k = 2;
-                while objects.iter().any(|x| x.name == name) {
-                    name = format!("{name}#{k}");
-                    k += 1;
-                }
                 objects.push(Object {
-                    name,
+                    name: names.numbered(o.name),
                     mesh: o.mesh,
                     material: base + o.material,
                     heightfield: false,
@@ -1147,6 +1141,51 @@ fn build(ctx: &Ctx, raw: RawScene, description: String) -> Result<Scene, Error> 
         light_path,
         notes,
     })
+}
+
+/// The names already taken in a scene, and how to make a new one unique, in time linear in
+/// the names (a glTF file may bring hundreds of thousands of instances of one name).
+struct Names {
+    taken: std::collections::HashSet<String>,
+    /// Per name: the next `#k` suffix to try for it.
+    next: std::collections::HashMap<String, usize>,
+}
+
+impl Names {
+    /// The names of `taken`.
+    fn of<'a>(taken: impl Iterator<Item = &'a str>) -> Names {
+        Names {
+            taken: taken.map(str::to_string).collect(),
+            next: Default::default(),
+        }
+    }
+
+    /// `name`, or `name#k` with the least `k` from 2 that is free; taken from now on.
+    fn numbered(&mut self, name: String) -> String {
+        let unique = if self.taken.contains(&name) {
+            let k = self.next.entry(name.clone()).or_insert(2);
+            while self.taken.contains(&format!("{name}#{k}")) {
+                *k += 1;
+            }
+            *k += 1;
+            format!("{name}#{}", *k - 1)
+        } else {
+            name
+        };
+        self.taken.insert(unique.clone());
+        unique
+    }
+
+    /// `name`, or `gltf:name` where that is taken (made unique by [`Names::numbered`] if
+    /// that is taken too); taken from now on.
+    fn prefixed(&mut self, name: String) -> String {
+        let name = if self.taken.contains(&name) {
+            format!("gltf:{name}")
+        } else {
+            name
+        };
+        self.numbered(name)
+    }
 }
 
 #[cfg(test)]

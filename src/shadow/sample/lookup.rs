@@ -22,7 +22,7 @@ use super::kernel::{
 };
 use super::planes::PlaneChain;
 use crate::frame::Frame;
-use crate::pipeline::sampler::{bilerp, bilerp_weights, footprint2x2, sample_nearest, Address};
+use crate::pipeline::sampler::{bilerp_weights, sample_nearest, Address, CompareSampler, Pcf2x2};
 use crate::pipeline::*;
 use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::cascades::{self, Blend};
@@ -740,22 +740,35 @@ pub struct Estimate {
 /// One comparison of reference depth `z` at `uv` of `map`: the nearest texel's, or with `pcf`
 /// the hardware 2x2 PCF of the four texels around it, weighted bilinearly (lit outside the
 /// map, the samplers' border); the texels it compared, with their stored depths and
-/// outcomes, reported to `t` from the same values. Bit for bit the pipeline's
-/// [`CompareSampler::pcf2x2`](crate::pipeline::sampler::CompareSampler::pcf2x2) and `nearest` (the four-lane path's), which
-/// the tests hold it to.
+/// outcomes, reported to `t` from the parts the value was computed from
+/// ([`CompareSampler::pcf2x2_parts`], the code of the image's [`CompareSampler::pcf2x2`]).
 #[inline(always)]
 fn compare(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool, t: &mut impl Trace) -> f32 {
+    let sampler = CompareSampler::default();
+    if !t.records() {
+        // The image: the sampler's own calls, `pcf2x2` being `pcf2x2_parts`'s value.
+        return if pcf {
+            sampler.pcf2x2(map, uv, z)
+        } else {
+            sampler.nearest(map, uv, z)
+        };
+    }
     if !light::inside(uv) {
         t.step(|| Step::new("comparison", "outside the map: lit (the samplers' border)").vec2("uv", uv));
-        return 1.0;
+        return sampler.nearest(map, uv, z);
     }
-    let size = (map.width(), map.height());
-    let (texels, f) = match pcf {
-        true => footprint2x2(size, uv),
-        false => ([light::texel(uv, size.0, size.1); 4], Vec2::ZERO),
+    let parts = if pcf {
+        sampler.pcf2x2_parts(map, uv, z)
+    } else {
+        let texel = light::texel(uv, map.width(), map.height());
+        let lit = sampler.nearest(map, uv, z);
+        Pcf2x2 {
+            texels: [texel; 4],
+            lit: [lit; 4],
+            fraction: Vec2::ZERO,
+            value: lit,
+        }
     };
-    let lit = texels.map(|(x, y)| if z <= map.at(x, y) { 1.0f32 } else { 0.0 });
-    let v = if pcf { bilerp(lit, f) } else { lit[0] };
     t.step(|| {
         let mut step = Step::new(
             "comparison",
@@ -765,21 +778,21 @@ fn compare(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool, t: &mut impl Trace) 
             },
         );
         let n = if pcf {
-            step = step.vec2("fraction", f);
+            step = step.vec2("fraction", parts.fraction);
             4
         } else {
             1
         };
-        let weights = if pcf { bilerp_weights(f) } else { [1.0; 4] };
+        let weights = if pcf { bilerp_weights(parts.fraction) } else { [1.0; 4] };
         for i in 0..n {
-            let (tx, ty) = texels[i];
+            let (tx, ty) = parts.texels[i];
             step = step
                 .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
                 .num(&format!("stored depth {i}"), map.at(tx, ty))
-                .flag(&format!("lit {i}"), lit[i] == 1.0)
+                .flag(&format!("lit {i}"), parts.lit[i] == 1.0)
                 .num(&format!("weight {i}"), weights[i]);
         }
         step
     });
-    v
+    parts.value
 }
