@@ -784,13 +784,13 @@ fn compare(map: &Surface<f32>, uv: Vec2, z: f32, pcf: bool, t: &mut impl Trace) 
             1
         };
         let weights = if pcf { bilerp_weights(parts.fraction) } else { [1.0; 4] };
-        for i in 0..n {
-            let (tx, ty) = parts.texels[i];
+        let texels = parts.texels.iter().zip(parts.lit).zip(weights).take(n);
+        for (i, ((&(tx, ty), lit), weight)) in texels.enumerate() {
             step = step
                 .vec2(&format!("texel {i}"), Vec2::new(tx as f32, ty as f32))
                 .num(&format!("stored depth {i}"), map.at(tx, ty))
-                .flag(&format!("lit {i}"), parts.lit[i] == 1.0)
-                .num(&format!("weight {i}"), weights[i]);
+                .flag(&format!("lit {i}"), lit == 1.0)
+                .num(&format!("weight {i}"), weight);
         }
         step
     });
