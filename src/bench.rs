@@ -543,11 +543,8 @@ pub fn draw_random(
 /// and `dir/workload.json` (`meta`, a JSON object that names the layout, targets and
 /// matrices).
 pub fn export_workload(dir: &std::path::Path, vertices: &[f32], indices: &[u32], meta: &str) -> Result<(), Error> {
-    let write = |name: &str, bytes: &[u8]| {
-        let path = dir.join(name);
-        std::fs::write(&path, bytes).map_err(|e| Error::input(format!("{}: {e}", path.display())))
-    };
-    std::fs::create_dir_all(dir).map_err(|e| Error::input(format!("{}: {e}", dir.display())))?;
+    let write = |name: &str, bytes: &[u8]| crate::output::write_plain(&dir.join(name), bytes);
+    crate::output::create_folder(dir)?;
     write(
         "vertices.f32",
         &vertices.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>(),

@@ -315,9 +315,52 @@ impl From<Reason> for String {
     }
 }
 
+/// Most characters of a name that came from input which a message shows ([`quoted`]).
+pub const MAX_SHOWN_NAME: usize = 200;
+
+/// A name that came from input (an object's, a node's, a file's), quoted for a message that
+/// may reach a terminal: control characters (ANSI escapes among them) and the bidirectional
+/// controls that reorder what a terminal shows are written as `\u{..}` escapes, and a name
+/// past [`MAX_SHOWN_NAME`] characters is cut, saying how long it was.
+pub fn quoted(name: &str) -> String {
+    let mut out = String::with_capacity(name.len().min(4 * MAX_SHOWN_NAME) + 2);
+    out.push('\'');
+    for c in name.chars().take(MAX_SHOWN_NAME) {
+        let bidi =
+            matches!(c, '\u{200e}' | '\u{200f}' | '\u{061c}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}');
+        if c.is_control() || bidi {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else if c == '\'' || c == '\\' {
+            out.push('\\');
+            out.push(c);
+        } else {
+            out.push(c);
+        }
+    }
+    out.push('\'');
+    let n = name.chars().count();
+    if n > MAX_SHOWN_NAME {
+        out.push_str(&format!(" (cut: {n} characters)"));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_from_input_are_quoted_without_terminal_controls() {
+        assert_eq!(quoted("ground"), "'ground'");
+        // An ANSI clear-screen, a window-title change and a right-to-left override.
+        let q = quoted("a\u{1b}[2Jb\u{1b}]0;pwned\u{7}c\u{202e}d");
+        assert!(!q.chars().any(|c| c.is_control() || c == '\u{202e}'), "{q}");
+        assert_eq!(q, "'a\\u{1b}[2Jb\\u{1b}]0;pwned\\u{7}c\\u{202e}d'");
+        assert_eq!(quoted("it's"), "'it\\'s'");
+        let long = "x".repeat(1 << 20);
+        let q = quoted(&long);
+        assert!(q.len() < 300 && q.ends_with("(cut: 1048576 characters)"), "{}", q.len());
+    }
 
     #[test]
     fn messages_say_where() {

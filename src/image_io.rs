@@ -9,11 +9,11 @@ use std::path::Path;
 pub fn write_png(path: &Path, s: &Surface<Rgba8>) -> Result<(), Error> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))?;
+            crate::output::create_folder(dir)?;
         }
     }
     let png = encode_png(s).map_err(|e| Error::io(path, "cannot write", e))?;
-    std::fs::write(path, png).map_err(|e| Error::io(path, "cannot write", e))
+    crate::output::write_plain(path, &png)
 }
 
 /// An RGBA8 surface as the bytes of a PNG file (row 0 at the top).
@@ -48,7 +48,7 @@ pub fn write_pfm(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| Error::io(path, "cannot write", e))
+    crate::output::write_plain(path, &bytes)
 }
 
 /// Writes a float image of `channels` (1: channel `Y`; 3: `R`, `G`, `B`) interleaved channels
@@ -60,6 +60,7 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
     let err = |e: exr::error::Error| Error::io(path, "cannot write", e);
     // Compressed one block after another: in parallel, the blocks would be written in the
     // order they finish, and the same image would not always be the same bytes.
+    let mut bytes = std::io::Cursor::new(Vec::new());
     if channels == 3 {
         let ch = SpecificChannels::rgb(|p: Vec2<usize>| {
             let i = (p.y() * wu + p.x()) * 3;
@@ -68,8 +69,8 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
         Image::from_channels((wu, hu), ch)
             .write()
             .non_parallel()
-            .to_file(path)
-            .map_err(err)
+            .to_buffered(&mut bytes)
+            .map_err(err)?;
     } else {
         let ch = SpecificChannels::build()
             .with_channel::<f32>("Y")
@@ -77,9 +78,10 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> 
         Image::from_channels((wu, hu), ch)
             .write()
             .non_parallel()
-            .to_file(path)
-            .map_err(err)
+            .to_buffered(&mut bytes)
+            .map_err(err)?;
     }
+    crate::output::write_plain(path, bytes.get_ref())
 }
 
 fn check_float_image(path: &Path, w: u32, h: u32, channels: usize, data: &[f32]) -> Result<(), Error> {

@@ -92,6 +92,7 @@ pub mod hash;
 pub mod image_io;
 pub mod math;
 pub mod metrics;
+pub mod output;
 pub mod pipeline;
 pub mod reference;
 #[cfg(feature = "cli")]

@@ -188,6 +188,20 @@ fn large_frames_and_benchmarks_past_their_limits_are_refused_at_once() {
             &["bench", "frame", "--height", "-1080"][..],
             "'--height <HEIGHT>': -1080 is outside",
         ),
+        // Negative numbers and -inf are values (clap called them unexpected arguments or
+        // `-i` flags): each refused with its option's name.
+        (&["bench", "raster", "--area", "-1"][..], "--area -1 is out of range"),
+        (
+            &["bench", "raster", "--area", "-inf"][..],
+            "--area -inf is out of range",
+        ),
+        (
+            &["inspect", "x.toml", "--pixel", "-1,0"][..],
+            "--pixel '-1,0' is not X,Y",
+        ),
+        (&["sweep", "--shard", "-1/4"][..], "--shard '-1/4': expected I/N"),
+        (&["choose", "x.toml", "--budget-ms", "-inf"][..], "--budget-ms -inf"),
+        (&["choose", "x.toml", "--max-error", "-inf"][..], "--max-error -inf"),
         // A thousand workers on a small frame ran for minutes: refused, with the limit.
         (&["render", "x.toml", "--threads", "1000"][..], "1000 is more than"),
         (&["bench", "frame", "--threads", "1024"][..], "(4x this machine's"),
@@ -314,6 +328,31 @@ fn gltf_accessors_and_silent_numbers_are_errors_naming_the_part() {
             "glTF\u{2}\0\0\0junk".into(),
             "not a valid binary glTF (GLB) container",
         ),
+        (
+            // glTF 2.0: a loader refuses what a file requires and it cannot do.
+            "required.gltf",
+            gltf_with(
+                r#""scenes": ["#,
+                r#""extensionsRequired": ["KHR_materials_transmission"], "scenes": ["#,
+            ),
+            "requires the extension 'KHR_materials_transmission'",
+        ),
+        (
+            "projective.gltf",
+            gltf_with(
+                r#""translation": [0, 1, 0], "children""#,
+                r#""matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 2], "children""#,
+            ),
+            "node 0 'lift': its matrix's bottom row is [0.0, 0.0, 0.0, 2.0]",
+        ),
+        (
+            "both.gltf",
+            gltf_with(
+                r#""translation": [0, 1, 0], "children""#,
+                r#""translation": [0, 1, 0], "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1], "children""#,
+            ),
+            "node 0 'lift' has both a matrix and translation, rotation or scale",
+        ),
     ];
     for (name, body, want) in cases {
         let e = gltf_error(name, &body);
@@ -351,6 +390,22 @@ fn a_gltf_alone_has_errors_about_itself() {
         assert!(e.contains(&p.display().to_string()) && e.contains(want), "{e}");
         assert!(!e.contains("glb:2") && !e.contains("top level"), "{e}");
     }
+}
+
+/// A GLB whose header gives a length other than the file's is refused (it was once read as
+/// far as the header said).
+#[test]
+fn a_glb_whose_header_length_is_wrong_is_refused() {
+    let mut bytes = common::glb_file(&[0, 2, 1, 0, 3, 2], 4);
+    let n = bytes.len();
+    bytes[8..12].copy_from_slice(&20u32.to_le_bytes());
+    let p = std::path::PathBuf::from(common::temp_file("hostile-gltf", "x", "")).with_file_name("short.glb");
+    std::fs::write(&p, &bytes).unwrap();
+    let e = penumbra::scene::file::load(&p).err().unwrap().to_string();
+    assert!(
+        e.contains("short.glb") && e.contains(&format!("its header gives a length of 20 bytes, the file has {n}")),
+        "{e}"
+    );
 }
 
 /// Buffer URIs are files too: only relative paths to regular files inside the glTF file's
@@ -664,4 +719,65 @@ fn the_last_silent_numbers_are_errors_naming_the_field() {
             .to_string();
         assert!(e.contains(want), "{want}: {e}");
     }
+}
+
+/// Every command that writes files writes none through a symbolic link planted where its
+/// output goes (it was `random --out`'s scene and OBJ files): each command runs once, each
+/// file it wrote is replaced by a link to a file outside, and the second run refuses, naming
+/// the link, and leaves the outside file as it was.
+#[test]
+fn outputs_are_never_written_through_links() {
+    use std::path::{Path, PathBuf};
+    fn files(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                files(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let root = std::env::temp_dir().join(format!("penumbra-hostile-links-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let outside = root.join("outside.txt");
+    std::fs::write(&outside, "not yours").unwrap();
+    let s = scene("links.toml", POINT);
+    for (i, args) in [
+        vec!["random", "--seed", "7", "--width", "32", "--height", "24"],
+        vec!["render", &s, "--technique", "shadow-map", "--reps", "1"],
+        vec!["dump", &s, "--technique", "pcss"],
+        vec!["reference", &s],
+        vec!["export", &s],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = root.join(format!("out{i}"));
+        let out_s = out.display().to_string();
+        let mut args = args;
+        args.extend(["--out", &out_s]);
+        let (ok, text) = cli(&args);
+        assert!(ok, "{args:?}: {text}");
+        let mut written = Vec::new();
+        files(&out, &mut written);
+        assert!(!written.is_empty(), "{args:?} wrote nothing");
+        for f in &written {
+            std::fs::remove_file(f).unwrap();
+            std::os::unix::fs::symlink(&outside, f).unwrap();
+        }
+        let (ok, text) = cli(&args);
+        assert!(!ok && text.contains("not written through"), "{args:?}: {text}");
+        assert_eq!(std::fs::read_to_string(&outside).unwrap(), "not yours", "{args:?}");
+    }
+    // An output folder that is itself a link is refused too.
+    let elsewhere = root.join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    let linked = root.join("linked");
+    std::os::unix::fs::symlink(&elsewhere, &linked).unwrap();
+    let (ok, text) = cli(&["random", "--seed", "7", "--out", &linked.display().to_string()]);
+    assert!(!ok && text.contains("not a folder"), "{text}");
+    assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
+    let _ = std::fs::remove_dir_all(&root);
 }

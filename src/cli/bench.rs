@@ -231,8 +231,7 @@ fn export_rays(
     traced: usize,
     occluded: u64,
 ) -> Result<(), CliError> {
-    let io = |what: &str, e: std::io::Error| format!("{}: {what}: {e}", dir.display());
-    std::fs::create_dir_all(dir).map_err(|e| io("cannot create", e))?;
+    penumbra::output::create_folder(dir)?;
     let mut tri = Vec::with_capacity(scene.triangles() * 36);
     for o in &scene.objects {
         for t in o.mesh.indices.chunks_exact(3) {
@@ -249,17 +248,15 @@ fn export_rays(
             ray.extend_from_slice(&c.to_le_bytes());
         }
     }
-    std::fs::write(dir.join("triangles.f32"), tri).map_err(|e| io("triangles.f32", e))?;
-    std::fs::write(dir.join("rays.f32"), ray).map_err(|e| io("rays.f32", e))?;
-    std::fs::write(
-        dir.join("rays.txt"),
-        format!(
-            "triangles {}\nrays {}\ntraced {traced}\noccluded {occluded}\n",
-            scene.triangles(),
-            rays.len()
-        ),
-    )
-    .map_err(|e| io("rays.txt", e).into())
+    penumbra::output::write_plain(&dir.join("triangles.f32"), &tri)?;
+    penumbra::output::write_plain(&dir.join("rays.f32"), &ray)?;
+    let counts = format!(
+        "triangles {}\nrays {}\ntraced {traced}\noccluded {occluded}\n",
+        scene.triangles(),
+        rays.len()
+    );
+    penumbra::output::write_plain(&dir.join("rays.txt"), counts.as_bytes())?;
+    Ok(())
 }
 
 pub fn rays(a: RaysArgs) -> Result<(), CliError> {

@@ -79,7 +79,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
             ).into());
         }
     }
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    penumbra::output::create_folder(out)?;
     let stem = match penumbra::report::file_safe(&s.name) {
         n if n.is_empty() => "scene".to_string(),
         n => n,
@@ -145,7 +145,7 @@ pub fn export(scene: &Path, out: &Path) -> Result<(), CliError> {
         (out.join(format!("{stem}.json")), json),
     ];
     for (path, body) in &files {
-        std::fs::write(path, body).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        penumbra::output::write_plain(path, body.as_bytes())?;
         println!("wrote {}", path.display());
     }
     Ok(())

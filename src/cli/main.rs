@@ -124,7 +124,7 @@ enum Cmd {
 #[derive(Args)]
 struct RandomArgs {
     /// The seed: the same seed is the same scene on every machine.
-    #[arg(long, allow_negative_numbers = true, value_parser = count::<u64>(0, u64::MAX))]
+    #[arg(long, allow_hyphen_values = true, value_parser = count::<u64>(0, u64::MAX))]
     seed: u64,
     /// Output folder (the scene is `random_<seed>.toml` in it).
     #[arg(long, default_value = "out/random")]
@@ -138,10 +138,10 @@ struct RandomArgs {
     #[arg(long, value_delimiter = ',')]
     light: Vec<String>,
     /// Camera resolution.
-    #[arg(long, default_value_t = 160, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    #[arg(long, default_value_t = 160, allow_hyphen_values = true, value_parser = count::<u32>(1, 8192))]
     width: u32,
     /// Camera resolution.
-    #[arg(long, default_value_t = 90, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    #[arg(long, default_value_t = 90, allow_hyphen_values = true, value_parser = count::<u32>(1, 8192))]
     height: u32,
 }
 
@@ -152,22 +152,22 @@ struct ChooseArgs {
     /// Pick the cheapest setting whose error is at most E, on the scene's metric (wrong
     /// pixels in % for hard shadows, penumbra RMSE under an area light, transmittance RMSE
     /// where light passes through casters). Default: 0.5 % wrong, or an RMSE of 0.05.
-    #[arg(long, value_name = "E", allow_negative_numbers = true, value_parser = choose::parse_number, conflicts_with = "budget_ms")]
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = choose::parse_number, conflicts_with = "budget_ms")]
     max_error: Option<f64>,
     /// Pick the most accurate setting whose median time is at most T milliseconds.
-    #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = choose::parse_number)]
+    #[arg(long, value_name = "T", allow_hyphen_values = true, value_parser = choose::parse_number)]
     budget_ms: Option<f64>,
     /// Run at the scene's resolution times this, in (0, 4] (0.5 for a quick answer).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = choose::parse_scale)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true, value_parser = choose::parse_scale)]
     scale: f64,
     /// Also every technique's extended option sets.
     #[arg(long)]
     all: bool,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 2, allow_hyphen_values = true, value_parser = parse_reps)]
     reps: usize,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Print one JSON object (facts, runs, front, pick, alternatives) instead of text.
     #[arg(long)]
@@ -181,26 +181,26 @@ struct ChooseArgs {
 struct DefaultsArgs {
     /// Generated scenes per class (area-light scenes for the soft techniques, scenes with
     /// translucent casters for the volumetric ones).
-    #[arg(long, default_value_t = 200, allow_negative_numbers = true, value_parser = count::<usize>(1, 100_000))]
+    #[arg(long, default_value_t = 200, allow_hyphen_values = true, value_parser = count::<usize>(1, 100_000))]
     scenes: usize,
     /// The first seed (scenes are the seeds from it on, those of the class kept).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = count::<u64>(0, u64::MAX / 2))]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count::<u64>(0, u64::MAX / 2))]
     first_seed: u64,
     /// A comma-separated list of technique names (default: every technique that models an
     /// area light or transmittance).
     #[arg(long, value_delimiter = ',')]
     techniques: Vec<String>,
     /// Camera resolution of the generated scenes.
-    #[arg(long, default_value_t = 160, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    #[arg(long, default_value_t = 160, allow_hyphen_values = true, value_parser = count::<u32>(1, 8192))]
     width: u32,
     /// Camera resolution of the generated scenes.
-    #[arg(long, default_value_t = 90, allow_negative_numbers = true, value_parser = count::<u32>(1, 8192))]
+    #[arg(long, default_value_t = 90, allow_hyphen_values = true, value_parser = count::<u32>(1, 8192))]
     height: u32,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = parse_reps)]
     reps: usize,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Output folder: defaults.md, results.csv and the reference cache.
     #[arg(long, default_value = "out/defaults")]
@@ -212,7 +212,7 @@ struct SceneArgs {
     /// Scene file (TOML).
     scene: PathBuf,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Output folder.
     #[arg(long, default_value = "out")]
@@ -230,10 +230,10 @@ struct RenderArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported).
-    #[arg(long, default_value_t = 3, allow_negative_numbers = true, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 3, allow_hyphen_values = true, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out")]
@@ -251,10 +251,10 @@ struct InspectArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// The pixel, X,Y (column, row from the top-left).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pixel: String,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Print the steps as JSON.
     #[arg(long)]
@@ -272,10 +272,10 @@ struct ExploreArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// The port on 127.0.0.1 (0: a free one; the URL is printed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = count::<u16>(0, 65535))]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count::<u16>(0, 65535))]
     port: u16,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Output folder of the reference cache (`OUT/cache`, shared with `render`).
     #[arg(long, default_value = "out")]
@@ -290,11 +290,11 @@ struct SweepArgs {
     #[arg(long, default_value = "all")]
     techniques: String,
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after one warm-up (the median is reported; 1 by default, so the
     /// default sweep stays within minutes on two cores).
-    #[arg(long, default_value_t = DEFAULT_SWEEP_REPS, allow_negative_numbers = true, value_parser = parse_reps)]
+    #[arg(long, default_value_t = DEFAULT_SWEEP_REPS, allow_hyphen_values = true, value_parser = parse_reps)]
     reps: usize,
     /// Output folder.
     #[arg(long, default_value = "out/sweep")]
@@ -304,7 +304,7 @@ struct SweepArgs {
     all: bool,
     /// Run only the I-th of N deterministic slices of the run list (0-based, `I/N`) and
     /// write its partial results.csv; combine the slices' folders with --merge.
-    #[arg(long, value_parser = sweep::parse_shard, conflicts_with = "merge")]
+    #[arg(long, allow_hyphen_values = true, value_parser = sweep::parse_shard, conflicts_with = "merge")]
     shard: Option<(usize, usize)>,
     /// Combine the output folders of shards into --out: the CSV, charts and report one
     /// unsharded run writes. Takes no scenes.
@@ -335,7 +335,7 @@ struct TechniqueArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
+    #[arg(long, default_value_t = 100_000, allow_hyphen_values = true, value_parser = parse_triangles)]
     triangles: usize,
     /// A scene file to run instead of the spheres scene.
     #[arg(long)]
@@ -356,10 +356,10 @@ struct TechniqueArgs {
 #[derive(Args)]
 struct Common {
     /// Worker threads (0: all cores; at most 4x the cores, and at least 4 allowed).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: usize,
     /// Timed repetitions after the warm-up (the median is reported).
-    #[arg(long, default_value_t = 10, allow_negative_numbers = true, value_parser = parse_reps)]
+    #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = parse_reps)]
     reps: usize,
     /// Print one JSON object on the last line.
     #[arg(long)]
@@ -369,20 +369,20 @@ struct Common {
 #[derive(Args)]
 struct FrameArgs {
     /// Target triangle count of the scene.
-    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
+    #[arg(long, default_value_t = 100_000, allow_hyphen_values = true, value_parser = parse_triangles)]
     triangles: usize,
     /// depth | pcf2 | pcf5 | pcss (the classic PCSS shader: 16 blocker-search taps, 16 filter
     /// taps) | vsm (moments, a 5x5 box blur, Chebyshev's bound)
     #[arg(long, default_value = "pcf2")]
     mode: FrameMode,
     /// Shadow-map size S (S x S).
-    #[arg(long, default_value_t = 2048, allow_negative_numbers = true, value_parser = parse_side)]
+    #[arg(long, default_value_t = 2048, allow_hyphen_values = true, value_parser = parse_side)]
     map: u32,
     /// Image width.
-    #[arg(long, default_value_t = 1920, allow_negative_numbers = true, value_parser = parse_side)]
+    #[arg(long, default_value_t = 1920, allow_hyphen_values = true, value_parser = parse_side)]
     width: u32,
     /// Image height.
-    #[arg(long, default_value_t = 1080, allow_negative_numbers = true, value_parser = parse_side)]
+    #[arg(long, default_value_t = 1080, allow_hyphen_values = true, value_parser = parse_side)]
     height: u32,
     /// Write the image (and the shadow map) as PNG into this folder.
     #[arg(long)]
@@ -404,11 +404,11 @@ struct FrameArgs {
 #[derive(Args)]
 struct RaysArgs {
     /// Target triangle count of the spheres scene.
-    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
+    #[arg(long, default_value_t = 100_000, allow_hyphen_values = true, value_parser = parse_triangles)]
     triangles: usize,
     /// Rays per repetition (1000..=100000000: about 10 s per repetition on two cores at the
     /// top).
-    #[arg(long, default_value_t = 4_000_000, allow_negative_numbers = true, value_parser = count::<usize>(1000, 100_000_000))]
+    #[arg(long, default_value_t = 4_000_000, allow_hyphen_values = true, value_parser = count::<usize>(1000, 100_000_000))]
     rays: usize,
     /// Incoherent rays instead of the camera's shadow rays: origins uniform in the scene's
     /// bounds, directions uniform on the sphere (SplitMix64, seed 1), unbounded.
@@ -431,10 +431,10 @@ struct RaysArgs {
 #[derive(Args)]
 struct RasterArgs {
     /// Number of triangles.
-    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true, value_parser = parse_triangles)]
+    #[arg(long, default_value_t = 100_000, allow_hyphen_values = true, value_parser = parse_triangles)]
     triangles: usize,
     /// Approximate area of each triangle in pixels.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
     area: f32,
     /// depth | color
     #[arg(long, default_value = "color")]

@@ -184,7 +184,7 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
     let f = frame::frame(&p, &s, 0, 0)?;
     let v = t.visibility(&p, &f)?;
     let dir = out.join(format!("{}_{}", s.name, technique));
-    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    penumbra::output::create_folder(&dir)?;
     let (w, h) = (f.width(), f.height());
     let mut written = Vec::new();
     for note in t.notes() {

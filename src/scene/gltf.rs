@@ -194,8 +194,11 @@ fn document(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>
             },
         )
     };
+    check_glb_length(path, bytes)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(read_error)?;
     let root = document.into_json();
+    check_required(path, &root)?;
+    check_transforms(path, &root)?;
     // The crate's validation indexes a primitive's POSITION accessor before it checks that
     // the index exists (a panic): checked here first.
     for (m, mesh) in root.meshes.iter().enumerate() {
@@ -227,6 +230,76 @@ fn document(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>
         ));
     }
     Ok((doc, blob))
+}
+
+/// The extensions penumbra implements: a file that requires another is refused.
+const IMPLEMENTED: &[&str] = &["KHR_lights_punctual"];
+
+/// A GLB container's header gives the file's whole length (bytes 8 to 12): one that differs
+/// from the file's is refused, not read as far as it says.
+fn check_glb_length(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    if bytes.len() < 12 || &bytes[..4] != b"glTF" {
+        return Ok(());
+    }
+    let said = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
+    if said != bytes.len() {
+        return Err(Error::scene(
+            path,
+            format!(
+                "not a valid binary glTF (GLB) container: its header gives a length of {said} bytes, the file has {}",
+                bytes.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// glTF 2.0 (3.12): a loader must refuse a file whose `extensionsRequired` names an
+/// extension it does not implement, rather than draw it without.
+fn check_required(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
+    match root
+        .extensions_required
+        .iter()
+        .find(|e| !IMPLEMENTED.contains(&e.as_str()))
+    {
+        Some(e) => Err(Error::scene(
+            path,
+            format!(
+                "the file requires the extension {}, which penumbra does not implement (it implements {})",
+                crate::error::quoted(e),
+                IMPLEMENTED.join(", ")
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// A node's `matrix` is an affine transform (bottom row 0, 0, 0, 1), and a node has either a
+/// `matrix` or translation, rotation and scale, never both (glTF 2.0, 5.25): what would be
+/// dropped or projected is refused, naming the node.
+fn check_transforms(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
+    for (i, n) in root.nodes.iter().enumerate() {
+        let Some(m) = n.matrix else { continue };
+        let name = format!("node {i} {}", crate::error::quoted(n.name.as_deref().unwrap_or("")));
+        if n.translation.is_some() || n.rotation.is_some() || n.scale.is_some() {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "{name} has both a matrix and translation, rotation or scale (glTF 2.0 allows one or the other)"
+                ),
+            ));
+        }
+        if [m[3], m[7], m[11], m[15]] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "{name}: its matrix's bottom row is {:?}, not [0, 0, 0, 1] (a node's transform is affine)",
+                    [m[3], m[7], m[11], m[15]]
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The file's materials (base colour, alpha blending, two-sided), each colour checked.

@@ -73,13 +73,12 @@ impl RandomScene {
 
     /// Writes the scene file and its OBJ files into `dir`; returns the scene file's path.
     pub fn write(&self, dir: &Path) -> Result<std::path::PathBuf, Error> {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create folder", e))?;
+        crate::output::create_folder(dir)?;
         for (name, text) in &self.meshes {
-            let p = dir.join(name);
-            std::fs::write(&p, text).map_err(|e| Error::io(&p, "cannot write", e))?;
+            crate::output::write_plain(&dir.join(name), text.as_bytes())?;
         }
         let p = dir.join(self.file_name());
-        std::fs::write(&p, &self.text).map_err(|e| Error::io(&p, "cannot write", e))?;
+        crate::output::write_plain(&p, self.text.as_bytes())?;
         Ok(p)
     }
 }
