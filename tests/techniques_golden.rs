@@ -31,7 +31,15 @@ fn hashes(scene: &str) -> Vec<String> {
         for set in t.sweep.iter().chain(t.extended) {
             let sets: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
             let mut tech = shadow::registry::create(t.name, &sets).unwrap();
+            let start = std::time::Instant::now();
             let v = tech.visibility(&p, &f).unwrap();
+            if std::env::var_os("PENUMBRA_GOLDEN_TIMES").is_some() {
+                eprintln!(
+                    "{:9.1} ms {scene} {} {sets:?}",
+                    start.elapsed().as_secs_f64() * 1e3,
+                    t.name
+                );
+            }
             let label = sets
                 .iter()
                 .map(|(k, v)| format!("{k}={v}"))
