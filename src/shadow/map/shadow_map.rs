@@ -141,7 +141,7 @@ mod tests {
     #[cfg(feature = "files")]
     fn the_image_is_the_traced_lookup_on_every_fixture() {
         crate::shadow::sample::testing::assert_lookups_on_fixtures(
-            "shadow-map",
+            &ENTRY,
             |pairs| ShadowMap::new(declaration().parse(pairs).unwrap()).unwrap(),
             |t, f, x, y| t.pass().lookup(f, x, y, &mut NoTrace).0,
         );

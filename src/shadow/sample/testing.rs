@@ -57,23 +57,20 @@ pub(crate) fn assert_lookups<T: ShadowTechnique>(
     }
 }
 
-/// For every fixture scene (`fixtures/scenes`) on which technique `name` applies and every
+/// For every fixture scene (`fixtures/scenes`) on which the technique of `entry` applies and every
 /// option set of its registry sweep: the image `make` draws equals its one-pixel `lookup`
 /// (the code `inspect` runs, with a recording trace instead of [`NoTrace`](crate::shadow::inspect::NoTrace))
 /// at every pixel, bit for bit. This holds the four-lane image paths to the traced one on
 /// every fixture, not only on [`scene`].
 #[cfg(feature = "files")]
 pub(crate) fn assert_lookups_on_fixtures<T: ShadowTechnique + Sync>(
-    name: &str,
+    entry: &crate::shadow::technique::Entry,
     make: impl Fn(&[(String, String)]) -> T,
     lookup: impl Fn(&T, &Frame, usize, usize) -> f32 + Sync,
 ) {
     use rayon::prelude::*;
     let p = Pipeline::new(2).unwrap();
-    let info = crate::shadow::registry::registry()
-        .into_iter()
-        .find(|t| t.name == name)
-        .expect("a registered technique");
+    let name = entry.name;
     let mut paths: Vec<_> = std::fs::read_dir("fixtures/scenes")
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -83,12 +80,12 @@ pub(crate) fn assert_lookups_on_fixtures<T: ShadowTechnique + Sync>(
     let mut checked = 0usize;
     for path in &paths {
         let s = crate::scene::file::load(path).unwrap();
-        if !info.applies_to(&s) {
+        if !s.lights.iter().all(|l| entry.applies.is_none_or(|f| f(&s, l))) {
             continue;
         }
         let f = crate::frame::frame(&p, &s, 0, 0).unwrap();
         let (w, h) = (f.width() as usize, f.height() as usize);
-        for set in info.sweep {
+        for set in entry.sweep {
             let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
             let mut t = make(&pairs);
             let v = t.visibility(&p, &f).unwrap();
