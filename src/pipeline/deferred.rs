@@ -24,9 +24,9 @@
 //!
 //! [`Shading::Immediate`]: super::state::Shading::Immediate
 
-use super::bin::{Chunk, TileTris, TILE, TILE_SHIFT};
+use super::bin::{TileTris, TILE, TILE_SHIFT};
 use super::lanes::Fragment4;
-use super::program::{ColorFormat, FragmentProgram, RawTargets};
+use super::program::{ColorFormat, FragmentProgram, RawTargets, TileWork};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::spans::{depth_span, depth_span_x4};
 use super::state::{BlendMode, CompareFunc, DepthFormat, RenderState, Shading};
@@ -63,17 +63,12 @@ pub(crate) fn applies<C>(state: &RenderState, targets: &RawTargets<C>, wide: boo
 }
 
 /// Stages 5 and 6 of one tile, deferred (the caller checked [`applies`]).
-#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
-    chunks: &[Chunk<V>],
-    tile: usize,
-    rect: [i32; 4],
-    state: &RenderState,
-    targets: &RawTargets<C>,
-    program: &P,
+    work: &TileWork<V, P, C>,
     stats: &mut DrawStats,
 ) {
+    let (rect, state, targets) = (work.rect, work.state, work.targets);
     let Some(depth) = targets.depth.as_ref() else {
         return;
     };
@@ -94,7 +89,7 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
 
     // Pass 1: coverage, depth test and write, visibility buffer.
     // The tile's triangles in submission order: chunk by chunk, each chunk's tile list.
-    for (tri, attrs) in TileTris::new(chunks, tile) {
+    for (tri, attrs) in TileTris::new(work.chunks, work.tile) {
         let k = slots.len() as u32;
         let zp = tri.z.at_origin(ox as i64, oy as i64);
         let zoff = tri.z_offset;
@@ -162,7 +157,7 @@ pub(crate) fn shade_tile_deferred<V: Varyings, P: FragmentProgram<V>, C: ColorFo
         n: 0,
         st: WideState::new(state),
         targets,
-        program,
+        program: work.program,
     };
     for (slot, &end) in slots.iter().zip(&cursor) {
         let t = &slot.tri;

@@ -9,10 +9,10 @@
 //! tests before the program when the program cannot discard (so killed fragments are never
 //! shaded); the result is identical to the late path.
 
-use super::bin::{Chunk, TileTris};
+use super::bin::TileTris;
 use super::lanes::Fragment;
 use super::lists::{ListNode, NONE};
-use super::program::{blend_masked, ColorFormat, FragmentProgram, RawTargets, TileLists};
+use super::program::{blend_masked, ColorFormat, FragmentProgram, RawTargets, TileLists, TileWork};
 use super::raster::{raster_tile, small_depth_fused, TileMask};
 use super::setup::{SetupTri, TilePlane};
 use super::spans::{depth_span, depth_span_x4, prefetch_rows, stencil_span};
@@ -26,18 +26,14 @@ use glam::Vec4;
 ///
 /// Fragment depth is `((c + dz/dy * ly) + offset) + dz/dx * lx` at tile-local pixel (lx, ly),
 /// then clamped to [0, 1] and quantized to the depth format; every path uses this one formula.
-#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
-    chunks: &[Chunk<V>],
-    tile: usize,
-    rect: [i32; 4],
-    state: &RenderState,
-    targets: &RawTargets<C>,
-    program: &P,
+    work: &TileWork<V, P, C>,
     stats: &mut DrawStats,
     lists: &mut TileLists,
 ) {
+    let (chunks, tile, rect) = (work.chunks, work.tile, work.rect);
+    let (state, targets, program) = (work.state, work.targets, work.program);
     let needs_shading = targets.color.is_some() || targets.lists || P::MAY_DISCARD || P::ORDERED;
     let depth_test = targets.depth.is_some() && state.depth.func != CompareFunc::Always;
     let depth_write = targets.depth.is_some() && state.depth.write;
@@ -89,7 +85,7 @@ pub(crate) fn shade_tile<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
     let wide =
         needs_shading && !P::MAY_DISCARD && !P::ORDERED && !stencil_on && !targets.lists && targets.color.is_some();
     if super::deferred::applies(state, targets, wide) {
-        super::deferred::shade_tile_deferred(chunks, tile, rect, state, targets, program, stats);
+        super::deferred::shade_tile_deferred(work, stats);
         return;
     }
     let fused_small = fast_depth && matches!(state.depth.func, CompareFunc::Less | CompareFunc::LessEqual);

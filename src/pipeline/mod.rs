@@ -78,7 +78,7 @@ pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Vary
 use bin::{process_chunk, TileGrid, CHUNK};
 use clip::{ClipVertex, Clipper};
 use fragment::shade_tile;
-use program::{RawSurface, RawTargets, TileLists};
+use program::{RawSurface, RawTargets, TileLists, TileWork};
 use rayon::prelude::*;
 use setup::SetupParams;
 use std::fmt;
@@ -560,7 +560,15 @@ fn shade_tiles<V: Varyings, P: FragmentProgram<V>, C: ColorFormat>(
                     unsafe { c.fill_rect(rect, v) };
                 }
             }
-            shade_tile(chunks, t, rect, state, raw, fp, &mut s, &mut l);
+            let work = TileWork {
+                chunks,
+                tile: t,
+                rect,
+                state,
+                targets: raw,
+                program: fp,
+            };
+            shade_tile(&work, &mut s, &mut l);
             (s, l)
         })
         .collect();

@@ -4,9 +4,10 @@
 //! operations): the spans, the four-pixel path, the deferred path and the per-tile driver
 //! (`spans.rs`, `wide.rs`, `deferred.rs`, `fragment.rs`) build on it.
 
+use super::bin::Chunk;
 use super::lanes::{Color4, Fragment, Fragment4};
 use super::lists::ListNode;
-use super::state::BlendMode;
+use super::state::{BlendMode, RenderState};
 use super::vertex::Varyings;
 use glam::{Vec2, Vec4};
 
@@ -268,6 +269,23 @@ impl<T: Copy> RawSurface<T> {
     pub(crate) unsafe fn set(&self, x: i32, y: i32, v: T) {
         *self.ptr.add(y as usize * self.stride + x as usize) = v;
     }
+}
+
+/// One tile's share of a draw, as stages 5 and 6 see it: the binned triangles, the tile's
+/// index and pixel rectangle (inclusive), the state, targets and program of the draw.
+pub(crate) struct TileWork<'a, V: Varyings, P, C> {
+    /// The binned chunks of the draw.
+    pub chunks: &'a [Chunk<V>],
+    /// The tile's index in the grid.
+    pub tile: usize,
+    /// The tile's pixels: x0, y0, x1, y1, inclusive.
+    pub rect: [i32; 4],
+    /// The draw's state.
+    pub state: &'a RenderState,
+    /// The draw's targets.
+    pub targets: &'a RawTargets<C>,
+    /// The draw's fragment program.
+    pub program: &'a P,
 }
 
 /// The targets of one draw, as seen by tile workers.

@@ -304,25 +304,20 @@ fn caster_shape(
             let _ = writeln!(t, "mesh = \"{kind}\"\nradius = {r}\nheight = {h}\nsegments = 24");
             h / 2.0
         }
-        "pleated" => {
+        "pleated" | "heightfield" => {
+            // Both a sheet over `size`: pleats of an amplitude, or a seeded noise surface.
+            let pleated = kind == "pleated";
+            let size = [g.range(1.0, if pleated { 4.0 } else { 3.0 }), g.range(1.0, 3.0)];
+            let amplitude = if pleated { g.range(0.05, 0.4) } else { g.range(0.1, 0.6) };
+            let (detail, last) = if pleated {
+                ("", format!("pleats = {}", g.int(2, 8)))
+            } else {
+                ("\nsubdivisions = 16", format!("seed = {}", g.int(1, 1000)))
+            };
             let _ = writeln!(
                 t,
-                "mesh = \"pleated\"\nsize = [{}, {}]\namplitude = {}\npleats = {}",
-                g.range(1.0, 4.0),
-                g.range(1.0, 3.0),
-                g.range(0.05, 0.4),
-                g.int(2, 8)
-            );
-            0.5
-        }
-        "heightfield" => {
-            let _ = writeln!(
-                t,
-                "mesh = \"heightfield\"\nsize = [{}, {}]\nsubdivisions = 16\namplitude = {}\nseed = {}",
-                g.range(1.0, 3.0),
-                g.range(1.0, 3.0),
-                g.range(0.1, 0.6),
-                g.int(1, 1000)
+                "mesh = \"{kind}\"\nsize = [{}, {}]{detail}\namplitude = {amplitude}\n{last}",
+                size[0], size[1]
             );
             0.5
         }

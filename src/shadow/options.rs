@@ -298,6 +298,12 @@ pub struct Declaration<O> {
 }
 
 impl<O: Clone + Default + 'static> Declaration<O> {
+    /// The declaration of technique `technique`'s options: `fields`, in the order `penumbra
+    /// list` prints them.
+    pub fn new(technique: &'static str, fields: Vec<Field<O>>) -> Self {
+        Declaration { technique, fields }
+    }
+
     /// `Options::default()` with `pairs` applied in order; errors name the technique, the
     /// option and what is wrong, and list the valid keys for an unknown one.
     pub fn parse(&self, pairs: &[(String, String)]) -> Result<O, Error> {
@@ -411,15 +417,15 @@ mod tests {
     }
 
     fn decl() -> Declaration<O> {
-        Declaration {
-            technique: "t",
-            fields: vec![
+        Declaration::new(
+            "t",
+            vec![
                 Field::range("n", "a count", 1, 8, |o: &mut O| &mut o.n),
                 Field::range("x", "a number", -1.0, 1.0, |o: &mut O| &mut o.x),
                 Field::new("on", "a switch", |o: &mut O| &mut o.on),
                 Field::new("name", "words", |o: &mut O| &mut o.name),
             ],
-        }
+        )
     }
 
     #[derive(Clone, Debug, Default)]
@@ -436,10 +442,7 @@ mod tests {
             inner: O { n: 3, ..O::default() },
             k: 0,
         };
-        let d = Declaration {
-            technique: "t",
-            fields: within(decl().fields, |o: &mut Outer| &mut o.inner),
-        };
+        let d = Declaration::new("t", within(decl().fields, |o: &mut Outer| &mut o.inner));
         let infos = d.infos();
         assert_eq!(
             infos.iter().map(|i| i.key).collect::<Vec<_>>(),

@@ -37,9 +37,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "reference",
-        fields: vec![
+    Declaration::new(
+        "reference",
+        vec![
             Field::new(
                 "area",
                 "sample the area of area lights (false: hard visibility from the centre)",
@@ -53,7 +53,7 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.samples,
             ),
         ],
-    }
+    )
 }
 
 /// The ray tracer as a technique.

@@ -98,10 +98,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.to,
         ),
     ]);
-    Declaration {
-        technique: "hybrid",
-        fields,
-    }
+    Declaration::new("hybrid", fields)
 }
 
 /// The hybrid (see the module docs).

@@ -27,9 +27,9 @@ pub const ENTRY: Entry = Entry {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "izb",
-        fields: vec![
+    Declaration::new(
+        "izb",
+        vec![
             Field::size(
                 "light-space grid side in texels (per cube face for point lights)",
                 |o: &mut Options| &mut o.size,
@@ -52,7 +52,7 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.capacity,
             ),
         ],
-    }
+    )
 }
 
 /// The irregular z-buffer (see the module docs): the shared pass as a technique.

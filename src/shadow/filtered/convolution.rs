@@ -21,7 +21,7 @@
 //! (the Gibbs phenomenon), so receivers just behind an occluder get some light back, and the
 //! error falls slowly as `M` grows (on `overlap`).
 
-use super::{check, FilteredPass, Filtering, Moments, Storage, MAX_PLANES};
+use super::{build, FilteredPass, Filtering, Moments, Storage, MAX_PLANES};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -44,11 +44,9 @@ pub const ENTRY: Entry = Entry {
 /// Options of the convolution shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian;
-    /// the map holds `2 terms` channels).
+    /// The map pass, the prefilter and the channel storage (f32 or f16). Default: their
+    /// defaults (512 texels, 9x9 Gaussian, f32; the map holds `2 terms` channels).
     pub filtering: Filtering,
-    /// Channel storage: f32 or f16. Default: f32.
-    pub storage: Storage,
     /// Fourier terms `M` (1 to 16; an even number fills the planes). Default: 8.
     pub terms: u32,
     /// Attenuation of the higher terms against ringing (0: none). Default: 0.
@@ -61,7 +59,6 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             filtering: Filtering::default(),
-            storage: Storage::F32,
             terms: 8,
             damping: 0.0,
             offset: 1.0,
@@ -73,9 +70,6 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
     fields.extend([
-        Field::new("storage", "channel storage: f32 or f16", |o: &mut Options| {
-            &mut o.storage
-        }),
         Field::range(
             "terms",
             "Fourier terms M of the depth test (2M channels a texel)",
@@ -98,10 +92,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.offset,
         ),
     ]);
-    Declaration {
-        technique: "convolution",
-        fields,
-    }
+    Declaration::new("convolution", fields)
 }
 
 /// The Fourier basis of the depth test.
@@ -150,6 +141,8 @@ fn odd_harmonics(x: f32, n: usize, mut f: impl FnMut(usize, f32, f32)) {
 }
 
 impl Moments for Fourier {
+    const STORAGES: &'static [Storage] = &[Storage::F32, Storage::F16];
+
     fn planes(&self) -> usize {
         self.terms.div_ceil(2)
     }
@@ -202,13 +195,14 @@ pub type Convolution = PassTechnique<FilteredPass<Fourier>>;
 impl Convolution {
     /// A convolution shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Convolution, Error> {
-        let d = declaration();
-        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
-        let m = Fourier::new(opts.storage, opts.terms, opts.damping, opts.offset);
-        Ok(PassTechnique::with(
-            "convolution",
-            FilteredPass::new(m, opts.filtering, None),
-        ))
+        build(declaration(), &opts, &opts.filtering, None, |_| {
+            Ok(Fourier::new(
+                opts.filtering.storage,
+                opts.terms,
+                opts.damping,
+                opts.offset,
+            ))
+        })
     }
 }
 

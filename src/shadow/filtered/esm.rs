@@ -18,7 +18,7 @@
 //! `e^(-c (t - z))`, close to 1: too much light near contact (the reason for CESM), on the
 //! `contact` fixture at the box's foot; a larger `c` narrows it.
 
-use super::{check, FilteredPass, Filtering, Moments, Prefilter, Storage};
+use super::{build, FilteredPass, Filtering, Moments, Prefilter, Storage};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -47,10 +47,9 @@ pub const F16_LIMIT: f32 = 11.09;
 /// Options of the exponential shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
+    /// The map pass, the prefilter and the channel storage (f32 or f16). Default: their
+    /// defaults (512 texels, 9x9 Gaussian, f32).
     pub filtering: Filtering,
-    /// Channel storage: f32 or f16. Default: f32.
-    pub storage: Storage,
     /// The exponent `c`. Default: 80.
     pub exponent: f32,
     /// Filter in log space. Default: true.
@@ -61,7 +60,6 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             filtering: Filtering::default(),
-            storage: Storage::F32,
             exponent: 80.0,
             log: true,
         }
@@ -72,9 +70,6 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
     fields.extend([
-        Field::new("storage", "channel storage: f32 or f16", |o: &mut Options| {
-            &mut o.storage
-        }),
         Field::range(
             "exponent",
             "the exponent c of e^(c z), z linear depth in [0, 1] (at most ln(f32::MAX) = 88.72)",
@@ -88,10 +83,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.log,
         ),
     ]);
-    Declaration {
-        technique: "esm",
-        fields,
-    }
+    Declaration::new("esm", fields)
 }
 
 /// The exponential representation.
@@ -103,6 +95,8 @@ pub struct Exponential {
 }
 
 impl Moments for Exponential {
+    const STORAGES: &'static [Storage] = &[Storage::F32, Storage::F16];
+
     fn planes(&self) -> usize {
         1
     }
@@ -148,20 +142,19 @@ pub type Esm = PassTechnique<FilteredPass<Exponential>>;
 impl Esm {
     /// An exponential shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Esm, Error> {
-        let d = declaration();
-        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
-        if opts.log && opts.filtering.prefilter == Prefilter::Sat {
-            return Err(d.error(
-                "log",
-                "true",
-                "cannot be used with prefilter=sat: a summed-area table sums the exponentials themselves (set log=false)",
-            ));
-        }
-        let m = Exponential {
-            storage: opts.storage,
-            c: opts.exponent,
-            log: opts.log,
-        };
-        Ok(PassTechnique::with("esm", FilteredPass::new(m, opts.filtering, None)))
+        build(declaration(), &opts, &opts.filtering, None, |d| {
+            if opts.log && opts.filtering.prefilter == Prefilter::Sat {
+                return Err(d.error(
+                    "log",
+                    "true",
+                    "cannot be used with prefilter=sat: a summed-area table sums the exponentials themselves (set log=false)",
+                ));
+            }
+            Ok(Exponential {
+                storage: opts.filtering.storage,
+                c: opts.exponent,
+                log: opts.log,
+            })
+        })
     }
 }

@@ -18,7 +18,7 @@
 //! Known failure: less bleeding than VSM, but not none: where occluders overlap at depths
 //! the warp does not separate, light still leaks (`overlap`).
 
-use super::{bleeding_field, chebyshev, check, reduce_bleeding, FilteredPass, Filtering, Moments, Storage};
+use super::{bleeding_field, build, chebyshev, reduce_bleeding, FilteredPass, Filtering, Moments, Storage};
 use crate::math;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
@@ -37,19 +37,12 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-/// The largest exponent whose warp's second moment `e^(2 c)` a 32-bit float holds.
-pub const F32_LIMIT: f32 = 44.36;
-
-/// The largest exponent whose warp's second moment a 16-bit float holds.
-pub const F16_LIMIT: f32 = 5.54;
-
 /// Options of the exponential variance shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
+    /// The map pass, the prefilter and the channel storage (f32 or f16). Default: their
+    /// defaults (512 texels, 9x9 Gaussian, f32).
     pub filtering: Filtering,
-    /// Channel storage: f32 or f16. Default: f32.
-    pub storage: Storage,
     /// Warps stored: 2 (the positive one) or 4 (both). Default: 4.
     pub components: u32,
     /// The positive warp's exponent `c+`. Default: 40.
@@ -66,7 +59,6 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             filtering: Filtering::default(),
-            storage: Storage::F32,
             components: 4,
             positive: 40.0,
             negative: 5.0,
@@ -80,9 +72,6 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
     fields.extend([
-        Field::new("storage", "channel storage: f32 or f16", |o: &mut Options| {
-            &mut o.storage
-        }),
         Field::range(
             "components",
             "channels stored: 2 (the positive warp) or 4 (both warps)",
@@ -113,10 +102,7 @@ pub fn declaration() -> Declaration<Options> {
         ),
         bleeding_field(|o: &mut Options| &mut o.bleeding),
     ]);
-    Declaration {
-        technique: "evsm",
-        fields,
-    }
+    Declaration::new("evsm", fields)
 }
 
 /// The two exponential warps and their moments.
@@ -140,6 +126,8 @@ impl Warped {
 }
 
 impl Moments for Warped {
+    const STORAGES: &'static [Storage] = &[Storage::F32, Storage::F16];
+
     fn planes(&self) -> usize {
         1
     }
@@ -198,19 +186,19 @@ pub type Evsm = PassTechnique<FilteredPass<Warped>>;
 impl Evsm {
     /// An exponential variance shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Evsm, Error> {
-        let d = declaration();
-        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::F16])?;
-        if opts.components != 2 && opts.components != 4 {
-            return Err(d.error("components", &opts.components.to_string(), "is neither 2 nor 4"));
-        }
-        let m = Warped {
-            storage: opts.storage,
-            both: opts.components == 4,
-            cp: opts.positive,
-            cn: opts.negative,
-            min_variance: opts.min_variance,
-            bleeding: opts.bleeding,
-        };
-        Ok(PassTechnique::with("evsm", FilteredPass::new(m, opts.filtering, None)))
+        build(declaration(), &opts, &opts.filtering, None, |d| {
+            if opts.components != 2 && opts.components != 4 {
+                let v = opts.components.to_string();
+                return Err(d.error("components", &v, "is neither 2 nor 4"));
+            }
+            Ok(Warped {
+                storage: opts.filtering.storage,
+                both: opts.components == 4,
+                cp: opts.positive,
+                cn: opts.negative,
+                min_variance: opts.min_variance,
+                bleeding: opts.bleeding,
+            })
+        })
     }
 }

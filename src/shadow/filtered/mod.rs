@@ -45,7 +45,7 @@ use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::soft::{light_width, penumbra_texels, search_texels};
 use crate::shadow::light::{self, DepthToDistance, Layer, LightMaps, LightView, MapOptions};
 use crate::shadow::options::{within, OptionValue};
-use crate::shadow::pass::Pass;
+use crate::shadow::pass::{Pass, PassTechnique};
 use crate::shadow::pixels::per_pixel_counted;
 use crate::shadow::technique::{Declaration, Field, Stage};
 use crate::shadow::timing::Passes;
@@ -134,6 +134,8 @@ pub trait Moments: Send + Sync + 'static {
     fn channels(&self) -> Vec<String>;
     /// The storage format.
     fn storage(&self) -> Storage;
+    /// The storage formats the representation defines ([`build`] refuses another).
+    const STORAGES: &'static [Storage];
     /// Whether the channels hold logarithms to be filtered in log space (ESM). Default: no.
     fn log_space(&self) -> bool {
         false
@@ -178,6 +180,9 @@ pub struct Filtering {
     /// with lambda 0.5, each prefiltered alone), directional lights only: another light keeps
     /// one map and says so in `notes`. 0: one map. Default: 0.
     pub cascades: u32,
+    /// Channel storage, one of those the technique defines ([`Moments::STORAGES`]): the
+    /// render target's format, which the prefilter's targets share. Default: f32.
+    pub storage: Storage,
 }
 
 impl Default for Filtering {
@@ -193,6 +198,7 @@ impl Default for Filtering {
             radius: 4,
             sums: SatSums::F64,
             cascades: 0,
+            storage: Storage::F32,
         }
     }
 }
@@ -226,6 +232,11 @@ impl Filtering {
                 0,
                 crate::shadow::light::cascades::MAX_CASCADES,
                 |o: &mut Filtering| &mut o.cascades,
+            ),
+            Field::new(
+                "storage",
+                "channel storage: f32, f16 or u16, of those the technique defines (vsm: all three; esm, evsm, convolution: f32 or f16; msm: f32 or u16, the paper's 64-bit quantization)",
+                |o: &mut Filtering| &mut o.storage,
             ),
         ]);
         f
@@ -814,29 +825,36 @@ impl<M: Moments> Pass for FilteredPass<M> {
     }
 }
 
-/// A filtered technique's constructor check: the declaration's ranges, the shared options'
-/// beyond them, and `storage` one of the storages the technique defines (`allowed`).
-pub fn check<O: Clone + Default + 'static>(
-    d: &Declaration<O>,
+/// A filtered technique's constructor: the declaration's ranges and the shared options'
+/// beyond them are checked, then `moments` makes the representation (refusing a combination
+/// of its own options with an error from the declaration it is given), whose storage must be
+/// one it defines ([`Moments::STORAGES`]); the family's pass draws it over `filtering` and,
+/// for a variable-width lookup, `variable`.
+pub fn build<O: Clone + Default + 'static, M: Moments>(
+    d: Declaration<O>,
     o: &O,
     filtering: &Filtering,
-    storage: Storage,
-    allowed: &[Storage],
-) -> Result<(), Error> {
+    variable: Option<Variable>,
+    moments: impl FnOnce(&Declaration<O>) -> Result<M, Error>,
+) -> Result<PassTechnique<FilteredPass<M>>, Error> {
     d.check(o)?;
     if let Some((k, v, m)) = filtering.beyond_ranges() {
         return Err(d.error(k, &v, m));
     }
-    if allowed.contains(&storage) {
-        return Ok(());
+    let m = moments(&d)?;
+    if !M::STORAGES.contains(&m.storage()) {
+        return Err(d.error(
+            "storage",
+            m.storage().as_str(),
+            format!(
+                "is not a storage this technique defines (it has {})",
+                M::STORAGES.iter().map(|s| s.show()).collect::<Vec<_>>().join(", ")
+            ),
+        ));
     }
-    Err(d.error(
-        "storage",
-        storage.as_str(),
-        format!(
-            "is not a storage this technique defines (it has {})",
-            allowed.iter().map(|s| s.show()).collect::<Vec<_>>().join(", ")
-        ),
+    Ok(PassTechnique::with(
+        d.technique,
+        FilteredPass::new(m, filtering.clone(), variable),
     ))
 }
 

@@ -32,7 +32,7 @@
 //! cannot tell them apart and the bound leaks light (the `stack` fixture: three slabs under a
 //! disk light); the 16-bit quantization needs a larger bias and leaks more.
 
-use super::{bleeding_field, check, reduce_bleeding, FilteredPass, Filtering, Moments, Storage};
+use super::{bleeding_field, build, reduce_bleeding, FilteredPass, Filtering, Moments, Storage};
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::options::within;
 use crate::shadow::pass::PassTechnique;
@@ -53,10 +53,9 @@ pub const ENTRY: Entry = Entry {
 /// Options of the moment shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
+    /// The map pass, the prefilter and the channel storage (f32, or u16: the paper's 64-bit
+    /// quantization). Default: their defaults (512 texels, 9x9 Gaussian, f32).
     pub filtering: Filtering,
-    /// Storage: f32 (128 bits a texel) or u16 (the paper's 64-bit quantization). Default: f32.
-    pub storage: Storage,
     /// The moment bias alpha, in [0, 1]. Default: 0.000003.
     pub bias: f32,
     /// The receiver's depth moved toward the light (linear depth). Default: 0.
@@ -69,7 +68,6 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             filtering: Filtering::default(),
-            storage: Storage::F32,
             bias: 0.000003,
             depth_bias: 0.0,
             bleeding: 0.0,
@@ -81,11 +79,6 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
     fields.extend([
-        Field::new(
-            "storage",
-            "f32 (128 bits a texel) or u16 (the paper's 64-bit quantization)",
-            |o: &mut Options| &mut o.storage,
-        ),
         Field::range(
             "bias",
             "moment bias alpha: the moments blended toward (0.5, 0.5, 0.5, 0.5)",
@@ -102,10 +95,7 @@ pub fn declaration() -> Declaration<Options> {
         ),
         bleeding_field(|o: &mut Options| &mut o.bleeding),
     ]);
-    Declaration {
-        technique: "msm",
-        fields,
-    }
+    Declaration::new("msm", fields)
 }
 
 /// Peters and Klein 2015, sec. 4.3: the affine transform of the moments `(b1, b2, b3, b4)`
@@ -239,6 +229,8 @@ impl PowerMoments {
 }
 
 impl Moments for PowerMoments {
+    const STORAGES: &'static [Storage] = &[Storage::F32, Storage::U16];
+
     fn planes(&self) -> usize {
         1
     }
@@ -296,10 +288,14 @@ pub type Msm = PassTechnique<FilteredPass<PowerMoments>>;
 impl Msm {
     /// A moment shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Msm, Error> {
-        let d = declaration();
-        check(&d, &opts, &opts.filtering, opts.storage, &[Storage::F32, Storage::U16])?;
-        let m = PowerMoments::new(opts.storage, opts.bias, opts.depth_bias, opts.bleeding);
-        Ok(PassTechnique::with("msm", FilteredPass::new(m, opts.filtering, None)))
+        build(declaration(), &opts, &opts.filtering, None, |_| {
+            Ok(PowerMoments::new(
+                opts.filtering.storage,
+                opts.bias,
+                opts.depth_bias,
+                opts.bleeding,
+            ))
+        })
     }
 }
 

@@ -20,7 +20,7 @@
 //! shadow (RTR fig. 7.28, the `overlap` fixture). Bleeding reduction darkens it at the price
 //! of sharper, narrower penumbrae.
 
-use super::{bleeding_field, chebyshev, check, reduce_bleeding, FilteredPass, Filtering, Moments, Storage, Variable};
+use super::{bleeding_field, build, chebyshev, reduce_bleeding, FilteredPass, Filtering, Moments, Storage, Variable};
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::soft::light_size_fields;
 use crate::shadow::options::within;
@@ -52,10 +52,9 @@ pub const ENTRY: Entry = Entry {
 /// Options of the variance shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The map pass and the prefilter. Default: their defaults (512 texels, 9x9 Gaussian).
+    /// The map pass, the prefilter and the channel storage (f32, f16 or u16). Default: their
+    /// defaults (512 texels, 9x9 Gaussian, f32).
     pub filtering: Filtering,
-    /// Channel storage: f32, f16 or u16. Default: f32.
-    pub storage: Storage,
     /// Least variance (in linear depth squared). Default: 0.00002.
     pub min_variance: f32,
     /// Add the slope-based second-moment bias. Default: true.
@@ -74,7 +73,6 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             filtering: Filtering::default(),
-            storage: Storage::F32,
             min_variance: 0.00002,
             slope_bias: true,
             bleeding: 0.0,
@@ -89,9 +87,6 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(Filtering::fields(), |o: &mut Options| &mut o.filtering);
     fields.extend([
-        Field::new("storage", "channel storage: f32, f16 or u16", |o: &mut Options| {
-            &mut o.storage
-        }),
         Field::range(
             "min_variance",
             "least variance, in linear depth squared",
@@ -115,10 +110,7 @@ pub fn declaration() -> Declaration<Options> {
         |o: &mut Options| &mut o.light,
         |o: &mut Options| &mut o.angle,
     ));
-    Declaration {
-        technique: "vsm",
-        fields,
-    }
+    Declaration::new("vsm", fields)
 }
 
 /// The two moments and Chebyshev's bound.
@@ -131,6 +123,8 @@ pub struct Variance {
 }
 
 impl Moments for Variance {
+    const STORAGES: &'static [Storage] = &[Storage::F32, Storage::F16, Storage::U16];
+
     fn planes(&self) -> usize {
         1
     }
@@ -189,37 +183,27 @@ pub type Vsm = PassTechnique<FilteredPass<Variance>>;
 impl Vsm {
     /// A variance shadow map with `opts`; an option out of its range is an error.
     pub fn new(opts: Options) -> Result<Vsm, Error> {
-        let d = declaration();
-        check(
-            &d,
-            &opts,
-            &opts.filtering,
-            opts.storage,
-            &[Storage::F32, Storage::F16, Storage::U16],
-        )?;
-        if opts.variable && opts.filtering.prefilter != super::Prefilter::Sat {
-            return Err(d.error(
-                "variable",
-                "true",
-                format!(
-                    "needs prefilter=sat (a box of any width per pixel), not prefilter={}",
-                    opts.filtering.prefilter.as_str()
-                ),
-            ));
-        }
-        let m = Variance {
-            storage: opts.storage,
-            min_variance: opts.min_variance,
-            slope_bias: opts.slope_bias,
-            bleeding: opts.bleeding,
-        };
         let variable = opts.variable.then_some(Variable {
             light: opts.light,
             angle: opts.angle,
         });
-        Ok(PassTechnique::with(
-            "vsm",
-            FilteredPass::new(m, opts.filtering, variable),
-        ))
+        build(declaration(), &opts, &opts.filtering, variable, |d| {
+            if opts.variable && opts.filtering.prefilter != super::Prefilter::Sat {
+                return Err(d.error(
+                    "variable",
+                    "true",
+                    format!(
+                        "needs prefilter=sat (a box of any width per pixel), not prefilter={}",
+                        opts.filtering.prefilter.as_str()
+                    ),
+                ));
+            }
+            Ok(Variance {
+                storage: opts.filtering.storage,
+                min_variance: opts.min_variance,
+                slope_bias: opts.slope_bias,
+                bleeding: opts.bleeding,
+            })
+        })
     }
 }

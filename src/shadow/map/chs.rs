@@ -105,10 +105,7 @@ pub fn declaration() -> Declaration<Options> {
         15,
         |o: &mut Options| &mut o.kernel,
     )]);
-    Declaration {
-        technique: "chs",
-        fields,
-    }
+    Declaration::new("chs", fields)
 }
 
 /// Contact-hardening shadows (see the module docs).

@@ -91,9 +91,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "multi-sample",
-        fields: vec![
+    Declaration::new(
+        "multi-sample",
+        vec![
             Field::range(
                 "samples",
                 "point lights over the area light",
@@ -111,7 +111,7 @@ pub fn declaration() -> Declaration<Options> {
                 &mut o.pcf
             }),
         ],
-    }
+    )
 }
 
 /// Van der Corput's radical inverse in base 2.

@@ -59,10 +59,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.disk,
         ),
     ]);
-    Declaration {
-        technique: "pcss",
-        fields,
-    }
+    Declaration::new("pcss", fields)
 }
 
 /// Percentage-closer soft shadows (see the module docs): the shared pass as a technique.

@@ -184,10 +184,7 @@ pub fn declaration() -> Declaration<Options> {
             &mut o.taps
         }),
     ]);
-    Declaration {
-        technique: "shadow-map",
-        fields,
-    }
+    Declaration::new("shadow-map", fields)
 }
 
 /// The plain shadow map as a pass: the light pass of [`crate::shadow::light`], then one

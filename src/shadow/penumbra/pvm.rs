@@ -110,10 +110,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.smooth,
         ),
     ]);
-    Declaration {
-        technique: "pvm",
-        fields,
-    }
+    Declaration::new("pvm", fields)
 }
 
 /// Per silhouette edge: the outer and inner extrusion vectors at its two ends.

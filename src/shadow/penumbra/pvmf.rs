@@ -233,10 +233,7 @@ pub fn declaration() -> Declaration<Options> {
             |o: &mut Options| &mut o.group,
         ),
     ]);
-    Declaration {
-        technique: "pvmf",
-        fields,
-    }
+    Declaration::new("pvmf", fields)
 }
 
 /// The moved end points and the four extrusion vectors of one edge (Cournia 5.1).

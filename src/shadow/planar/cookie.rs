@@ -66,9 +66,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "cookie",
-        fields: vec![
+    Declaration::new(
+        "cookie",
+        vec![
             Field::new(
                 "occluders",
                 "comma-separated names of the objects drawn into the texture, or auto: every non-planar object; all others receive",
@@ -81,7 +81,7 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.filter,
             ),
         ],
-    }
+    )
 }
 
 /// The projective shadow texture technique (see the module docs).

@@ -70,9 +70,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "planar",
-        fields: vec![
+    Declaration::new(
+        "planar",
+        vec![
             Field::new(
                 "receiver",
                 "the receiving object's name, or auto: every planar object receives",
@@ -96,7 +96,7 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.clip,
             ),
         ],
-    }
+    )
 }
 
 /// Planar projected shadows (see the module docs).

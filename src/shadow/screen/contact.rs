@@ -59,10 +59,7 @@ impl Default for Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(shadow_map::declaration().fields, |o: &mut Options| &mut o.map);
     fields.extend(within(March::fields(), |o: &mut Options| &mut o.march));
-    Declaration {
-        technique: "contact-map",
-        fields,
-    }
+    Declaration::new("contact-map", fields)
 }
 
 /// The shadow map with contact shadows (see the module docs).

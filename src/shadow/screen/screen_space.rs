@@ -51,10 +51,7 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "screen-space",
-        fields: within(March::fields(), |o: &mut Options| &mut o.march),
-    }
+    Declaration::new("screen-space", within(March::fields(), |o: &mut Options| &mut o.march))
 }
 
 /// The screen-space march as a pass.

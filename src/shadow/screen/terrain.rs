@@ -87,9 +87,9 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "terrain-height",
-        fields: vec![
+    Declaration::new(
+        "terrain-height",
+        vec![
             Field::range("grid", "grid locations per side", 2, 8192, |o: &mut Options| {
                 &mut o.grid
             }),
@@ -117,7 +117,7 @@ pub fn declaration() -> Declaration<Options> {
                 |o: &mut Options| &mut o.objects,
             ),
         ],
-    }
+    )
 }
 
 /// Whether terrain occlusion height works on `scene`: a heightfield under a directional

@@ -58,14 +58,14 @@ impl Default for Options {
 
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
-    Declaration {
-        technique: "shadow-volume",
-        fields: vec![Field::new(
+    Declaration::new(
+        "shadow-volume",
+        vec![Field::new(
             "mode",
             "auto (z-pass unless a caster may put the near plane in shadow), zfail (capped, depth clamp), zfail-infinite (capped, infinite far plane projection and its own depth pre-pass), zpass (Heidmann, stencil starts at the eye's count), zpass-naive (starts at 0), or zfail-noclamp",
             |o: &mut Options| &mut o.mode,
         )],
-    }
+    )
 }
 
 /// Stencil shadow volumes (see the module docs): the shared pass as a technique.

@@ -35,18 +35,16 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, merged_casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
+use crate::shadow::technique::{Declaration, Entry, Field, Stage};
 use crate::Error;
 use glam::Vec3;
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "avsm",
-    family: Family::Volumetric,
     summary: "adaptive volumetric shadow maps (Salvi et al. 2010; RTR 7.8): a fixed number of (depth, transmittance) nodes per texel, compressed as fragments stream in; order-dependent",
     sweep: &[&[], &[("nodes", "4")], &[("nodes", "16")], &[("order", "reverse")]],
-    models: &[crate::shadow::technique::Effect::Transmittance],
-    ..Entry::BASE
+    ..super::BASE
 };
 
 /// Most nodes a texel may keep.
@@ -65,13 +63,13 @@ choice_enum! {
 /// Options of the adaptive volumetric shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
-    /// offset (4 units, slope 1.1).
-    pub pass: PassOptions,
     /// Nodes per texel, 1 to 64. Default: 8 (the paper's common setting).
     pub nodes: u32,
     /// Insertion order. Default: forward.
     pub order: Order,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
 }
 
 impl Default for Options {

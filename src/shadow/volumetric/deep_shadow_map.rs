@@ -36,7 +36,7 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, merged_casters, Casters, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
+use crate::shadow::technique::{Declaration, Entry, Field, Stage};
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -44,12 +44,10 @@ use rayon::prelude::*;
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "deep-shadow-map",
-    family: Family::Volumetric,
     summary: "deep shadow maps (Lokovic and Veach 2000; RTR 7.8): every fragment per texel in lists, sorted, compressed piecewise-linear within a tolerance; memory grows with the fragments",
     sweep: &[&[]],
     extended: &[&[("filter", "nearest")]],
-    models: &[crate::shadow::technique::Effect::Transmittance],
-    ..Entry::BASE
+    ..super::BASE
 };
 
 choice_enum! {
@@ -66,15 +64,15 @@ choice_enum! {
 /// Options of the deep shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
-    /// offset (4 units, slope 1.1).
-    pub pass: PassOptions,
     /// Compression tolerance of the transmittance functions, in (0, 1). Default: 0.01.
     pub tolerance: f32,
     /// Fragments the lists may hold per view. Default: 16777216.
     pub capacity: u32,
     /// Filtering between texels. Default: bilinear.
     pub filter: Filter,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
 }
 
 impl Default for Options {

@@ -19,11 +19,19 @@ use crate::shadow::inspect::{NoTrace, Step, Steps, Trace};
 use crate::shadow::light::{merged_casters, Casters, DepthPass, ViewMaps};
 use crate::shadow::options::within;
 use crate::shadow::pass::{Pass, PassTechnique};
-use crate::shadow::technique::{Declaration, Field, Stage};
+use crate::shadow::technique::{Declaration, Effect, Entry, Family, Field, Stage};
 use crate::shadow::timing::Passes;
 use crate::visibility::{Visibility, LUMINANCE};
 use crate::Error;
 use glam::{Vec2, Vec3};
+
+/// What every volumetric technique's registry entry shares: the family, and transmittance
+/// among the effects it models.
+pub const BASE: Entry = Entry {
+    family: Family::Volumetric,
+    models: &[Effect::Transmittance],
+    ..Entry::BASE
+};
 
 /// What a volumetric technique is made of besides the family's lookup: its light pass (the
 /// per-view maps it renders) and the transmittance those maps give at a point

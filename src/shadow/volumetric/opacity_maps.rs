@@ -32,14 +32,13 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family, Field, Stage};
+use crate::shadow::technique::{Declaration, Entry, Field, Stage};
 use crate::Error;
 use glam::{Vec3, Vec4};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "opacity-maps",
-    family: Family::Volumetric,
     summary: "opacity shadow maps (Kim and Neumann 2001) and deep opacity maps (Yuksel and Keyser 2008): optical depth in K slices, interpolated; banding between slices",
     sweep: &[
         &[("layout", "uniform"), ("slices", "4")],
@@ -47,8 +46,7 @@ pub const ENTRY: Entry = Entry {
         &[],
     ],
     extended: &[&[("slices", "16")]],
-    models: &[crate::shadow::technique::Effect::Transmittance],
-    ..Entry::BASE
+    ..super::BASE
 };
 
 /// Most slices.
@@ -67,9 +65,6 @@ choice_enum! {
 /// Options of opacity shadow maps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
-    /// offset (4 units, slope 1.1).
-    pub pass: PassOptions,
     /// Slices, 1 to 64. Default: 4.
     pub slices: u32,
     /// Uniform slices (opacity shadow maps) or slices from the first depth (deep opacity
@@ -78,6 +73,9 @@ pub struct Options {
     /// generated scenes with translucent casters (0.0787 against 0.0871, `penumbra
     /// defaults`). `layout=uniform slices=16` is Kim and Neumann's.
     pub layout: Slices,
+    /// The light pass: map side, polygon offset. Default: 512 texels, the shadow map's
+    /// offset (4 units, slope 1.1).
+    pub pass: PassOptions,
 }
 
 impl Default for Options {

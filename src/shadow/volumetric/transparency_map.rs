@@ -22,18 +22,16 @@ use crate::pipeline::*;
 use crate::shadow::inspect::{Step, Trace};
 use crate::shadow::light::{light_views, Casters, DepthPass, LightView, Payload, ViewMaps};
 use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family, Stage};
+use crate::shadow::technique::{Declaration, Entry, Stage};
 use crate::Error;
 use glam::{Vec3, Vec4};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "transparency-map",
-    family: Family::Volumetric,
     summary: "coloured transparency map (RTR 7.8): opaque depth map plus the nearest transparent surface's depth and colour; one layer only, transparent receivers wrong",
     sweep: &[&[], &[("size", "512")]],
-    models: &[crate::shadow::technique::Effect::Transmittance],
-    ..Entry::BASE
+    ..super::BASE
 };
 
 /// Options of the coloured transparency map.
