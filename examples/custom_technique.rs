@@ -32,10 +32,7 @@ pub struct Options {
 pub fn declaration() -> Declaration<Options> {
     let mut fields = within(MapOptions::fields(), |o: &mut Options| &mut o.map);
     fields.extend(within(Bias::fields(), |o: &mut Options| &mut o.bias));
-    Declaration {
-        technique: "soft-edge",
-        fields,
-    }
+    Declaration::new("soft-edge", fields)
 }
 
 /// A shadow map compared with 2x2 PCF.

@@ -50,10 +50,10 @@ pub const ENTRY: Entry = Entry {
 /// Options of SDSM.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
-    /// The shadow map's options (map pass, bias, layer, filter), the cascades in
-    /// `shadow.map.views` (`Views::Cascades`). Default: 4 cascades of 1024² texels, logarithmic splits of the
-    /// reduced range (the paper's), each fitted to where the histogram has samples, this
-    /// frame's depths (`latency=0`); the rest as `csm`'s defaults.
+    /// CSM's options ([`super::cascaded::Options`]) with the depth reduction's (`partition`,
+    /// `latency` in the cascades). Default: `csm`'s, but logarithmic splits of the reduced
+    /// range (the paper's), each cascade fitted to where the histogram has samples, this
+    /// frame's depths (`latency=0`).
     pub shadow: MapPassOptions,
 }
 

@@ -279,25 +279,11 @@ pub fn mask_quads(s: &Silhouettes, l: Vec3, r: f32, s_e: f32) -> (Vec<MaskVolume
     let mut q = Quads::default();
     let vols: Vec<MaskVolume> = s.edges.iter().map(|e| mask_volume(e.a, e.b, l, r, s_e)).collect();
     for m in &vols {
-        let [h0, h1] = m.ends;
-        q.push(
-            [
-                h0.extend(1.0),
-                m.outer[0].extend(0.0),
-                m.outer[1].extend(0.0),
-                h1.extend(1.0),
-            ],
-            m.distance,
-        );
-        q.push(
-            [
-                h1.extend(1.0),
-                m.inner[1].extend(0.0),
-                m.inner[0].extend(0.0),
-                h0.extend(1.0),
-            ],
-            m.distance,
-        );
+        // End points at w = 1, extrusion vectors at w = 0 (points at infinity).
+        let [h0, h1] = m.ends.map(|h| h.extend(1.0));
+        let (o, i) = (m.outer.map(|v| v.extend(0.0)), m.inner.map(|v| v.extend(0.0)));
+        q.push([h0, o[0], o[1], h1], m.distance);
+        q.push([h1, i[1], i[0], h0], m.distance);
     }
     (vols, q)
 }
