@@ -174,7 +174,7 @@ impl Error {
                 limit,
                 resource,
             },
-            Error::Pipeline(p @ PipelineError::OverBudget { .. }) => Error::from(p).within(what),
+            Error::Pipeline(p @ PipelineError::OverBudget(_)) => Error::from(p).within(what),
             e => e,
         }
     }
@@ -268,18 +268,7 @@ impl From<PipelineError> for Error {
     /// callers match memory limits in one place.
     fn from(e: PipelineError) -> Error {
         match e {
-            PipelineError::OverBudget {
-                width,
-                height,
-                bytes,
-                live,
-                limit,
-            } => Error::budget(
-                format!("{width}x{height} buffers of {}", size_text(bytes)),
-                live.saturating_add(bytes),
-                limit,
-                Resource::Memory,
-            ),
+            PipelineError::OverBudget(o) => Error::budget(o.what(), o.total(), o.limit, Resource::Memory),
             e => Error::Pipeline(e),
         }
     }
@@ -348,6 +337,7 @@ pub fn quoted(name: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::OverBudget;
 
     #[test]
     fn names_from_input_are_quoted_without_terminal_controls() {
@@ -383,13 +373,13 @@ mod tests {
 
     #[test]
     fn memory_errors_are_budgets_and_name_no_flag() {
-        let p = PipelineError::OverBudget {
+        let p = PipelineError::OverBudget(OverBudget {
             width: 100,
             height: 100,
             bytes: 40_000,
             live: 0,
             limit: 10_000,
-        };
+        });
         let e = Error::from(p).within("the light's maps (1 view, option size=100)");
         assert!(matches!(
             e,
@@ -403,13 +393,13 @@ mod tests {
         let t = e.in_technique("shadow-map").to_string();
         // Regression: a request whose size overflowed the live total wrapped around in the
         // pipeline's message (1 MiB alive) or panicked with overflow checks.
-        let huge = PipelineError::OverBudget {
+        let huge = PipelineError::OverBudget(OverBudget {
             width: 1,
             height: 1,
             bytes: u64::MAX,
             live: 1 << 20,
             limit: 1 << 30,
-        };
+        });
         let m = huge.to_string();
         assert!(
             m.contains("alive to 17592186044416 MiB, beyond the memory limit of 1024 MiB"),

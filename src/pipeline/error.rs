@@ -51,21 +51,38 @@ pub enum PipelineError {
     },
     /// Any other invalid argument, described.
     BadArgument(String),
-    /// A surface (or a set of them: a cube map's faces, an array's layers; `bytes` counts them
-    /// all) would take the live surfaces past the memory budget
+    /// A surface (or a set of them) would take the live surfaces past the memory budget
     /// ([`super::surface::set_memory_limit`]); nothing was allocated.
-    OverBudget {
-        /// Requested width.
-        width: u32,
-        /// Requested height.
-        height: u32,
-        /// Its bytes.
-        bytes: u64,
-        /// Bytes of the surfaces alive when it was asked for.
-        live: u64,
-        /// The budget.
-        limit: u64,
-    },
+    OverBudget(OverBudget),
+}
+
+/// A request the memory budget refused: a surface, or a set of them (a cube map's faces, an
+/// array's layers; `bytes` counts them all).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OverBudget {
+    /// Requested width.
+    pub width: u32,
+    /// Requested height.
+    pub height: u32,
+    /// Its bytes.
+    pub bytes: u64,
+    /// Bytes of the surfaces alive when it was asked for.
+    pub live: u64,
+    /// The budget.
+    pub limit: u64,
+}
+
+impl OverBudget {
+    /// What was asked for: "WxH buffers of N MiB".
+    pub fn what(&self) -> String {
+        format!("{}x{} buffers of {}", self.width, self.height, size_text(self.bytes))
+    }
+
+    /// The live bytes it would have made (`live + bytes`, saturating: a request past `u64`
+    /// is how some are refused).
+    pub fn total(&self) -> u64 {
+        self.live.saturating_add(self.bytes)
+    }
 }
 
 impl fmt::Display for PipelineError {
@@ -103,22 +120,13 @@ impl fmt::Display for PipelineError {
                 write!(f, "mip level {level} does not exist (the chain has {levels} levels)")
             }
             PipelineError::BadArgument(s) => write!(f, "{s}"),
-            PipelineError::OverBudget {
-                width,
-                height,
-                bytes,
-                live,
-                limit,
-            } => {
-                // `live + bytes` may not fit in a u64: that is how some requests are refused.
-                write!(
-                    f,
-                    "{width}x{height} buffers of {} would bring the buffers alive to {}, beyond the memory limit of {} (lower the map size, cascades, faces or resolution, or raise the memory limit)",
-                    size_text(*bytes),
-                    size_text(live.saturating_add(*bytes)),
-                    size_text(*limit)
-                )
-            }
+            PipelineError::OverBudget(o) => write!(
+                f,
+                "{} would bring the buffers alive to {}, beyond the memory limit of {} (lower the map size, cascades, faces or resolution, or raise the memory limit)",
+                o.what(),
+                size_text(o.total()),
+                size_text(o.limit)
+            ),
         }
     }
 }

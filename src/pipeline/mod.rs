@@ -61,7 +61,7 @@ pub mod vertex;
 pub mod wide;
 
 pub(crate) use error::size_text;
-pub use error::PipelineError;
+pub use error::{OverBudget, PipelineError};
 pub use lanes::Fragment;
 pub use lanes::{Color4, Fragment4, Vec3x4};
 pub use lists::{FragmentLists, ListNode};

@@ -3,7 +3,7 @@
 //!
 //! Storage is row-major, row 0 at the top (window origin top-left, y down).
 
-use super::error::PipelineError;
+use super::error::{OverBudget, PipelineError};
 use glam::{Vec3, Vec4};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -73,13 +73,13 @@ fn fits(width: u32, height: u32, bytes: u64, live: u64) -> Result<u64, PipelineE
     let limit = memory_limit();
     match live.checked_add(bytes) {
         Some(total) if total <= limit => Ok(total),
-        _ => Err(PipelineError::OverBudget {
+        _ => Err(PipelineError::OverBudget(OverBudget {
             width,
             height,
             bytes,
             live,
             limit,
-        }),
+        })),
     }
 }
 

@@ -21,7 +21,7 @@
 //! lights only: cascades split a map along the view, and a spot or point light's map is
 //! already perspective (a scene with another light is an error that says so).
 
-use super::plain::{self, HoldsMapPass, MapPass, Options as MapPassOptions};
+use super::plain::{self, HoldsMapPass, MapPass};
 use super::warped::directional;
 use crate::shadow::light::cascades::Cascades;
 use crate::shadow::light::MapOptions;
@@ -58,32 +58,11 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-/// Options of the cascaded shadow map.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// The shadow map's options (map pass, bias, layer, filter), the cascades in
-    /// `shadow.map.views` (`Views::Cascades`). Default: 4 cascades of 1024² texels (the texels of one 2048²
-    /// map), practical splits with Zhang et al.'s lambda 0.5, selection by view depth, a
-    /// linear blend over the last tenth of each cascade, tight fitting (`snap=false`, the
-    /// paper's: on 12 of the 13 directional fixtures the stable sphere's wasted texels gave
-    /// more wrong pixels; `snap=true` is the fix for shimmering), one comparison per pixel;
-    /// the rest as `shadow-map`'s defaults.
-    pub shadow: MapPassOptions,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shadow: MapPassOptions::with_map(MapOptions::cascaded(1024, Cascades::default())),
-        }
-    }
-}
-
-impl HoldsMapPass for Options {
-    fn shadow(&mut self) -> &mut MapPassOptions {
-        &mut self.shadow
-    }
-}
+super::plain::map_pass_options!(
+    "the cascaded shadow map",
+    MapOptions::cascaded(1024, Cascades::default()),
+    "The shadow map's options (map pass, bias, layer, filter), the cascades in `shadow.map.views` (`Views::Cascades`). Default: 4 cascades of 1024² texels (the texels of one 2048² map), practical splits with Zhang et al.'s lambda 0.5, selection by view depth, a linear blend over the last tenth of each cascade, tight fitting (`snap=false`, the paper's: on 12 of the 13 directional fixtures the stable sphere's wasted texels gave more wrong pixels; `snap=true` is the fix for shimmering), one comparison per pixel; the rest as `shadow-map`'s defaults."
+);
 
 /// The cascades inside `o`'s map pass.
 fn cascades_of<O: HoldsMapPass>(o: &mut O) -> &mut Cascades {

@@ -465,18 +465,13 @@ mod tests {
     use crate::hash::SplitMix;
     use crate::shadow::light::LightView;
 
-    /// The lookup pass (four pixels prepared together) gives every pixel the one-pixel
-    /// lookup's value, and the one-pixel taps in all, with and without the receiver plane.
-    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
-    /// fixture, for every setting of the sweep.
+    /// `inspect`'s lookup is the image at every pixel of every fixture
+    /// ([`crate::shadow::sample::testing::assert_lookups_on_fixtures`]).
     #[test]
-    #[cfg(feature = "files")]
     fn the_image_is_the_traced_lookup_on_every_fixture() {
-        crate::shadow::sample::testing::assert_lookups_on_fixtures(
-            &ENTRY,
-            |pairs| Chs::new(declaration().parse(pairs).unwrap()).unwrap(),
-            |t, f, x, y| t.lookup(f, x, y, &mut NoTrace).0,
-        );
+        crate::shadow::sample::testing::assert_lookups_on_fixtures(&ENTRY, declaration, Chs::new, |t, f, x, y| {
+            t.lookup(f, x, y, &mut NoTrace).0
+        });
     }
 
     #[test]

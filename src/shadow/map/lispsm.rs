@@ -45,9 +45,9 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::warped::warped_options!(
+super::plain::map_pass_options!(
     "LiSPSM",
-    WarpKind::Lispsm,
+    crate::shadow::light::MapOptions::warped(WarpKind::Lispsm),
     "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest as `shadow-map`'s defaults."
 );
 

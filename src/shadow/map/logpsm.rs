@@ -59,9 +59,9 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::warped::warped_options!(
+super::plain::map_pass_options!(
     "LogPSM",
-    WarpKind::Logpsm,
+    crate::shadow::light::MapOptions::warped(WarpKind::Logpsm),
     "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, `n_scale=1`; the rest as `shadow-map`'s defaults."
 );
 

@@ -79,16 +79,13 @@ mod tests {
     use crate::shadow::inspect::NoTrace;
     use crate::shadow::sample::testing::assert_lookups;
 
-    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
-    /// fixture, for every setting of the sweep.
+    /// `inspect`'s lookup is the image at every pixel of every fixture
+    /// ([`crate::shadow::sample::testing::assert_lookups_on_fixtures`]).
     #[test]
-    #[cfg(feature = "files")]
     fn the_image_is_the_traced_lookup_on_every_fixture() {
-        crate::shadow::sample::testing::assert_lookups_on_fixtures(
-            &ENTRY,
-            |pairs| Pcss::new(declaration().parse(pairs).unwrap()).unwrap(),
-            |t, f, x, y| t.pass.lookup(f, x, y, &mut NoTrace).0,
-        );
+        crate::shadow::sample::testing::assert_lookups_on_fixtures(&ENTRY, declaration, Pcss::new, |t, f, x, y| {
+            t.pass.lookup(f, x, y, &mut NoTrace).0
+        });
     }
 
     #[test]

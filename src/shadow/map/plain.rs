@@ -115,6 +115,35 @@ impl Options {
     }
 }
 
+/// The `Options` of a technique that is the plain map pass over other views (warped,
+/// cascaded): a struct of one field, `shadow`, documented by `$field`, whose default is the
+/// plain map's options with the map pass `$map`; its `Default` and its [`HoldsMapPass`].
+macro_rules! map_pass_options {
+    ($technique:literal, $map:expr, $field:literal) => {
+        #[doc = concat!("Options of ", $technique, ".")]
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Options {
+            #[doc = $field]
+            pub shadow: $crate::shadow::map::plain::Options,
+        }
+
+        impl Default for Options {
+            fn default() -> Self {
+                Options {
+                    shadow: $crate::shadow::map::plain::Options::with_map($map),
+                }
+            }
+        }
+
+        impl $crate::shadow::map::plain::HoldsMapPass for Options {
+            fn shadow(&mut self) -> &mut $crate::shadow::map::plain::Options {
+                &mut self.shadow
+            }
+        }
+    };
+}
+pub(crate) use map_pass_options;
+
 /// Options of a technique that is the plain map's pass with its own light views (cascades,
 /// warps): they hold the plain map's options.
 pub trait HoldsMapPass: Clone + Default + 'static {

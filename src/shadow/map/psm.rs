@@ -42,9 +42,9 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::warped::warped_options!(
+super::plain::map_pass_options!(
     "PSM",
-    WarpKind::Psm,
+    crate::shadow::light::MapOptions::warped(WarpKind::Psm),
     "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the virtual camera moved back past the casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults."
 );
 

@@ -17,7 +17,6 @@
 //! the depth buffer each frame. Directional lights only.
 
 use super::cascaded::{build, cascaded_declaration, Csm};
-use super::plain::{HoldsMapPass, Options as MapPassOptions};
 use super::warped::directional;
 use crate::shadow::light::cascades::{Cascades, Split};
 use crate::shadow::light::sdsm::Partition;
@@ -47,36 +46,18 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-/// Options of SDSM.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// CSM's options ([`super::cascaded::Options`]) with the depth reduction's (`partition`,
-    /// `latency` in the cascades). Default: `csm`'s, but logarithmic splits of the reduced
-    /// range (the paper's), each cascade fitted to where the histogram has samples, this
-    /// frame's depths (`latency=0`).
-    pub shadow: MapPassOptions,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shadow: MapPassOptions::with_map(MapOptions::cascaded(
-                1024,
-                Cascades {
-                    split: Split::Log,
-                    partition: Partition::Histogram,
-                    ..Cascades::default()
-                },
-            )),
-        }
-    }
-}
-
-impl HoldsMapPass for Options {
-    fn shadow(&mut self) -> &mut MapPassOptions {
-        &mut self.shadow
-    }
-}
+super::plain::map_pass_options!(
+    "SDSM",
+    MapOptions::cascaded(
+        1024,
+        Cascades {
+            split: Split::Log,
+            partition: Partition::Histogram,
+            ..Cascades::default()
+        },
+    ),
+    "CSM's options ([`super::cascaded::Options`]) with the depth reduction's (`partition`, `latency` in the cascades). Default: `csm`'s, but logarithmic splits of the reduced range (the paper's), each cascade fitted to where the histogram has samples, this frame's depths (`latency=0`)."
+);
 
 /// The option declaration: `csm`'s and SDSM's `partition` and `latency`.
 pub fn declaration() -> Declaration<Options> {

@@ -135,14 +135,15 @@ mod tests {
         assert_eq!(sm.culled(), 1);
     }
 
-    /// The image equals the one-pixel lookup (`inspect`'s code) at every pixel of every
-    /// fixture, for every setting of the sweep.
+    /// `inspect`'s lookup is the image at every pixel of every fixture
+    /// ([`crate::shadow::sample::testing::assert_lookups_on_fixtures`]).
     #[test]
     #[cfg(feature = "files")]
     fn the_image_is_the_traced_lookup_on_every_fixture() {
         crate::shadow::sample::testing::assert_lookups_on_fixtures(
             &ENTRY,
-            |pairs| ShadowMap::new(declaration().parse(pairs).unwrap()).unwrap(),
+            declaration,
+            ShadowMap::new,
             |t, f, x, y| t.pass().lookup(f, x, y, &mut NoTrace).0,
         );
     }

@@ -41,9 +41,9 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::warped::warped_options!(
+super::plain::map_pass_options!(
     "TSM",
-    WarpKind::Tsm,
+    crate::shadow::light::MapOptions::warped(WarpKind::Tsm),
     "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the focus at half the view range; the rest as `shadow-map`'s defaults."
 );
 

@@ -11,37 +11,6 @@ use crate::shadow::pass::PassTechnique;
 use crate::shadow::technique::{Declaration, Field};
 use crate::Error;
 
-/// A warped technique's `Options`: the plain map pass's options holding the warp `$kind`
-/// (a struct of one field, `shadow`, documented by `$field`), its `Default` and its
-/// [`HoldsMapPass`].
-macro_rules! warped_options {
-    ($technique:literal, $kind:expr, $field:literal) => {
-        #[doc = concat!("Options of ", $technique, ".")]
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Options {
-            #[doc = $field]
-            pub shadow: $crate::shadow::map::plain::Options,
-        }
-
-        impl Default for Options {
-            fn default() -> Self {
-                Options {
-                    shadow: $crate::shadow::map::plain::Options::with_map($crate::shadow::light::MapOptions::warped(
-                        $kind,
-                    )),
-                }
-            }
-        }
-
-        impl $crate::shadow::map::plain::HoldsMapPass for Options {
-            fn shadow(&mut self) -> &mut $crate::shadow::map::plain::Options {
-                &mut self.shadow
-            }
-        }
-    };
-}
-pub(crate) use warped_options;
-
 /// The warp inside `o`'s map pass.
 fn warp_of<O: HoldsMapPass>(o: &mut O) -> &mut Warp {
     o.shadow().map.views.warp_mut()
@@ -52,7 +21,7 @@ fn warp_of<O: HoldsMapPass>(o: &mut O) -> &mut Warp {
 pub fn declaration<O: HoldsMapPass>(technique: &'static str, fields: Vec<Field<Warp>>) -> Declaration<O> {
     let mut all = plain::fields_within::<O>(&["fit", "snap"]);
     all.extend(within(fields, warp_of::<O>));
-    Declaration { technique, fields: all }
+    Declaration::new(technique, all)
 }
 
 /// Whether `light` is directional (the only kind warps and cascades take).

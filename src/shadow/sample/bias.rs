@@ -6,6 +6,7 @@
 //! - receiver-plane depth bias (Isidoro 2006): the receiver's depth slope in shadow-map
 //!   texels, from its screen-space neighbours.
 
+use crate::frame::Frame;
 use crate::reference::SamplePoint;
 use crate::scene::Light;
 use crate::shadow::light::LightView;
@@ -30,18 +31,8 @@ pub fn normal_offset(view: &LightView, light: &Light, s: &SamplePoint, k: f32) -
 ///   neighbours are missing, the Jacobian is singular or the result is not finite;
 /// - the bias: the depth change across one texel, `(|dz/du| + |dz/dv|) / size`, at most
 ///   0.05, zero without a gradient.
-#[allow(clippy::too_many_arguments)]
-pub fn receiver_plane(
-    pts: &[Option<SamplePoint>],
-    objs: &[u32],
-    w: usize,
-    h: usize,
-    x: usize,
-    y: usize,
-    view: &LightView,
-    size: u32,
-) -> (Option<Vec2>, f32) {
-    let Some(d) = plane_slopes(pts, objs, w, h, x, y, view) else {
+pub fn receiver_plane(frame: &Frame, x: usize, y: usize, view: &LightView, size: u32) -> (Option<Vec2>, f32) {
+    let Some(d) = plane_slopes(frame, x, y, view) else {
         return (None, 0.0);
     };
     plane_terms(d / size as f32, (d.x.abs() + d.y.abs()) / size as f32)
@@ -57,16 +48,20 @@ fn plane_terms(g: Vec2, b: f32) -> (Option<Vec2>, f32) {
     )
 }
 
+/// The G-buffer's points and object ids, and its width and height.
+#[inline(always)]
+fn gbuffer<'f>(f: &'f Frame) -> (&'f [Option<SamplePoint>], &'f [u32], usize, usize) {
+    (
+        f.points(),
+        f.gbuffer.object.data(),
+        f.width() as usize,
+        f.height() as usize,
+    )
+}
+
 /// dz/du and dz/dv of the receiver's plane in light texture space (see [`receiver_plane`]).
-fn plane_slopes(
-    pts: &[Option<SamplePoint>],
-    objs: &[u32],
-    w: usize,
-    h: usize,
-    x: usize,
-    y: usize,
-    view: &LightView,
-) -> Option<Vec2> {
+fn plane_slopes(frame: &Frame, x: usize, y: usize, view: &LightView) -> Option<Vec2> {
+    let (pts, objs, w, h) = gbuffer(frame);
     let own = objs[y * w + x];
     let at = |xx: usize, yy: usize| {
         if objs[yy * w + xx] == own {
@@ -108,17 +103,14 @@ fn plane_slopes(
 /// three projections and the slope solve run on four lanes with the one-pixel operations in
 /// the same order (glam's `Mat4 * Vec4`: `((x_axis x + y_axis y) + z_axis z) + w_axis`), so
 /// the values are [`receiver_plane`]'s bit for bit; other lanes take [`receiver_plane`].
-#[allow(clippy::too_many_arguments)]
 pub fn receiver_plane4(
-    pts: &[Option<SamplePoint>],
-    objs: &[u32],
-    w: usize,
-    h: usize,
+    frame: &Frame,
     (x, y): (usize, usize),
     n: usize,
     view: &LightView,
     size: u32,
 ) -> [(Option<Vec2>, f32); 4] {
+    let (pts, objs, w, h) = gbuffer(frame);
     let m = &view.matrix;
     let mut out = [(None, 0.0); 4];
     // Per lane: the pixel and its neighbours' positions, when all three are usable.
@@ -182,7 +174,7 @@ pub fn receiver_plane4(
     }
     for (l, o) in out.iter_mut().enumerate().take(n.min(4)) {
         if !general[l] {
-            *o = receiver_plane(pts, objs, w, h, x + l, y, view, size);
+            *o = receiver_plane(frame, x + l, y, view, size);
         }
     }
     out
@@ -205,15 +197,14 @@ mod tests {
             let scene = crate::shadow::sample::testing::scene(light);
             let f = crate::frame::frame(&p, &scene, 0, 0).unwrap();
             let (w, h) = (f.width() as usize, f.height() as usize);
-            let (pts, objs) = (f.points(), f.gbuffer.object.data());
             let mut general = 0;
             for (view, size) in light_views(&f, 512).iter().zip([512, 300, 2048, 64, 512, 1000]) {
                 for y in 0..h {
                     for x in (0..w).step_by(4) {
                         let n = (w - x).min(4);
-                        let four = receiver_plane4(pts, objs, w, h, (x, y), n, view, size);
+                        let four = receiver_plane4(&f, (x, y), n, view, size);
                         for (l, got) in four.into_iter().enumerate().take(n) {
-                            let one = receiver_plane(pts, objs, w, h, x + l, y, view, size);
+                            let one = receiver_plane(&f, x + l, y, view, size);
                             assert_eq!(bits(got), bits(one), "{light} ({}, {y}) size {size}", x + l);
                             general += one.0.is_some() as usize;
                         }

@@ -316,8 +316,7 @@ impl MapLookup {
         if !o.bias.receiver || o.layer == Layer::Id {
             return [None; 4];
         }
-        let (w, h) = (frame.width() as usize, frame.height() as usize);
-        let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
+        let (w, pts) = (frame.width() as usize, frame.points());
         let mut face = None;
         for s in pts[y * w + x..y * w + x + n].iter().flatten() {
             let f = light::view_of(self.maps.maps(), &frame.light, s.position);
@@ -328,7 +327,7 @@ impl MapLookup {
         }
         let Some(face) = face else { return [None; 4] };
         let (map, view) = &self.maps.maps()[face];
-        receiver_plane4(pts, objs, w, h, (x, y), n, view, map.width()).map(Some)
+        receiver_plane4(frame, (x, y), n, view, map.width()).map(Some)
     }
 
     /// [`MapLookup::filter`] of the lanes with a kernel, all prepared on view `face`: the
@@ -522,7 +521,7 @@ impl MapLookup {
         plane: Option<(Option<Vec2>, f32)>,
         on: Option<usize>,
     ) -> Prepared {
-        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let w = frame.width() as usize;
         let (pts, objs) = (frame.points(), frame.gbuffer.object.data());
         let Some(s) = pts[y * w + x] else {
             return Prepared::Done(f32::NAN, 0);
@@ -595,7 +594,7 @@ impl MapLookup {
         let mut z = z;
         let mut gradient = Vec2::ZERO;
         if o.bias.receiver {
-            let (g, b) = plane.unwrap_or_else(|| receiver_plane(pts, objs, w, h, x, y, view, size));
+            let (g, b) = plane.unwrap_or_else(|| receiver_plane(frame, x, y, view, size));
             if o.wide.is_some() {
                 gradient = g.unwrap_or(Vec2::ZERO);
             }

@@ -58,14 +58,16 @@ pub(crate) fn assert_lookups<T: ShadowTechnique>(
 }
 
 /// For every fixture scene (`fixtures/scenes`) on which the technique of `entry` applies and every
-/// option set of its registry sweep: the image `make` draws equals its one-pixel `lookup`
+/// option set of its registry sweep: the image of the technique `new` makes of the options
+/// `declaration` parses equals its one-pixel `lookup`
 /// (the code `inspect` runs, with a recording trace instead of [`NoTrace`](crate::shadow::inspect::NoTrace))
 /// at every pixel, bit for bit. This holds the four-lane image paths to the traced one on
 /// every fixture, not only on [`scene`].
 #[cfg(feature = "files")]
-pub(crate) fn assert_lookups_on_fixtures<T: ShadowTechnique + Sync>(
+pub(crate) fn assert_lookups_on_fixtures<O: Clone + Default + 'static, T: ShadowTechnique + Sync>(
     entry: &crate::shadow::technique::Entry,
-    make: impl Fn(&[(String, String)]) -> T,
+    declaration: fn() -> crate::shadow::technique::Declaration<O>,
+    new: fn(O) -> Result<T, crate::Error>,
     lookup: impl Fn(&T, &Frame, usize, usize) -> f32 + Sync,
 ) {
     use rayon::prelude::*;
@@ -87,7 +89,7 @@ pub(crate) fn assert_lookups_on_fixtures<T: ShadowTechnique + Sync>(
         let (w, h) = (f.width() as usize, f.height() as usize);
         for set in entry.sweep {
             let pairs: Vec<(String, String)> = set.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-            let mut t = make(&pairs);
+            let mut t = new(declaration().parse(&pairs).unwrap()).unwrap();
             let v = t.visibility(&p, &f).unwrap();
             let (t, f, lookup) = (&t, &f, &lookup);
             let wrong = p.install(|| {
