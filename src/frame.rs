@@ -202,17 +202,26 @@ pub fn gbuffer(p: &Pipeline, scene: &Scene, camera: &Camera) -> Result<GBuffer, 
         },
         ..Default::default()
     };
+    // Where two objects reach a pixel at exactly the same depth (coplanar surfaces), the
+    // first pass kept the first one drawn (`Less`), and every one passes `Equal`: only the
+    // object the first pass kept writes here, so that a pixel's triangle is always one of its
+    // object's.
+    let ids = pos_id.data();
     for (oi, o) in scene.objects.iter().enumerate() {
         let two_sided = scene.materials[o.material].two_sided;
         let eye = camera.position;
-        let fs = Shader(move |f: &Fragment<(Vec3, Vec3)>| {
+        let id = oi as f32;
+        let fs = DiscardingShader(move |f: &Fragment<(Vec3, Vec3)>| {
+            if ids[f.y as usize * w as usize + f.x as usize].w != id {
+                return None;
+            }
             let mut n = f.var.1.normalize_or_zero();
             // Face the viewer: back faces of two-sided sheets, and any normal pointing away.
             if (two_sided || !f.front) && n.dot(eye - f.var.0) < 0.0 {
                 n = -n;
             }
             // The triangle's index rides in the unused w, by bit pattern (exact for any count).
-            n.extend(f32::from_bits(f.prim))
+            Some(n.extend(f32::from_bits(f.prim)))
         });
         p.draw(
             &mut Targets::color(&mut nrm).with_depth(&mut depth),

@@ -781,3 +781,99 @@ fn outputs_are_never_written_through_links() {
     assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// Two objects holding the same triangles tie in depth at every pixel of them: the G-buffer's
+/// triangle was the last object's while its object was the first's, and a technique that
+/// read the triangle of a pixel's object indexed past it (`choose --scale 0.5` on a glTF file
+/// whose meshes shared a quad panicked in the IZB's sample setup). Every pixel's triangle is
+/// now one of its own object's, at any resolution.
+#[test]
+fn coplanar_objects_keep_their_own_triangles_in_the_gbuffer() {
+    let quad = "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\nf 1 3 2\nf 1 4 3\n";
+    // Ten small triangles elsewhere, then the same quad: its triangles are 10 and 11.
+    let mut more = String::new();
+    for i in 0..10 {
+        let x = 20 + 2 * i;
+        more += &format!("v {x} 0 20\nv {} 0 20\nv {x} 0 21\n", x + 1);
+    }
+    more += "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\n";
+    for i in 0..10 {
+        let b = 3 * i + 1;
+        more += &format!("f {b} {} {}\n", b + 2, b + 1);
+    }
+    more += "f 31 33 32\nf 31 34 33\n";
+    common::temp_file("hostile-ties", "a.obj", quad);
+    common::temp_file("hostile-ties", "b.obj", &more);
+    let scene = common::temp_file(
+        "hostile-ties",
+        "ties.toml",
+        r#"
+[camera]
+position = [3.5, 2.6, 4.5]
+target = [0, 0, 0]
+fov = 40
+resolution = [96, 54]
+
+[[light]]
+type = "directional"
+direction = [-0.3, -1, -0.2]
+
+[[material]]
+name = "m"
+albedo = [0.7, 0.7, 0.7]
+
+[[object]]
+name = "a"
+mesh = "a.obj"
+material = "m"
+
+[[object]]
+name = "b"
+mesh = "b.obj"
+material = "m"
+
+[[object]]
+name = "box"
+mesh = "box"
+size = [1, 1, 1]
+translate = [0, 0.5, 0]
+material = "m"
+"#,
+    );
+    let s = penumbra::scene::file::load(std::path::Path::new(&scene)).unwrap();
+    let p = penumbra::pipeline::Pipeline::new(2).unwrap();
+    for (w, h) in [(96, 54), (48, 27), (163, 91)] {
+        let mut s = s.clone();
+        (s.camera.width, s.camera.height) = (w, h);
+        let f = penumbra::frame::frame(&p, &s, 0, 0).unwrap();
+        let (objs, prims) = (f.gbuffer.object.data(), f.gbuffer.prim.data());
+        let mut quad_pixels = 0;
+        for (&o, &t) in objs.iter().zip(prims) {
+            if o == penumbra::frame::NO_OBJECT {
+                continue;
+            }
+            let tris = s.objects[o as usize].mesh.indices.len() / 3;
+            assert!(
+                (t as usize) < tris,
+                "{w}x{h}: object {o} has {tris} triangles, the pixel names {t}"
+            );
+            quad_pixels += (o == 0) as usize;
+        }
+        assert!(
+            quad_pixels > w as usize * h as usize / 4,
+            "{w}x{h}: the quad is in view"
+        );
+    }
+    let out = std::env::temp_dir().join(format!("penumbra-hostile-ties-out-{}", std::process::id()));
+    let (ok, text) = common::cli(&[
+        "render",
+        &scene,
+        "--technique",
+        "izb",
+        "--set",
+        "samples=4",
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    assert!(ok, "{text}");
+}
