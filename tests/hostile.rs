@@ -877,3 +877,73 @@ material = "m"
     ]);
     assert!(ok, "{text}");
 }
+
+/// Messages that said too little: an empty or unknown `--techniques` name names the flag; an
+/// integer option set to a number its type cannot hold gives the option's own range; a
+/// `defaults` list without a soft or volumetric technique says which those are; a single
+/// table where a scene takes a list of them says to write `[[...]]`.
+#[test]
+fn refusals_name_the_flag_the_range_and_the_fix() {
+    let scene = "fixtures/scenes/contact.toml";
+    for (args, want) in [
+        (
+            &["sweep", scene, "--techniques", ""][..],
+            "--techniques '': an empty technique name",
+        ),
+        (
+            &["sweep", scene, "--techniques", "pcss,"][..],
+            "--techniques 'pcss,': an empty technique name",
+        ),
+        (
+            &["sweep", scene, "--techniques", "pcss,,vsm"][..],
+            "an empty technique name",
+        ),
+        (
+            &["sweep", scene, "--techniques", "nope"][..],
+            "--techniques: unknown technique 'nope'",
+        ),
+        (
+            &["defaults", "--techniques", "nope"][..],
+            "--techniques: unknown technique 'nope'",
+        ),
+        (
+            &["defaults", "--techniques", "shadow-map"][..],
+            "--techniques shadow-map: none of them models",
+        ),
+        (
+            &["render", scene, "--technique", "shadow-map", "--set", "size=inf"][..],
+            "size=inf is outside [16, 16384]",
+        ),
+        (
+            &["render", scene, "--technique", "shadow-map", "--set", "size=1e30"][..],
+            "size=1e30 is outside [16, 16384]",
+        ),
+        (
+            &["render", scene, "--technique", "shadow-map", "--set", "size=-1"][..],
+            "size=-1 is outside [16, 16384]",
+        ),
+        (
+            &["render", scene, "--technique", "pcss", "--set", "light=1e40"][..],
+            "light=1e40 is outside",
+        ),
+    ] {
+        let (ok, text) = common::cli(args);
+        assert!(!ok && text.contains(want), "{args:?}: {text}");
+    }
+    // A number that is no number keeps its own reason.
+    let (ok, text) = common::cli(&["render", scene, "--technique", "shadow-map", "--set", "units=nan"]);
+    assert!(!ok && text.contains("units=nan is not finite"), "{text}");
+    for (table, body) in [
+        ("object", "[object]\nname = \"a\"\nmesh = \"box\"\n"),
+        (
+            "light_path",
+            "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n[light_path]\ndirection = [0, -1, 0]\n",
+        ),
+    ] {
+        let p = common::temp_file("hostile-tables", &format!("{table}.toml"), body);
+        let e = penumbra::scene::file::load(std::path::Path::new(&p))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&format!("write [[{table}]]")), "{table}: {e}");
+    }
+}

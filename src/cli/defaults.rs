@@ -3,7 +3,7 @@
 //! per setting the mean, median, 90th percentile and worst of its class's error and its median
 //! time ([`penumbra::report::across`]).
 
-use super::scene::{cache, pipeline};
+use super::scene::{cache, check_techniques, pipeline};
 use super::sweep::Progress;
 use crate::error::CliError;
 use penumbra::report::across::across_markdown;
@@ -42,15 +42,7 @@ type Jobs<'a> = Vec<(&'a str, Vec<(String, String)>)>;
 /// `penumbra defaults`.
 pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
     let reg = shadow::registry::registry();
-    for t in &o.techniques {
-        if !reg.iter().any(|i| i.name == t) {
-            return Err(format!(
-                "unknown technique '{t}' (known: {})",
-                reg.iter().map(|i| i.name).collect::<Vec<_>>().join(", ")
-            )
-            .into());
-        }
-    }
+    check_techniques(&o.techniques.join(","), &o.techniques)?;
     let wanted = |name: &str, models: &[Effect]| {
         if o.techniques.is_empty() {
             !models.is_empty()
@@ -97,7 +89,13 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
         }
     }
     if plans.is_empty() {
-        return Err("no soft or volumetric technique among --techniques".into());
+        let modelling: Vec<&str> = reg.iter().filter(|t| !t.models.is_empty()).map(|t| t.name).collect();
+        return Err(format!(
+            "--techniques {}: none of them models an area light or transmittance, and `defaults` compares the option sets of those that do ({})",
+            o.techniques.join(","),
+            modelling.join(", ")
+        )
+        .into());
     }
     let p = pipeline(o.threads)?;
     create_folder(&o.out)?;

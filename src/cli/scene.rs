@@ -16,6 +16,30 @@ use std::path::Path;
 /// The built-in scenes folder.
 pub const FIXTURES: &str = "fixtures/scenes";
 
+/// Checks the names of a `--techniques` list (`given` as written; `names` split at its
+/// commas): an empty name (a comma at an end, two in a row, or nothing) and an unknown one are
+/// errors that name the flag and what was written.
+pub fn check_techniques<S: AsRef<str>>(given: &str, names: &[S]) -> Result<(), CliError> {
+    let reg = shadow::registry::registry();
+    for w in names.iter().map(|w| w.as_ref().trim()) {
+        if w.is_empty() {
+            return Err(format!(
+                "--techniques '{given}': an empty technique name (a comma at an end, two commas in a row, or nothing at all)"
+            )
+            .into());
+        }
+        if !reg.iter().any(|t| t.name == w) {
+            return Err(format!(
+                "--techniques: unknown technique {} (known: {})",
+                penumbra::error::quoted(w),
+                reg.iter().map(|t| t.name).collect::<Vec<_>>().join(", ")
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// Loads a scene file, printing what loading chose on the user's behalf (`Scene::notes`).
 pub fn load(path: &Path) -> Result<(Scene, String), CliError> {
     let (s, text) = file::load_with_text(path)?;

@@ -3,7 +3,7 @@
 //! list can be split into deterministic shards (`--shard I/N`) whose folders `--merge`
 //! combines into what one run would have written.
 
-use super::scene::{load, pipeline, FIXTURES};
+use super::scene::{check_techniques, load, pipeline, FIXTURES};
 use crate::error::CliError;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use penumbra::report::files::{read_sweep_data, write_sweep, write_sweep_data, Manifest};
@@ -165,15 +165,7 @@ pub fn sweep(o: SweepOpts) -> Result<(), CliError> {
         reg.iter().map(|t| t.name).collect()
     } else {
         let want: Vec<&str> = o.techniques.split(',').map(str::trim).collect();
-        for w in &want {
-            if !reg.iter().any(|t| t.name == *w) {
-                return Err(format!(
-                    "unknown technique '{w}' (known: {})",
-                    reg.iter().map(|t| t.name).collect::<Vec<_>>().join(", ")
-                )
-                .into());
-            }
-        }
+        check_techniques(&o.techniques, &want)?;
         want
     };
     let mut jobs: Vec<(&str, Vec<(String, String)>)> = Vec::new();

@@ -919,6 +919,17 @@ fn key_before(text: &str, offset: usize) -> Option<String> {
     (!key.is_empty() && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')).then(|| key.to_string())
 }
 
+/// The name of the single-table header (`[name]`, not `[[name]]`) on the line holding
+/// `offset`, if that line is one.
+fn single_table(text: &str, offset: usize) -> Option<String> {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next()?.trim();
+    let name = line.strip_prefix('[')?.strip_suffix(']')?.trim();
+    (!name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'))
+        .then(|| name.to_string())
+}
+
 fn finite3(v: [f32; 3]) -> Option<Vec3> {
     let v = Vec3::from(v);
     v.is_finite().then_some(v)
@@ -1072,7 +1083,14 @@ pub fn parse_with_files(text: &str, path: &Path, files: &[(String, String)]) -> 
             line: Some(line),
             section: None,
             field: e.span().and_then(|s| key_before(text, s.start)),
-            message: e.message().trim_end().to_string(),
+            message: match e.span().and_then(|s| single_table(text, s.start)) {
+                // `[object]` where the scene takes `[[object]]`: serde says "invalid type:
+                // map, expected a sequence", which names neither.
+                Some(name) if e.message().starts_with("invalid type: map, expected a sequence") => format!(
+                    "[{name}] is one table, but a scene takes a list of them here: write [[{name}]] (one [[{name}]] per entry)"
+                ),
+                _ => e.message().trim_end().to_string(),
+            },
         }
     })?;
     let description: String = text

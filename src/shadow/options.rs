@@ -228,12 +228,20 @@ impl<O: Clone + Default + 'static> Field<O> {
         access: fn(&mut O) -> &mut T,
     ) -> Self {
         let open = if closed { '[' } else { '(' };
+        let outside = move || -> Reason { format!("is outside {open}{lo}, {hi}]").into() };
         let inside = move |v: T| -> Result<(), Reason> {
             if (v > lo || (closed && v >= lo)) && v <= hi {
                 Ok(())
             } else {
-                Err(format!("is outside {open}{lo}, {hi}]").into())
+                Err(outside())
             }
+        };
+        // A number the type cannot hold (an integer's `inf`, `1e30` or `-1`, a float's `1e40`)
+        // is outside the field's range too: the message gives that range, not the type's.
+        let (lo_f, hi_f) = (lo.to_string().parse::<f64>(), hi.to_string().parse::<f64>());
+        let beyond = move |s: &str| match (s.trim().parse::<f64>(), &lo_f, &hi_f) {
+            (Ok(x), Ok(l), Ok(h)) => x < *l || x > *h,
+            _ => false,
         };
         Field {
             key,
@@ -241,7 +249,7 @@ impl<O: Clone + Default + 'static> Field<O> {
             ty: format!("{} in {open}{lo}, {hi}]", T::type_name()),
             default: access(&mut O::default()).show(),
             set: Box::new(move |o, s| {
-                let v = T::parse(s)?;
+                let v = T::parse(s).map_err(|e| if beyond(s) { outside() } else { e })?;
                 inside(v)?;
                 *access(o) = v;
                 Ok(())
