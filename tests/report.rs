@@ -695,3 +695,44 @@ fn choose_picks_the_cheapest_setting_within_the_goal() {
         assert!(!ok && text.contains(says), "{flag} {value}: {text}");
     }
 }
+
+/// A scene file's name reaches the reports only through their escaping: its images' links
+/// are file-safe stems, so a name made of HTML, a `javascript:` link or a table's `|` makes
+/// no live HTML, link or broken row in `report.md` or `report.html`, also after `--merge`.
+#[test]
+fn hostile_scene_names_stay_text_in_the_reports() {
+    let dir = temp_dir("hostile-names");
+    let scene = dir.join("<img src=x onerror=alert(1)>|javascript:alert(2).toml");
+    std::fs::write(&scene, HARD).unwrap();
+    let out = dir.join("out");
+    let (ok, text) = cli(&[
+        "sweep",
+        scene.to_str().unwrap(),
+        "--techniques",
+        "shadow-map",
+        "--reps",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let merged = merge_shards(&dir, &[out.to_str().unwrap().to_string()]);
+    for folder in [&out, &merged] {
+        let md = std::fs::read_to_string(folder.join("report.md")).unwrap();
+        let html = std::fs::read_to_string(folder.join("report.html")).unwrap();
+        // Markdown escapes with backslashes: no `<` or `|` of the name is left bare.
+        let bare = |c: char| md.match_indices(c).any(|(i, _)| !md[..i].ends_with('\\'));
+        assert!(!bare('<'), "{md}");
+        assert!(!html.contains("<img src=x"), "{html}");
+        for page in [&md, &html] {
+            assert!(!page.contains("](javascript:") && !page.contains("\"javascript:"), "{page}");
+        }
+        // Every image the Markdown links exists, and each table row keeps its ten cells.
+        for link in md.split("](").skip(1).map(|l| &l[..l.find(')').unwrap()]) {
+            assert!(folder.join(link).is_file(), "{link} is not a file in {}", folder.display());
+        }
+        for row in md.lines().filter(|l| l.starts_with("| shadow-map")) {
+            assert_eq!(row.matches(" | ").count(), 8, "{row}");
+        }
+    }
+}

@@ -151,9 +151,12 @@ pub fn write_sweep(
     Ok(files)
 }
 
-/// The file stem of a run: `scene_label`, file-safe.
+/// The file stem of a run: `scene_label`, both file-safe ([`file_safe`]): the stem names
+/// files and stands in the reports' image links, so nothing of a scene's or a label's name
+/// reaches either as written (a scene file named `<img src=x onerror=alert(1)>.toml`, a `|`
+/// or a `javascript:` made live HTML, a link or a broken row of `report.md`).
 pub fn stem(scene: &str, label: &str) -> String {
-    format!("{scene}_{}", file_safe(label))
+    format!("{}_{}", file_safe(scene), file_safe(label))
 }
 
 /// Writes the images of `r` (and its path's CSV and chart) into `dir`; returns the files.
