@@ -304,6 +304,32 @@ impl From<Reason> for String {
     }
 }
 
+/// A character a terminal would act on instead of showing: a control character (ANSI
+/// escapes begin with one) or a bidirectional control that reorders what follows it.
+fn hidden(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{061c}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// A whole message as a terminal should get it: every character [`quoted`] escapes in a name
+/// (control characters, bidirectional controls) written as a `\u{..}` escape, but line
+/// breaks and tabs kept. The command line prints errors, notes and progress through it, so
+/// that no text from input acts on the terminal, whichever message carries it.
+pub fn for_terminal(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(|c| hidden(c) && c != '\n' && c != '\t') {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if hidden(c) && c != '\n' && c != '\t' {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// Most characters of a name that came from input which a message shows ([`quoted`]).
 pub const MAX_SHOWN_NAME: usize = 200;
 
@@ -315,9 +341,7 @@ pub fn quoted(name: &str) -> String {
     let mut out = String::with_capacity(name.len().min(4 * MAX_SHOWN_NAME) + 2);
     out.push('\'');
     for c in name.chars().take(MAX_SHOWN_NAME) {
-        let bidi =
-            matches!(c, '\u{200e}' | '\u{200f}' | '\u{061c}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}');
-        if c.is_control() || bidi {
+        if hidden(c) {
             out.push_str(&format!("\\u{{{:x}}}", c as u32));
         } else if c == '\'' || c == '\\' {
             out.push('\\');
@@ -338,6 +362,15 @@ pub fn quoted(name: &str) -> String {
 mod tests {
     use super::*;
     use crate::pipeline::OverBudget;
+
+    #[test]
+    fn messages_reach_the_terminal_without_its_controls() {
+        assert_eq!(for_terminal("plain\nlines\tand tabs"), "plain\nlines\tand tabs");
+        assert_eq!(
+            for_terminal("a \u{1b}[2J b \u{202e}c \u{7}"),
+            "a \\u{1b}[2J b \\u{202e}c \\u{7}"
+        );
+    }
 
     #[test]
     fn names_from_input_are_quoted_without_terminal_controls() {

@@ -947,3 +947,28 @@ fn refusals_name_the_flag_the_range_and_the_fix() {
         assert!(e.contains(&format!("write [[{table}]]")), "{table}: {e}");
     }
 }
+
+/// Names and values from input reach the terminal without acting on it: an object's and a
+/// material's names with an ANSI clear-screen and a right-to-left override, and the same in
+/// an option's value, come out escaped in the printed error, whichever message carries them.
+#[test]
+fn names_reach_the_terminal_escaped() {
+    let evil = "x\u{1b}[2J\u{1b}]0;title\u{7}\u{202e}y";
+    // TOML's escapes: `\uXXXX` for every character.
+    let toml: String = evil.chars().map(|c| format!("\\u{:04X}", c as u32)).collect();
+    let body = format!(
+        "[camera]\nposition = [0, 3, 5]\ntarget = [0, 0, 0]\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n[[object]]\nname = \"{toml}\"\nmesh = \"box\"\nmaterial = \"{toml}\"\n"
+    );
+    let scene = common::temp_file("hostile-names", "evil.toml", &body);
+    let set = format!("size={evil}");
+    for args in [
+        vec!["render", scene.as_str(), "--technique", "shadow-map"],
+        vec!["render", "fixtures/scenes/contact.toml", "--technique", "shadow-map", "--set", set.as_str()],
+        vec!["render", "fixtures/scenes/contact.toml", "--technique", evil],
+    ] {
+        let (ok, text) = common::cli(&args);
+        assert!(!ok, "{args:?}: {text}");
+        assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}') && !text.contains('\u{7}'), "{text:?}");
+        assert!(text.contains("\\u{1b}[2J"), "{args:?}: {text:?}");
+    }
+}

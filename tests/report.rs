@@ -725,11 +725,18 @@ fn hostile_scene_names_stay_text_in_the_reports() {
         assert!(!bare('<'), "{md}");
         assert!(!html.contains("<img src=x"), "{html}");
         for page in [&md, &html] {
-            assert!(!page.contains("](javascript:") && !page.contains("\"javascript:"), "{page}");
+            assert!(
+                !page.contains("](javascript:") && !page.contains("\"javascript:"),
+                "{page}"
+            );
         }
         // Every image the Markdown links exists, and each table row keeps its ten cells.
         for link in md.split("](").skip(1).map(|l| &l[..l.find(')').unwrap()]) {
-            assert!(folder.join(link).is_file(), "{link} is not a file in {}", folder.display());
+            assert!(
+                folder.join(link).is_file(),
+                "{link} is not a file in {}",
+                folder.display()
+            );
         }
         for row in md.lines().filter(|l| l.starts_with("| shadow-map")) {
             assert_eq!(row.matches(" | ").count(), 8, "{row}");

@@ -6,6 +6,7 @@ use super::scene::{cache, load, pipeline};
 use super::sweep::Progress;
 use crate::error::CliError;
 use penumbra::choose::{analyse, choose, fmt_error, Goal, NoPick};
+use penumbra::error::for_terminal;
 use penumbra::report::chart::class_chart_svg;
 use penumbra::report::files::{create_folder, write_plain};
 use penumbra::run::{self, RunResult};
@@ -69,7 +70,7 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
     drop(first);
     let say = |line: String| {
         if !o.json {
-            println!("{line}");
+            println!("{}", for_terminal(&line));
         }
     };
     say(format!(
@@ -150,7 +151,7 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
         return Ok(());
     }
     for (t, e) in &failed {
-        println!("  failed {t}: {e}");
+        println!("  failed {t}: {}", for_terminal(&e.to_string()));
     }
     println!(
         "{} settings run against the reference (traced in {:.1} s{}).",

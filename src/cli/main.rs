@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand};
 use penumbra::bench::{FrameMode, FRAME_CAMERA_CULL};
+use penumbra::error::for_terminal;
 use penumbra::pipeline::{CullMode, Shading, MAX_DIMENSION};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -550,7 +551,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("penumbra: error: {e}");
+            eprintln!("penumbra: error: {}", for_terminal(&e.to_string()));
             ExitCode::FAILURE
         }
     }

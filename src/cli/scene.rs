@@ -2,6 +2,7 @@
 //! report know about files on disk beyond scene loading and image writing.)
 
 use crate::error::CliError;
+use penumbra::error::for_terminal;
 use penumbra::frame;
 use penumbra::image_io::{write_exr, write_pfm, write_png};
 use penumbra::pipeline::{Pipeline, Rgba8, Surface};
@@ -44,7 +45,7 @@ pub fn check_techniques<S: AsRef<str>>(given: &str, names: &[S]) -> Result<(), C
 pub fn load(path: &Path) -> Result<(Scene, String), CliError> {
     let (s, text) = file::load_with_text(path)?;
     for n in &s.notes {
-        eprintln!("note: {}: {n}", path.display());
+        eprintln!("note: {}", for_terminal(&format!("{}: {n}", path.display())));
     }
     Ok((s, text))
 }
@@ -156,7 +157,7 @@ pub fn render(
         println!("  {name:<18} {v}");
     }
     for note in &r.notes {
-        println!("note: {note}");
+        println!("note: {}", for_terminal(note));
     }
     let st = p.take_times();
     println!(
@@ -212,7 +213,7 @@ pub fn dump(scene: &Path, technique: &str, sets: &[String], threads: usize, out:
     let (w, h) = (f.width(), f.height());
     let mut written = Vec::new();
     for note in t.notes() {
-        eprintln!("note: {note}");
+        eprintln!("note: {}", for_terminal(&note));
     }
     for st in t.stages(&p, &f)? {
         let name = report::file_safe(st.name());

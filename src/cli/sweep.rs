@@ -6,6 +6,7 @@
 use super::scene::{check_techniques, load, pipeline, FIXTURES};
 use crate::error::CliError;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use penumbra::error::for_terminal;
 use penumbra::report::files::{read_sweep_data, write_sweep, write_sweep_data, Manifest};
 use penumbra::report::{self, DirCache, SceneInfo};
 use penumbra::run::{self, RunResult};
@@ -127,6 +128,7 @@ impl Progress {
 
     /// What is at work now.
     pub fn set_message(&self, msg: String) {
+        let msg = for_terminal(&msg).into_owned();
         if let Some(b) = &self.bar {
             b.set_message(msg.clone());
         }

@@ -2,6 +2,7 @@
 //! have written) and a camera path's CSV. Quoting is the `csv` crate's; numbers are written
 //! in their shortest exact form, so reading a row back gives the same bits.
 
+use crate::error::quoted;
 use crate::error::Reason;
 use crate::metrics::Errors;
 use crate::run::{PathFrame, RunResult};
@@ -210,8 +211,9 @@ pub fn read_csv(text: &str, source: &str) -> Result<Vec<RunResult>, Error> {
         out.push(RunResult {
             index: row.run,
             class: SceneClass::from_key(&row.class)
-                .ok_or_else(|| at(format!("unknown scene class '{}'", row.class)))?,
-            family: Family::from_key(&row.family).ok_or_else(|| at(format!("unknown family '{}'", row.family)))?,
+                .ok_or_else(|| at(format!("unknown scene class {}", quoted(&row.class))))?,
+            family: Family::from_key(&row.family)
+                .ok_or_else(|| at(format!("unknown family {}", quoted(&row.family))))?,
             errors: Errors {
                 rmse: row.rmse,
                 mae: row.mae,

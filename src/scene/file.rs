@@ -33,6 +33,7 @@
 
 use super::mesh;
 use super::*;
+use crate::error::quoted;
 use crate::error::Reason;
 use crate::Error;
 use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
@@ -324,7 +325,7 @@ impl Ctx<'_> {
         let mut materials = vec![Material::default()];
         for (i, m) in raw.materials.iter().enumerate() {
             let (s, m) = (m.span(), m.get_ref());
-            let what = format!("[[material]] #{} '{}'", i + 1, m.name);
+            let what = format!("[[material]] #{} {}", i + 1, quoted(&m.name));
             let albedo = finite3(m.albedo.unwrap_or([0.8, 0.8, 0.8]))
                 .filter(|a| a.min_element() >= 0.0 && a.max_element() <= 1.0);
             let Some(albedo) = albedo else {
@@ -387,7 +388,7 @@ impl Ctx<'_> {
                 None => 0,
                 Some(name) => match materials[1..].iter().position(|m| &m.name == name) {
                     Some(k) => k + 1,
-                    None => return self.err(s, &what, "material", format!("no material named '{name}'")),
+                    None => return self.err(s, &what, "material", format!("no material named {}", quoted(name))),
                 },
             };
             let name = o.name.clone().unwrap_or_else(|| format!("object{}", i + 1));
@@ -396,7 +397,11 @@ impl Ctx<'_> {
                     s,
                     &what,
                     "name",
-                    format!("'{name}' is also object #{}'s name (options such as receiver= and occluders= pick objects by name)", j + 1),
+                    format!(
+                        "{} is also object #{}'s name (options such as receiver= and occluders= pick objects by name)",
+                        quoted(&name),
+                        j + 1
+                    ),
                 );
             }
             if estimate == 0 {
@@ -601,7 +606,7 @@ impl Ctx<'_> {
                 if let Some(p) = o.mesh.positions.iter().find(|p| p.abs().max_element() > MAX_COORDINATE) {
                     return self.gltf_err(
                         raw,
-                        format!("'{}' has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", o.name),
+                        format!("{} has a vertex at {p}, beyond ±{MAX_COORDINATE:e}", quoted(&o.name)),
                     );
                 }
                 objects.push(Object {

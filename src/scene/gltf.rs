@@ -8,6 +8,7 @@
 //! files do), orthographic cameras.
 
 use super::{Camera, Light, LightKind, Material, Mesh};
+use crate::error::quoted;
 use crate::error::Reason;
 use crate::Error;
 use glam::{Mat4, Vec3};
@@ -131,9 +132,9 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
                 return Err(Error::scene(
                     path,
                     format!(
-                        "node {} '{}': rotation {rotation:?} is not a unit quaternion (length {n})",
+                        "node {} {}: rotation {rotation:?} is not a unit quaternion (length {n})",
                         node.index(),
-                        node.name().unwrap_or("")
+                        quoted(node.name().unwrap_or(""))
                     ),
                 ));
             }
@@ -141,7 +142,7 @@ pub fn load(path: &Path) -> Result<GltfScene, Error> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
         let node_name = match node.name() {
-            Some(n) => format!("node {} '{n}'", node.index()),
+            Some(n) => format!("node {} {}", node.index(), quoted(n)),
             None => format!("node {}", node.index()),
         };
         if !world.is_finite() {
@@ -311,7 +312,10 @@ fn materials(path: &Path, doc: &gltf::Document) -> Result<Vec<Material>, Error> 
         if let Some(v) = c.iter().find(|v| !(**v >= 0.0 && **v <= 1.0)) {
             return Err(Error::scene(
                 path,
-                format!("material {i} '{name}': baseColorFactor {c:?} has {v}, outside [0, 1]"),
+                format!(
+                    "material {i} {}: baseColorFactor {c:?} has {v}, outside [0, 1]",
+                    quoted(&name)
+                ),
             ));
         }
         materials.push(Material {
@@ -343,9 +347,9 @@ fn primitive_object(
     node_name: &str,
 ) -> Result<GltfObject, Error> {
     let what = format!(
-        "{node_name}, mesh {} '{}', primitive {}",
+        "{node_name}, mesh {} {}, primitive {}",
         mesh.index(),
-        mesh.name().unwrap_or(""),
+        quoted(mesh.name().unwrap_or("")),
         prim.index()
     );
     if prim.mode() != gltf::mesh::Mode::Triangles {
@@ -712,7 +716,7 @@ fn check_graph(path: &Path, scene: &gltf::Scene, buffers: &[Vec<u8>]) -> Result<
         memo: &mut std::collections::HashMap<usize, Option<(u64, u64)>>,
         buffers: &[Vec<u8>],
     ) -> Result<(u64, u64), Error> {
-        let name = format!("node {} '{}'", node.index(), node.name().unwrap_or(""));
+        let name = format!("node {} {}", node.index(), quoted(node.name().unwrap_or("")));
         match memo.get(&node.index()) {
             Some(Some(c)) => return Ok(*c),
             Some(None) => return Err(Error::scene(path, format!("{name} is its own descendant (a cycle)"))),

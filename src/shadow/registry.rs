@@ -3,6 +3,7 @@
 
 use super::technique::{Family, ShadowTechnique, Stage, Step, TechniqueInfo, Visibility};
 use super::{exact, filtered, light, map, penumbra, planar, reference, screen, volume, volumetric};
+use crate::error::quoted;
 use crate::frame::Frame;
 use crate::pipeline::Pipeline;
 use crate::Error;
@@ -92,7 +93,8 @@ pub fn create(name: &str, pairs: &[(String, String)]) -> Result<Box<dyn ShadowTe
     let Some(info) = reg.iter().find(|t| t.name == name) else {
         let names: Vec<&str> = reg.iter().map(|t| t.name).collect();
         return Err(Error::technique(format!(
-            "unknown technique '{name}' (known: {})",
+            "unknown technique {} (known: {})",
+            quoted(name),
             names.join(", ")
         )));
     };
