@@ -963,12 +963,22 @@ fn names_reach_the_terminal_escaped() {
     let set = format!("size={evil}");
     for args in [
         vec!["render", scene.as_str(), "--technique", "shadow-map"],
-        vec!["render", "fixtures/scenes/contact.toml", "--technique", "shadow-map", "--set", set.as_str()],
+        vec![
+            "render",
+            "fixtures/scenes/contact.toml",
+            "--technique",
+            "shadow-map",
+            "--set",
+            set.as_str(),
+        ],
         vec!["render", "fixtures/scenes/contact.toml", "--technique", evil],
     ] {
         let (ok, text) = common::cli(&args);
         assert!(!ok, "{args:?}: {text}");
-        assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}') && !text.contains('\u{7}'), "{text:?}");
+        assert!(
+            !text.contains('\u{1b}') && !text.contains('\u{202e}') && !text.contains('\u{7}'),
+            "{text:?}"
+        );
         assert!(text.contains("\\u{1b}[2J"), "{args:?}: {text:?}");
     }
 }
