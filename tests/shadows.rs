@@ -187,7 +187,7 @@ fn cli_reports_bad_input_with_what_and_where() {
             render("--threads", "-1"),
             "-1 is negative: 0 (all cores) or a number of threads",
         ),
-        (render("--set", "size=-1"), "size=-1 is negative"),
+        (render("--set", "size=-1"), "size=-1 is outside [16, 16384]"),
         (render("--set", "size=1e3"), "write 1000 in digits"),
         (render("--set", "units=nan"), "units=nan is not finite"),
         (

@@ -237,10 +237,12 @@ impl<O: Clone + Default + 'static> Field<O> {
             }
         };
         // A number the type cannot hold (an integer's `inf`, `1e30` or `-1`, a float's `1e40`)
-        // is outside the field's range too: the message gives that range, not the type's.
+        // is outside the field's range too: the message gives that range, not the type's. (A
+        // float's infinity keeps its own reason: infinities are never accepted.)
         let (lo_f, hi_f) = (lo.to_string().parse::<f64>(), hi.to_string().parse::<f64>());
+        let integer = T::type_name() == "integer";
         let beyond = move |s: &str| match (s.trim().parse::<f64>(), &lo_f, &hi_f) {
-            (Ok(x), Ok(l), Ok(h)) => x < *l || x > *h,
+            (Ok(x), Ok(l), Ok(h)) => (integer || x.is_finite()) && (x < *l || x > *h),
             _ => false,
         };
         Field {
@@ -488,16 +490,22 @@ mod tests {
             "technique 't': option x=NaN is not finite (NaN and infinities are not accepted)"
         );
         assert!(err(&[("x", "-inf")]).ends_with("is not finite (NaN and infinities are not accepted)"));
-        assert!(err(&[("x", "1e39")]).ends_with("is too large for a 32-bit float"));
+        // A number past the type's limits but for the field's range: the range.
+        assert!(err(&[("x", "1e39")]).ends_with("option x=1e39 is outside [-1, 1]"));
         assert_eq!(
             err(&[("n", "two")]),
             "technique 't': option n=two is not a number (an integer is expected)"
         );
-        // Regression: these all said "is not a number".
-        assert!(err(&[("n", "-1")]).ends_with("is negative (a whole number from 0 is expected)"));
-        assert!(err(&[("n", "1e3")]).ends_with("is not written as an integer (write 1000 in digits)"));
+        // Regression: these all said "is not a number". Within the range, the type's reason;
+        // outside it (even past what the type holds), the range.
+        assert!(err(&[("n", "4e0")]).ends_with("is not written as an integer (write 4 in digits)"));
         assert!(err(&[("n", "2.5")]).ends_with("is not a whole number"));
-        assert!(err(&[("n", "99999999999")]).ends_with("is too large (at most 4294967295)"));
+        for v in ["-1", "1e3", "99999999999", "inf", "-inf"] {
+            assert!(
+                err(&[("n", v)]).ends_with(&format!("option n={v} is outside [1, 8]")),
+                "{v}"
+            );
+        }
         assert!(err(&[("n", "nan")]).ends_with("is not a number"));
         assert!(err(&[("on", "yes")]).contains("is not one of true, false"));
         assert_eq!(
