@@ -3,7 +3,6 @@
 //! and pleated sheet around y = 0, the cylinder from y = 0 to its height) with outward, counter-clockwise faces.
 
 use super::Mesh;
-use crate::error::quoted;
 use crate::math;
 #[cfg(feature = "files")]
 use crate::Error;
@@ -365,7 +364,10 @@ pub fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh, Error> {
         if positions.iter().any(|p| !p.is_finite()) {
             return Err(Error::scene(
                 path,
-                format!("model {} has a non-finite vertex position", quoted(&model.name)),
+                format!(
+                    "model {} has a non-finite vertex position",
+                    crate::error::quoted(&model.name)
+                ),
             ));
         }
         if let Some(&bad) = mm.indices.iter().find(|&&i| i as usize >= positions.len()) {
@@ -373,7 +375,7 @@ pub fn obj_from_bytes(bytes: &[u8], path: &Path) -> Result<Mesh, Error> {
                 path,
                 format!(
                     "model {} has face index {bad} beyond its {} vertices",
-                    quoted(&model.name),
+                    crate::error::quoted(&model.name),
                     positions.len()
                 ),
             ));
