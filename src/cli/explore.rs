@@ -452,6 +452,7 @@ impl<'a> State<'a> {
                     "applies": t.applies_to(self.scene),
                     "options": t.options.iter().map(|o| json!({
                         "key": o.key, "type": o.ty, "default": o.default, "doc": o.doc,
+                        "choices": o.choices,
                     })).collect::<Vec<_>>(),
                 })
             })

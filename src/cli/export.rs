@@ -159,6 +159,9 @@ pub fn list() -> Result<(), CliError> {
         for o in &t.options {
             let kv = format!("{}={}", o.key, o.default);
             println!("      --set {kv:<22} {} [{}]", o.doc, o.ty);
+            for (name, meaning) in &o.choices {
+                println!("            {name:<22} {meaning}");
+            }
         }
     }
     println!("scenes ({FIXTURES}):");

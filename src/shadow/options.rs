@@ -17,15 +17,22 @@ use crate::error::Reason;
 use crate::Error;
 use std::fmt::Display;
 
-/// A type an option can have: parsed from and shown as text.
-pub trait OptionValue: Clone + 'static {
+/// A type an option can have: parsed from and shown as text (its `Display` is the text
+/// that parses back to the same value).
+pub trait OptionValue: Clone + Display + 'static {
     /// What `penumbra list` calls the type ("integer", "number", "bool", "text", or the
     /// choices joined by `|`).
     fn type_name() -> String;
     /// Parses a value; the error is the end of a sentence ("is not a number").
     fn parse(s: &str) -> Result<Self, Reason>;
     /// The value as text (parses back to the same value).
-    fn show(&self) -> String;
+    fn show(&self) -> String {
+        self.to_string()
+    }
+    /// For a choice, each value's name and what it means (empty for other types).
+    fn choices() -> &'static [(&'static str, &'static str)] {
+        &[]
+    }
 }
 
 macro_rules! integer_option {
@@ -36,9 +43,6 @@ macro_rules! integer_option {
             }
             fn parse(s: &str) -> Result<Self, Reason> {
                 s.parse().map_err(|_| integer_error(s, <$t>::MAX as f64).into())
-            }
-            fn show(&self) -> String {
-                self.to_string()
             }
         }
     };
@@ -73,9 +77,6 @@ impl OptionValue for f32 {
             Err(_) => Err("is not a number".into()),
         }
     }
-    fn show(&self) -> String {
-        self.to_string()
-    }
 }
 
 impl OptionValue for bool {
@@ -90,9 +91,6 @@ impl OptionValue for bool {
             _ => Err("is not one of true, false (or on, off)".into()),
         }
     }
-    fn show(&self) -> String {
-        self.to_string()
-    }
 }
 
 impl OptionValue for String {
@@ -102,12 +100,11 @@ impl OptionValue for String {
     fn parse(s: &str) -> Result<Self, Reason> {
         Ok(s.to_string())
     }
-    fn show(&self) -> String {
-        self.clone()
-    }
 }
 
-/// Declares a `Copy` enum whose variants have option names, and its [`OptionValue`] impl:
+/// Declares a `Copy` enum whose variants have option names, and its [`OptionValue`] impl.
+/// Every variant has a doc comment: it is also what `penumbra list` and the explorer say of
+/// the choice.
 ///
 /// ```
 /// penumbra::choice_enum! {
@@ -115,26 +112,37 @@ impl OptionValue for String {
 ///     pub enum Filter {
 ///         /// One comparison.
 ///         None = "none",
-///         /// 2x2 PCF.
+///         /// 2x2 PCF
+///         /// (hardware).
 ///         Pcf2 = "pcf2",
 ///     }
 /// }
 /// use penumbra::shadow::options::OptionValue;
 /// assert_eq!(Filter::parse("pcf2").unwrap(), Filter::Pcf2);
 /// assert!(Filter::parse("gauss").unwrap_err().0.contains("not one of none, pcf2"));
+/// assert_eq!(Filter::choices()[1], ("pcf2", " 2x2 PCF (hardware)."));
 /// ```
 #[macro_export]
 macro_rules! choice_enum {
-    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $v:ident = $s:literal),+ $(,)? }) => {
+    ($(#[$m:meta])* pub enum $name:ident { $($(#[doc = $doc:literal])+ $v:ident = $s:literal),+ $(,)? }) => {
         $(#[$m])*
         #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-        pub enum $name { $($(#[$vm])* $v),+ }
+        pub enum $name { $($(#[doc = $doc])+ $v),+ }
         impl $name {
             /// The option names of the variants, in declaration order.
             pub const NAMES: &'static [&'static str] = &[$($s),+];
+            /// Each variant's option name and what it means, in declaration order.
+            /// (A doc comment's lines joined: each line after the first starts with its
+            /// space.)
+            pub const CHOICES: &'static [(&'static str, &'static str)] = &[$(($s, concat!($($doc),+))),+];
             /// The option name of this variant.
             pub fn as_str(self) -> &'static str {
                 match self { $($name::$v => $s),+ }
+            }
+        }
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.as_str())
             }
         }
         impl $crate::shadow::options::OptionValue for $name {
@@ -147,12 +155,16 @@ macro_rules! choice_enum {
                     _ => Err(format!("is not one of {}", Self::NAMES.join(", ")).into()),
                 }
             }
-            fn show(&self) -> String {
-                self.as_str().to_string()
+            fn choices() -> &'static [(&'static str, &'static str)] {
+                Self::CHOICES
             }
         }
     };
 }
+
+/// An option type with a range: ordered, shown in messages, copied into the checks.
+pub trait Number: OptionValue + PartialOrd + Copy + Send + Sync {}
+impl<T: OptionValue + PartialOrd + Copy + Send + Sync> Number for T {}
 
 type Setter<O> = Box<dyn Fn(&mut O, &str) -> Result<(), Reason> + Send + Sync>;
 type Checker<O> = Box<dyn Fn(&O) -> Result<(), Reason> + Send + Sync>;
@@ -168,6 +180,8 @@ pub struct Field<O> {
     pub ty: String,
     /// The default, as text.
     pub default: String,
+    /// For a choice, each value's name and meaning (empty otherwise).
+    pub choices: &'static [(&'static str, &'static str)],
     set: Setter<O>,
     check: Checker<O>,
     show: Shower<O>,
@@ -181,6 +195,7 @@ impl<O: Clone + Default + 'static> Field<O> {
             doc,
             ty: T::type_name(),
             default: access(&mut O::default()).show(),
+            choices: T::choices(),
             set: Box::new(move |o, s| {
                 *access(o) = T::parse(s)?;
                 Ok(())
@@ -197,30 +212,18 @@ impl<O: Clone + Default + 'static> Field<O> {
     }
 
     /// A numeric field that must lie in `[lo, hi]` (NaN never does).
-    pub fn range<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
-        key: &'static str,
-        doc: &'static str,
-        lo: T,
-        hi: T,
-        access: fn(&mut O) -> &mut T,
-    ) -> Self {
+    pub fn range<T: Number>(key: &'static str, doc: &'static str, lo: T, hi: T, access: fn(&mut O) -> &mut T) -> Self {
         Self::bounded(key, doc, (lo, true), hi, access)
     }
 
     /// A numeric field that must lie in `(lo, hi]`: above `lo`, at most `hi` (NaN never does).
-    pub fn above<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
-        key: &'static str,
-        doc: &'static str,
-        lo: T,
-        hi: T,
-        access: fn(&mut O) -> &mut T,
-    ) -> Self {
+    pub fn above<T: Number>(key: &'static str, doc: &'static str, lo: T, hi: T, access: fn(&mut O) -> &mut T) -> Self {
         Self::bounded(key, doc, (lo, false), hi, access)
     }
 
     /// A numeric field in `[lo, hi]` (`lo` included) or `(lo, hi]`; `penumbra list` and the
     /// error print the interval that is checked.
-    fn bounded<T: OptionValue + PartialOrd + Display + Copy + Send + Sync>(
+    fn bounded<T: Number>(
         key: &'static str,
         doc: &'static str,
         (lo, closed): (T, bool),
@@ -250,6 +253,7 @@ impl<O: Clone + Default + 'static> Field<O> {
             doc,
             ty: format!("{} in {open}{lo}, {hi}]", T::type_name()),
             default: access(&mut O::default()).show(),
+            choices: &[],
             set: Box::new(move |o, s| {
                 let v = T::parse(s).map_err(|e| if beyond(s) { outside() } else { e })?;
                 inside(v)?;
@@ -272,6 +276,7 @@ impl<I: Clone + Default + 'static> Field<I> {
             key,
             doc,
             ty,
+            choices,
             set,
             check,
             show,
@@ -281,6 +286,7 @@ impl<I: Clone + Default + 'static> Field<I> {
             key,
             doc,
             ty,
+            choices,
             default: show(access(&mut O::default())),
             set: Box::new(move |o, s| set(access(o), s)),
             check: Box::new(move |o| check(access(&mut o.clone()))),
@@ -372,6 +378,7 @@ impl<O: Clone + Default + 'static> Declaration<O> {
                 ty: f.ty.clone(),
                 default: f.default.clone(),
                 doc: f.doc,
+                choices: f.choices.iter().map(|&(name, doc)| (name, doc.trim())).collect(),
             })
             .collect()
     }
@@ -388,6 +395,8 @@ pub struct OptionInfo {
     pub default: String,
     /// What it does.
     pub doc: &'static str,
+    /// For a choice, each value's name and meaning (empty otherwise).
+    pub choices: Vec<(&'static str, &'static str)>,
 }
 
 impl OptionValue for crate::pipeline::DepthFormat {
@@ -403,14 +412,17 @@ impl OptionValue for crate::pipeline::DepthFormat {
             _ => Err("is not one of f32, u24, u16".into()),
         }
     }
-    fn show(&self) -> String {
+}
+
+/// A depth format's option name.
+impl Display for crate::pipeline::DepthFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         use crate::pipeline::DepthFormat as D;
-        match self {
+        f.write_str(match self {
             D::F32 => "f32",
             D::Unorm24 => "u24",
             D::Unorm16 => "u16",
-        }
-        .into()
+        })
     }
 }
 
@@ -484,18 +496,20 @@ mod tests {
         assert_eq!((o.n, o.x, o.on, o.name.as_str()), (3, -0.5, true, "a b"));
         assert_eq!(d.settings(&o).len(), 4);
         let err = |p: &[(&str, &str)]| d.parse(&pairs(p)).unwrap_err().to_string();
-        assert_eq!(err(&[("n", "9")]), "technique 't': option n=9 is outside [1, 8]");
-        assert_eq!(
-            err(&[("x", "NaN")]),
-            "technique 't': option x=NaN is not finite (NaN and infinities are not accepted)"
-        );
+        for (key, value, message) in [
+            ("n", "9", "is outside [1, 8]"),
+            ("x", "NaN", "is not finite (NaN and infinities are not accepted)"),
+            ("n", "two", "is not a number (an integer is expected)"),
+            ("m", "1", "is unknown (options: n, x, on, name)"),
+        ] {
+            assert_eq!(
+                err(&[(key, value)]),
+                format!("technique 't': option {key}={value} {message}")
+            );
+        }
         assert!(err(&[("x", "-inf")]).ends_with("is not finite (NaN and infinities are not accepted)"));
         // A number past the type's limits but for the field's range: the range.
         assert!(err(&[("x", "1e39")]).ends_with("option x=1e39 is outside [-1, 1]"));
-        assert_eq!(
-            err(&[("n", "two")]),
-            "technique 't': option n=two is not a number (an integer is expected)"
-        );
         // Regression: these all said "is not a number". Within the range, the type's reason;
         // outside it (even past what the type holds), the range.
         assert!(err(&[("n", "4e0")]).ends_with("is not written as an integer (write 4 in digits)"));
@@ -508,10 +522,6 @@ mod tests {
         }
         assert!(err(&[("n", "nan")]).ends_with("is not a number"));
         assert!(err(&[("on", "yes")]).contains("is not one of true, false"));
-        assert_eq!(
-            err(&[("m", "1")]),
-            "technique 't': option m=1 is unknown (options: n, x, on, name)"
-        );
         // The library path: a struct built in code is checked with the same message.
         let bad = O { n: 0, ..O::default() };
         assert_eq!(

@@ -54,10 +54,6 @@ use glam::{Vec2, Vec4};
 pub use prefilter::{Prefilter, Prefiltered, SatSums};
 use rayon::prelude::*;
 
-/// Most four-channel planes a representation stores per texel (the convolution map's 16
-/// terms are 32 channels).
-pub const MAX_PLANES: usize = 8;
-
 choice_enum! {
     /// How a filtered map's channels are stored (the render target's format, which the
     /// prefilter's targets share).
@@ -70,6 +66,10 @@ choice_enum! {
         U16 = "u16",
     }
 }
+
+/// Most four-channel planes a representation stores per texel (the convolution map's 16
+/// terms are 32 channels).
+pub const MAX_PLANES: usize = 8;
 
 impl Storage {
     /// The largest finite value the format holds.

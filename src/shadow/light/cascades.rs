@@ -25,9 +25,6 @@ use crate::frame::Frame;
 use crate::shadow::options::Field;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-/// Most cascades of one light.
-pub const MAX_CASCADES: u32 = 8;
-
 choice_enum! {
     /// How the view range is split between cascades.
     pub enum Split {
@@ -60,6 +57,9 @@ choice_enum! {
         Dither = "dither",
     }
 }
+
+/// Most cascades of one light.
+pub const MAX_CASCADES: u32 = 8;
 
 /// Settings of the cascades (count, splits, selection, blending); their fitting's stability
 /// is the map pass's `snap` ([`super::MapOptions::snap`]).

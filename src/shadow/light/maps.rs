@@ -39,16 +39,6 @@ choice_enum! {
     }
 }
 
-choice_enum! {
-    /// Which frustum a directional light's map covers.
-    pub enum FitTo {
-        /// The whole scene's bounds.
-        Scene = "scene",
-        /// The receivers the camera sees, with casters that cannot shadow them culled.
-        Receivers = "receivers",
-    }
-}
-
 /// Settings of the map pass ([`LightMaps::render`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MapOptions {
@@ -67,6 +57,16 @@ pub struct MapOptions {
     pub snap: bool,
     /// The views the pass draws: one per face (whole), cascades, or a warp. Default: whole.
     pub views: Views,
+}
+
+choice_enum! {
+    /// Which frustum a directional light's map covers.
+    pub enum FitTo {
+        /// The whole scene's bounds.
+        Scene = "scene",
+        /// The receivers the camera sees, with casters that cannot shadow them culled.
+        Receivers = "receivers",
+    }
 }
 
 /// Which views a map pass draws for its light: one of, never a mix.

@@ -25,9 +25,6 @@ use crate::pipeline::{compute, Pipeline};
 use crate::Error;
 use glam::Vec4;
 
-/// Bins of the view-depth histogram.
-pub const BINS: usize = 256;
-
 choice_enum! {
     /// Where the cascades' range and splits come from.
     pub enum Partition {
@@ -40,6 +37,9 @@ choice_enum! {
         Histogram = "histogram",
     }
 }
+
+/// Bins of the view-depth histogram.
+pub const BINS: usize = 256;
 
 /// The view depths one frame's camera sees: their range and (for [`Partition::Histogram`])
 /// their histogram over it.

@@ -16,12 +16,8 @@
 //! warp axis (the map falls back to the orthographic map of the view and says so in
 //! `notes`). Directional lights only (a scene with another light is an error that says so).
 
-use super::plain::MapPass;
-use super::warped::{build, declaration as warped_declaration, directional};
-use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family};
-use crate::Error;
+use super::warped::directional;
+use crate::shadow::technique::{Entry, Family};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
@@ -45,23 +41,13 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::plain::map_pass_options!(
+super::warped::warped_technique!(
     "LiSPSM",
-    crate::shadow::light::MapOptions::warped(WarpKind::Lispsm),
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the paper's `n_opt` (`n_scale=1`); the rest as `shadow-map`'s defaults."
+    "lispsm",
+    Lispsm,
+    lispsm_fields,
+    Lispsm,
+    lispsm,
+    "one warped view",
+    "the paper's `n_opt` (`n_scale=1`)"
 );
-
-/// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)
-/// and `n_scale`.
-pub fn declaration() -> Declaration<Options> {
-    warped_declaration("lispsm", Warp::lispsm_fields())
-}
-
-/// LiSPSM (see the module docs): the plain map's pass over one warped view, the same type as
-/// [`super::shadow_map::ShadowMap`], built by [`lispsm`].
-pub type Lispsm = PassTechnique<MapPass>;
-
-/// LiSPSM with `opts`; an option out of its range is an error.
-pub fn lispsm(opts: Options) -> Result<Lispsm, Error> {
-    build(declaration(), opts)
-}

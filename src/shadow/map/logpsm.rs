@@ -35,12 +35,8 @@
 //! `notes`). Only the first and second depth layers (`layer=first|second`): the peeled and
 //! id layers draw with the standard rasterizer. Directional lights only.
 
-use super::plain::MapPass;
-use super::warped::{build, declaration as warped_declaration, directional};
-use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family};
-use crate::Error;
+use super::warped::directional;
+use crate::shadow::technique::{Entry, Family};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
@@ -59,23 +55,13 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::plain::map_pass_options!(
+super::warped::warped_technique!(
     "LogPSM",
-    crate::shadow::light::MapOptions::warped(WarpKind::Logpsm),
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, `n_scale=1`; the rest as `shadow-map`'s defaults."
+    "logpsm",
+    Logpsm,
+    logpsm_fields,
+    Logpsm,
+    logpsm,
+    "one warped view with logarithmic rows",
+    "`n_scale=1`"
 );
-
-/// The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view)
-/// and `n_scale`.
-pub fn declaration() -> Declaration<Options> {
-    warped_declaration("logpsm", Warp::logpsm_fields())
-}
-
-/// LogPSM (see the module docs): the plain map's pass over one warped view with logarithmic
-/// rows, built by [`logpsm`].
-pub type Logpsm = PassTechnique<MapPass>;
-
-/// LogPSM with `opts`; an option out of its range is an error.
-pub fn logpsm(opts: Options) -> Result<Logpsm, Error> {
-    build(declaration(), opts)
-}

@@ -56,12 +56,15 @@ impl OptionValue for Filter {
                 .map_err(|_| format!("is not one of none, pcf2, {}", Pattern::NAMES.join(", ")).into()),
         }
     }
+}
 
-    fn show(&self) -> String {
+/// The filter's option name.
+impl std::fmt::Display for Filter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Filter::None => "none".into(),
-            Filter::Pcf2 => "pcf2".into(),
-            Filter::Kernel(p) => p.show(),
+            Filter::None => f.write_str("none"),
+            Filter::Pcf2 => f.write_str("pcf2"),
+            Filter::Kernel(p) => p.fmt(f),
         }
     }
 }
@@ -119,7 +122,7 @@ impl Options {
 /// cascaded): a struct of one field, `shadow`, documented by `$field`, whose default is the
 /// plain map's options with the map pass `$map`; its `Default` and its [`HoldsMapPass`].
 macro_rules! map_pass_options {
-    ($technique:literal, $map:expr, $field:literal) => {
+    ($technique:literal, $map:expr, $field:expr) => {
         #[doc = concat!("Options of ", $technique, ".")]
         #[derive(Clone, Debug, PartialEq)]
         pub struct Options {

@@ -24,12 +24,8 @@
 //! camera, so edges crawl as it moves; the stored depth is post-perspective, so the bias
 //! varies across the map. Directional lights only.
 
-use super::plain::MapPass;
-use super::warped::{build, declaration as warped_declaration, directional};
-use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family};
-use crate::Error;
+use super::warped::directional;
+use crate::shadow::technique::{Entry, Family};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
@@ -42,22 +38,13 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::plain::map_pass_options!(
+super::warped::warped_technique!(
     "PSM",
-    crate::shadow::light::MapOptions::warped(WarpKind::Psm),
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the virtual camera moved back past the casters behind the eye (`shift=true`); the rest as `shadow-map`'s defaults."
+    "psm",
+    Psm,
+    psm_fields,
+    Psm,
+    psm,
+    "one post-perspective view",
+    "the virtual camera moved back past the casters behind the eye (`shift=true`)"
 );
-
-/// The option declaration: the shadow map's (but `fit` and `snap`) and `shift`.
-pub fn declaration() -> Declaration<Options> {
-    warped_declaration("psm", Warp::psm_fields())
-}
-
-/// PSM (see the module docs): the plain map's pass over one post-perspective view, built by
-/// [`psm`].
-pub type Psm = PassTechnique<MapPass>;
-
-/// PSM with `opts`; an option out of its range is an error.
-pub fn psm(opts: Options) -> Result<Psm, Error> {
-    build(declaration(), opts)
-}

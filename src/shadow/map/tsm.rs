@@ -23,12 +23,8 @@
 //! the orthographic one and says so in `notes`); shadows crawl as the camera moves.
 //! Directional lights only.
 
-use super::plain::MapPass;
-use super::warped::{build, declaration as warped_declaration, directional};
-use crate::shadow::light::warp::{Warp, WarpKind};
-use crate::shadow::pass::PassTechnique;
-use crate::shadow::technique::{Declaration, Entry, Family};
-use crate::Error;
+use super::warped::directional;
+use crate::shadow::technique::{Entry, Family};
 
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
@@ -41,21 +37,13 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-super::plain::map_pass_options!(
+super::warped::warped_technique!(
     "TSM",
-    crate::shadow::light::MapOptions::warped(WarpKind::Tsm),
-    "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, the focus at half the view range; the rest as `shadow-map`'s defaults."
+    "tsm",
+    Tsm,
+    tsm_fields,
+    Tsm,
+    tsm,
+    "one warped view",
+    "the focus at half the view range"
 );
-
-/// The option declaration: the shadow map's (but `fit` and `snap`) and `focus`.
-pub fn declaration() -> Declaration<Options> {
-    warped_declaration("tsm", Warp::tsm_fields())
-}
-
-/// TSM (see the module docs): the plain map's pass over one warped view, built by [`tsm`].
-pub type Tsm = PassTechnique<MapPass>;
-
-/// TSM with `opts`; an option out of its range is an error.
-pub fn tsm(opts: Options) -> Result<Tsm, Error> {
-    build(declaration(), opts)
-}

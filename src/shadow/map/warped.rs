@@ -1,4 +1,5 @@
-//! What the warped maps ([`super::lispsm`], [`super::tsm`]) share: their options are the
+//! What the warped maps ([`super::lispsm`], [`super::logpsm`], [`super::psm`],
+//! [`super::tsm`]) share: their options are the
 //! plain shadow map's with a [`Warp`] in the map pass, declared as `shadow-map`'s fields but
 //! `fit` and `snap` (a warp fits the camera's view) plus the warp's own, and they are the
 //! plain map's pass over the one warped view ([`crate::shadow::light::warp`]).
@@ -37,3 +38,35 @@ pub fn build<O: HoldsMapPass>(d: Declaration<O>, mut opts: O) -> Result<PassTech
     }
     plain::build(&d, opts)
 }
+
+/// A warped technique's items: its `Options` (the plain map's, with the map pass warped by
+/// `WarpKind::$kind`; `$defaults` says the warp's defaults), its `declaration()` (the plain
+/// map's fields but `fit` and `snap`, and `Warp::$fields()`), the technique's type `$ty` (the
+/// plain map's pass over `$view`) and its constructor `$ctor`.
+macro_rules! warped_technique {
+    ($title:literal, $name:literal, $kind:ident, $fields:ident, $ty:ident, $ctor:ident, $view:literal, $defaults:literal) => {
+        $crate::shadow::map::plain::map_pass_options!(
+            $title,
+            $crate::shadow::light::MapOptions::warped($crate::shadow::light::warp::WarpKind::$kind),
+            concat!(
+                "The shadow map's options (map pass, bias, layer, filter), the warp in `shadow.map.views` (`Views::Warp`). Default: one 2048² map, ",
+                $defaults,
+                "; the rest as `shadow-map`'s defaults."
+            )
+        );
+
+        #[doc = concat!("The option declaration: the shadow map's (but `fit` and `snap`: the warp fits the view) and `Warp::", stringify!($fields), "`.")]
+        pub fn declaration() -> $crate::shadow::technique::Declaration<Options> {
+            $crate::shadow::map::warped::declaration($name, $crate::shadow::light::warp::Warp::$fields())
+        }
+
+        #[doc = concat!($title, " (see the module docs): the plain map's pass over ", $view, ", built by [`", stringify!($ctor), "`].")]
+        pub type $ty = $crate::shadow::pass::PassTechnique<$crate::shadow::map::plain::MapPass>;
+
+        #[doc = concat!($title, " with `opts`; an option out of its range is an error.")]
+        pub fn $ctor(opts: Options) -> Result<$ty, $crate::Error> {
+            $crate::shadow::map::warped::build(declaration(), opts)
+        }
+    };
+}
+pub(crate) use warped_technique;

@@ -21,10 +21,11 @@ use crate::frame::Frame;
 use crate::math;
 use crate::pipeline::*;
 use crate::scene::LightKind;
+use crate::shadow::inspect::Step;
 use crate::shadow::light::soft::light_width;
 use crate::shadow::light::{homogeneous_position, LightView};
 use crate::shadow::sample::lookup::MapLookup;
-use crate::shadow::technique::{Field, Stage};
+use crate::shadow::technique::{Effect, Entry, Family, Field, Stage};
 use crate::shadow::timing::Passes;
 use crate::shadow::volume::silhouette;
 use crate::Error;
@@ -238,6 +239,23 @@ pub fn light_and_silhouettes(
     Ok((radius, sil))
 }
 
+/// What every penumbra-volume technique's registry entry shares: the family, and the area
+/// light among the effects it models.
+pub const BASE: Entry = Entry {
+    family: Family::Penumbra,
+    models: &[Effect::AreaLight],
+    ..Entry::BASE
+};
+
+/// The first step of `inspect` for a technique over silhouette volumes: its map pass, the
+/// light's radius and the silhouette edges.
+pub fn volume_step(lookup: &MapLookup, radius: f32, sil: &Silhouettes) -> Step {
+    lookup
+        .pass_step()
+        .num("light radius", radius)
+        .int("silhouette edges", sil.edges.len())
+}
+
 /// The input warnings of silhouettes `sil`: each object that is not a closed manifold, with
 /// `then`, what the technique does there.
 pub fn silhouette_notes(sil: &Silhouettes, then: &str) -> Vec<String> {
@@ -281,6 +299,16 @@ pub fn disk_visibility(h0: Vec3, h1: Vec3, p: Vec3, l: Vec3, r: f32) -> (f32, f3
 #[inline]
 pub fn bernstein(k: f32) -> f32 {
     k * k * (3.0 - 2.0 * k)
+}
+
+/// Per silhouette edge: the outer and inner extrusion vectors at its two ends (PVM's
+/// penumbra volume, PVMF's mask volume).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Extrusion {
+    /// Outer vector at the edge's first and second end.
+    pub outer: [Vec3; 2],
+    /// Inner vector at the edge's first and second end.
+    pub inner: [Vec3; 2],
 }
 
 #[cfg(test)]

@@ -41,8 +41,8 @@
 //! nearby occluder.
 
 use super::{
-    bernstein, disk_visibility, light_and_silhouettes, light_field, render_views, silhouette_notes, Quads, Silhouettes,
-    VolumeMap,
+    bernstein, disk_visibility, light_and_silhouettes, light_field, render_views, silhouette_notes, volume_step,
+    Extrusion, Quads, Silhouettes, VolumeMap,
 };
 use crate::frame::Frame;
 use crate::pipeline::{Pipeline, Rgba8};
@@ -53,7 +53,7 @@ use crate::shadow::overview::{backdrop, draw_world_segment};
 use crate::shadow::pixels::{per_pixel, per_pixel_counted};
 use crate::shadow::sample::kernel::bilinear_compare;
 use crate::shadow::sample::lookup::{Bias, MapLookup, Prepared, Setup};
-use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::{Error, Resource};
 use glam::{Vec2, Vec3};
@@ -61,12 +61,10 @@ use glam::{Vec2, Vec3};
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "pvm",
-    family: Family::Penumbra,
     summary: "penumbra volume maps (Cournia 2005 ch. 4): the nearest volume's silhouette edge and a cut disk; fails where volumes overlap",
     sweep: &[&[], &[("smooth", "true")]],
     extended: &[&[("size", "512")], &[("size", "4096")], &[("light", "2")]],
-    models: &[crate::shadow::technique::Effect::AreaLight],
-    ..Entry::BASE
+    ..super::BASE
 };
 
 /// Options of penumbra volume maps.
@@ -111,15 +109,6 @@ pub fn declaration() -> Declaration<Options> {
         ),
     ]);
     Declaration::new("pvm", fields)
-}
-
-/// Per silhouette edge: the outer and inner extrusion vectors at its two ends.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Extrusion {
-    /// Outer vector at the edge's first and second end.
-    pub outer: [Vec3; 2],
-    /// Inner vector at the edge's first and second end.
-    pub inner: [Vec3; 2],
 }
 
 /// How far off the light's ray through a vertex its extrusion vector may turn, in light radii
@@ -374,13 +363,7 @@ impl ShadowTechnique for Pvm {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let header = || {
-            self.lookup
-                .pass_step()
-                .num("light radius", self.radius)
-                .int("silhouette edges", self.sil.edges.len())
-                .int("volume quads", self.quads)
-        };
+        let header = || volume_step(&self.lookup, self.radius, &self.sil).int("volume quads", self.quads);
         inspect::closed(|t| {
             self.lookup.explain(t, header, |t| {
                 Self::value(self.lookup(frame, x as usize, y as usize, t))

@@ -52,7 +52,10 @@
 //! Known failure (4.3, point 4, shared with PVM): one silhouette from the light's centre is
 //! wrong for a light much larger than a nearby occluder.
 
-use super::{light_and_silhouettes, light_field, render_views, silhouette_notes, Quads, Silhouettes, VolumeMap};
+use super::{
+    light_and_silhouettes, light_field, render_views, silhouette_notes, volume_step, Extrusion, Quads, Silhouettes,
+    VolumeMap,
+};
 use crate::frame::{Frame, NO_OBJECT};
 use crate::hash::SplitMix;
 use crate::pipeline::{Pipeline, Rgba8};
@@ -61,7 +64,7 @@ use crate::shadow::light::{Layer, MapOptions};
 use crate::shadow::pixels::{per_pixel, per_pixel_map};
 use crate::shadow::sample::kernel::{bilinear_compare, Class};
 use crate::shadow::sample::lookup::{lookup_fields, At, Bias, MapLookup, Prepared, Setup, Wide};
-use crate::shadow::technique::{Declaration, Entry, Family, Field, ShadowTechnique, Stage, Visibility};
+use crate::shadow::technique::{Declaration, Entry, Field, ShadowTechnique, Stage, Visibility};
 use crate::shadow::timing::Passes;
 use crate::Error;
 use glam::{Vec2, Vec3};
@@ -69,7 +72,6 @@ use glam::{Vec2, Vec3};
 /// Registry entry (its options and constructor: `registry.rs`).
 pub const ENTRY: Entry = Entry {
     name: "pvmf",
-    family: Family::Penumbra,
     summary: "penumbra volume mask filtering (Cournia 2005 ch. 5): PCF as wide as the penumbra inside a volume mask, object-aware blur",
     sweep: &[&[], &[("size", "2048")], &[("blur", "12")]],
     extended: &[
@@ -82,22 +84,8 @@ pub const ENTRY: Entry = Entry {
         &[("ids", "group"), ("blur", "12")],
         &[("blur", "4")],
     ],
-    models: &[crate::shadow::technique::Effect::AreaLight],
-    ..Entry::BASE
+    ..super::BASE
 };
-
-crate::choice_enum! {
-    /// What the blur's `B(u, v, s, t)` compares (Cournia 5.3).
-    pub enum Ids {
-        /// The G-buffer's object index.
-        Object = "object",
-        /// The object and its triangle index divided by `group`.
-        Group = "group",
-        /// One id for every surface: the uniform blur the text warns against (shadows bleed
-        /// onto lit objects), for comparison.
-        None = "none",
-    }
-}
 
 /// Options of penumbra volume mask filtering.
 #[derive(Clone, Debug, PartialEq)]
@@ -172,6 +160,19 @@ impl Default for Options {
     }
 }
 
+crate::choice_enum! {
+    /// What the blur's `B(u, v, s, t)` compares (Cournia 5.3).
+    pub enum Ids {
+        /// The G-buffer's object index.
+        Object = "object",
+        /// The object and its triangle index divided by `group`.
+        Group = "group",
+        /// One id for every surface: the uniform blur the text warns against (shadows bleed
+        /// onto lit objects), for comparison.
+        None = "none",
+    }
+}
+
 /// The option declaration.
 pub fn declaration() -> Declaration<Options> {
     let mut fields = lookup_fields(
@@ -241,10 +242,8 @@ pub fn declaration() -> Declaration<Options> {
 pub struct MaskVolume {
     /// `ê0`, `ê1`: the end points moved toward the light.
     pub ends: [Vec3; 2],
-    /// `v0-`, `v1-`: the outer quad's extrusion vectors.
-    pub outer: [Vec3; 2],
-    /// `v0+`, `v1+`: the inner quad's extrusion vectors.
-    pub inner: [Vec3; 2],
+    /// `v0-`, `v1-` (outer) and `v0+`, `v1+` (inner): the two quads' extrusion vectors.
+    pub vectors: Extrusion,
     /// `d_e`: the edge's distance from the light.
     pub distance: f32,
 }
@@ -268,8 +267,10 @@ pub fn mask_volume(e0: Vec3, e1: Vec3, l: Vec3, r: f32, s_e: f32) -> MaskVolume 
     let dir = |p: Vec3, side: Vec3| (p - l + side).normalize_or_zero();
     MaskVolume {
         ends: [h0, h1],
-        outer: [dir(h0, e - n), dir(h1, -e - n)],
-        inner: [dir(h0, e + n), dir(h1, -e + n)],
+        vectors: Extrusion {
+            outer: [dir(h0, e - n), dir(h1, -e - n)],
+            inner: [dir(h0, e + n), dir(h1, -e + n)],
+        },
         distance: d_e,
     }
 }
@@ -281,7 +282,10 @@ pub fn mask_quads(s: &Silhouettes, l: Vec3, r: f32, s_e: f32) -> (Vec<MaskVolume
     for m in &vols {
         // End points at w = 1, extrusion vectors at w = 0 (points at infinity).
         let [h0, h1] = m.ends.map(|h| h.extend(1.0));
-        let (o, i) = (m.outer.map(|v| v.extend(0.0)), m.inner.map(|v| v.extend(0.0)));
+        let (o, i) = (
+            m.vectors.outer.map(|v| v.extend(0.0)),
+            m.vectors.inner.map(|v| v.extend(0.0)),
+        );
         q.push([h0, o[0], o[1], h1], m.distance);
         q.push([h1, i[1], i[0], h0], m.distance);
     }
@@ -580,13 +584,7 @@ impl ShadowTechnique for Pvmf {
     }
 
     fn inspect(&self, frame: &Frame, x: u32, y: u32) -> Vec<Step> {
-        let header = || {
-            self.lookup
-                .pass_step()
-                .num("light radius", self.radius)
-                .int("silhouette edges", self.sil.edges.len())
-                .num("s_e", self.opts.spread)
-        };
+        let header = || volume_step(&self.lookup, self.radius, &self.sil).num("s_e", self.opts.spread);
         inspect::closed(|t| {
             self.lookup.explain(t, header, |t| {
             let f = self.lookup(frame, x as usize, y as usize, t);
@@ -714,7 +712,7 @@ mod tests {
             // (z = 0) at an angle from the ray at least the penumbra's.
             for k in 0..2 {
                 let ray = ((if k == 0 { a } else { b }) - l).normalize();
-                let (o, i) = (m.outer[k], m.inner[k]);
+                let (o, i) = (m.vectors.outer[k], m.vectors.inner[k]);
                 assert!(o.z * i.z < 0.0, "{s_e} {k}: {o} {i}");
                 for v in [o, i] {
                     let off = v.cross(ray).length();

@@ -32,16 +32,6 @@ pub const ENTRY: Entry = Entry {
     ..Entry::BASE
 };
 
-choice_enum! {
-    /// How the mask is sampled.
-    pub enum CookieFilter {
-        /// The nearest texel: a hard edge.
-        Nearest = "nearest",
-        /// Bilinear: a one-texel soft edge, as cookies are usually sampled.
-        Bilinear = "bilinear",
-    }
-}
-
 /// Options of the projective shadow texture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -61,6 +51,16 @@ impl Default for Options {
             size: 1024,
             filter: CookieFilter::Nearest,
         }
+    }
+}
+
+choice_enum! {
+    /// How the mask is sampled.
+    pub enum CookieFilter {
+        /// The nearest texel: a hard edge.
+        Nearest = "nearest",
+        /// Bilinear: a one-texel soft edge, as cookies are usually sampled.
+        Bilinear = "bilinear",
     }
 }
 

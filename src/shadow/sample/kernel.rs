@@ -38,9 +38,6 @@ use crate::shadow::inspect::{Step, Trace};
 use glam::{Vec2, Vec4};
 use std::sync::OnceLock;
 
-/// Most taps a kernel may have.
-pub const MAX_TAPS: u32 = 256;
-
 choice_enum! {
     /// The sampling pattern of a PCF kernel.
     pub enum Pattern {
@@ -58,6 +55,9 @@ choice_enum! {
         Spiral = "spiral",
     }
 }
+
+/// Most taps a kernel may have.
+pub const MAX_TAPS: u32 = 256;
 
 /// The 16-point Poisson disk commonly used with PCSS (in [-1, 1]^2; a few points lie beyond
 /// the unit circle, as in the original set).

@@ -50,16 +50,6 @@ pub const ENTRY: Entry = Entry {
 /// Most nodes a texel may keep.
 pub const MAX_NODES: usize = 64;
 
-choice_enum! {
-    /// The order in which each texel's fragments are inserted.
-    pub enum Order {
-        /// Submission order (scene order, then triangle order).
-        Forward = "forward",
-        /// Reverse submission order (to show the method's order dependence).
-        Reverse = "reverse",
-    }
-}
-
 /// Options of the adaptive volumetric shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -79,6 +69,16 @@ impl Default for Options {
             nodes: 8,
             order: Order::Forward,
         }
+    }
+}
+
+choice_enum! {
+    /// The order in which each texel's fragments are inserted.
+    pub enum Order {
+        /// Submission order (scene order, then triangle order).
+        Forward = "forward",
+        /// Reverse submission order (to show the method's order dependence).
+        Reverse = "reverse",
     }
 }
 

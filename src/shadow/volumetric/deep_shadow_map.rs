@@ -50,17 +50,6 @@ pub const ENTRY: Entry = Entry {
     ..super::BASE
 };
 
-choice_enum! {
-    /// How the lookup combines texels.
-    pub enum Filter {
-        /// The nearest texel's function.
-        Nearest = "nearest",
-        /// The four nearest texels' functions evaluated at the receiver's depth, weighted
-        /// bilinearly.
-        Bilinear = "bilinear",
-    }
-}
-
 /// Options of the deep shadow map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -83,6 +72,17 @@ impl Default for Options {
             capacity: 1 << 24,
             filter: Filter::Bilinear,
         }
+    }
+}
+
+choice_enum! {
+    /// How the lookup combines texels.
+    pub enum Filter {
+        /// The nearest texel's function.
+        Nearest = "nearest",
+        /// The four nearest texels' functions evaluated at the receiver's depth, weighted
+        /// bilinearly.
+        Bilinear = "bilinear",
     }
 }
 

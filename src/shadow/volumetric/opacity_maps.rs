@@ -52,16 +52,6 @@ pub const ENTRY: Entry = Entry {
 /// Most slices.
 pub const MAX_SLICES: u32 = 64;
 
-choice_enum! {
-    /// Where the slices lie.
-    pub enum Slices {
-        /// Opacity shadow maps: uniform depths across the casters' range.
-        Uniform = "uniform",
-        /// Deep opacity maps: from each texel's nearest transparent surface.
-        Deep = "deep",
-    }
-}
-
 /// Options of opacity shadow maps.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -85,6 +75,16 @@ impl Default for Options {
             slices: 4,
             layout: Slices::Deep,
         }
+    }
+}
+
+choice_enum! {
+    /// Where the slices lie.
+    pub enum Slices {
+        /// Opacity shadow maps: uniform depths across the casters' range.
+        Uniform = "uniform",
+        /// Deep opacity maps: from each texel's nearest transparent surface.
+        Deep = "deep",
     }
 }
 

@@ -93,7 +93,7 @@ mod samples;
 mod tests;
 
 use insert::{Entry, Grid, Rec};
-use occluder::{axis_at, axis_depth, test_list, Occluder};
+use occluder::{axis_at, axis_depth, test_list, ListLight, Occluder};
 use samples::to_light;
 pub use samples::{camera_samples, camera_samples_grid, CameraSample};
 
@@ -133,16 +133,6 @@ impl SamplesPerPixel {
     }
 }
 
-choice_enum! {
-    /// How occluders are rasterized into the grid.
-    pub enum OccluderRaster {
-        /// Conservative overestimate: every texel the triangle touches (exact).
-        Conservative = "conservative",
-        /// Texel centres only (to show what breaks: thin occluders' shadows).
-        Standard = "standard",
-    }
-}
-
 /// Options of the irregular z-buffer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -168,6 +158,16 @@ impl Default for Options {
             raster: OccluderRaster::Conservative,
             capacity: 1 << 24,
         }
+    }
+}
+
+choice_enum! {
+    /// How occluders are rasterized into the grid.
+    pub enum OccluderRaster {
+        /// Conservative overestimate: every texel the triangle touches (exact).
+        Conservative = "conservative",
+        /// Texel centres only (to show what breaks: thin occluders' shadows).
+        Standard = "standard",
     }
 }
 
@@ -379,6 +379,12 @@ impl IrregularZBuffer {
         let mut near = Vec::new();
         for (v, view) in self.views.maps_mut() {
             let axis = axis_depth(view);
+            let at = ListLight {
+                directional,
+                position: lp,
+                direction: dir,
+                axis,
+            };
             let margin = 1e-5 * (axis.truncate().abs().dot(extent) + axis.w.abs());
             // Per occluder: its nearest vertex's axis depth, less the margin.
             near.clear();
@@ -401,7 +407,7 @@ impl IrregularZBuffer {
                 if t.far < near[f.prim as usize] {
                     return;
                 }
-                let (far, tests) = test_list(&occluders[f.prim as usize], list, directional, lp, dir, axis);
+                let (far, tests) = test_list(&occluders[f.prim as usize], list, at);
                 let t = Texel {
                     far,
                     tests: t.tests + tests as u64,

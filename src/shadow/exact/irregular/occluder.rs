@@ -104,25 +104,37 @@ pub(super) fn segment_terms(e1: Vec3, e2: Vec3, to_light: Vec3) -> (Vec3, f32) {
     )
 }
 
-/// The occluder pass's test of one texel's samples against occluder `o` (the light at `lp`,
-/// or along `dir` for a directional one): a lit sample not on `o` is shadowed when its
-/// segment to the light crosses `o` (the plane test first, then Möller–Trumbore). Returns
-/// the largest [`axis_at`] (`axis`) of the samples still lit after it (`-inf` for none) and
-/// the tests it ran.
+/// The light and view as the list test sees them.
+#[derive(Copy, Clone, Debug)]
+pub(super) struct ListLight {
+    /// Whether the light is directional.
+    pub directional: bool,
+    /// A point or spot light's position.
+    pub position: Vec3,
+    /// A directional light's direction toward the light.
+    pub direction: Vec3,
+    /// The view's depth axis ([`axis_depth`]).
+    pub axis: Vec4,
+}
+
+/// The occluder pass's test of one texel's samples against occluder `o` (the light at
+/// `l.position`, or along `l.direction` for a directional one): a lit sample not on `o` is
+/// shadowed when its segment to the light crosses `o` (the plane test first, then
+/// Möller–Trumbore). Returns the largest [`axis_at`] (`l.axis`) of the samples still lit
+/// after it (`-inf` for none) and the tests it ran.
 ///
 /// Four samples at a time, without a branch per sample (which samples are shadowed already,
 /// lie on `o` or pass the plane test is data the branch predictor cannot learn); each lane
 /// computes exactly the one-sample operations of `Occluder::same_side_as_light` and
 /// `Occluder::blocks`, in their order, so the results are theirs (a test checks it).
 #[inline(always)]
-pub(super) fn test_list(
-    o: &Occluder,
-    list: &mut [ListSample],
-    directional: bool,
-    lp: Vec3,
-    dir: Vec3,
-    axis: Vec4,
-) -> (f32, u32) {
+pub(super) fn test_list(o: &Occluder, list: &mut [ListSample], l: ListLight) -> (f32, u32) {
+    let ListLight {
+        directional,
+        position: lp,
+        direction: dir,
+        axis,
+    } = l;
     let mut far = Vec4::NEG_INFINITY;
     let mut tests = 0;
     let shadow = SHADOWED | o.id;

@@ -6,14 +6,7 @@ use proptest::prelude::*;
 use std::path::Path;
 
 /// [`test_list`] one sample at a time, with the one-sample tests.
-fn test_list_one(
-    o: &Occluder,
-    list: &mut [ListSample],
-    directional: bool,
-    lp: Vec3,
-    dir: Vec3,
-    axis: Vec4,
-) -> (f32, u32) {
+fn test_list_one(o: &Occluder, list: &mut [ListSample], l: ListLight) -> (f32, u32) {
     let (mut far, mut tests) = (f32::NEG_INFINITY, 0);
     for s in list {
         if s.state >= SHADOWED {
@@ -22,14 +15,18 @@ fn test_list_one(
         if s.state != o.id {
             tests += 1;
             if !o.same_side_as_light(s.position) {
-                let to = if directional { dir } else { lp - s.position };
-                if o.blocks(s.position, to, directional) {
+                let to = if l.directional {
+                    l.direction
+                } else {
+                    l.position - s.position
+                };
+                if o.blocks(s.position, to, l.directional) {
                     s.state = SHADOWED | o.id;
                     continue;
                 }
             }
         }
-        far = far.max(axis_at(axis, s.position));
+        far = far.max(axis_at(l.axis, s.position));
     }
     (far, tests)
 }
@@ -87,8 +84,14 @@ proptest! {
             })
             .collect();
         let mut one = list.clone();
-        let got = test_list(&o, &mut list, directional, lp, dir, axis);
-        let want = test_list_one(&o, &mut one, directional, lp, dir, axis);
+        let at = ListLight {
+            directional,
+            position: lp,
+            direction: dir,
+            axis,
+        };
+        let got = test_list(&o, &mut list, at);
+        let want = test_list_one(&o, &mut one, at);
         prop_assert_eq!(&list, &one);
         prop_assert_eq!(got.1, want.1);
         prop_assert!(got.0 == want.0, "far {} against {}", got.0, want.0);
