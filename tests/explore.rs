@@ -384,3 +384,129 @@ fn runs_wait_for_each_other() {
     gens.sort();
     assert_eq!(gens, [1, 2, 3], "one run at a time, each its own generation");
 }
+
+/// Fetches the page on a fresh connection and returns how long it took.
+fn page_time(addr: &str) -> Duration {
+    let t = std::time::Instant::now();
+    let mut c = TcpStream::connect(addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    write!(c, "GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut buf = Vec::new();
+    c.read_to_end(&mut buf).unwrap();
+    assert!(
+        buf.starts_with(b"HTTP/1.1 200"),
+        "{}",
+        String::from_utf8_lossy(&buf[..buf.len().min(200)])
+    );
+    t.elapsed()
+}
+
+#[test]
+fn slow_clients_and_renders_do_not_lock_others_out() {
+    let s = Server::start("shadow-map");
+    let addr = s.addr.clone();
+    // A request sent one byte at a time, slower than any per-read timeout would notice.
+    let trickle = {
+        let addr = addr.clone();
+        std::thread::spawn(move || {
+            let mut c = TcpStream::connect(&addr).unwrap();
+            for b in b"GET / HTTP/1.1\r\nX-Slow: yes, very".iter() {
+                if c.write_all(&[*b]).is_err() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(300));
+            }
+        })
+    };
+    // A client that asks and does not read its answer.
+    let mut unread = TcpStream::connect(&addr).unwrap();
+    write!(unread, "GET /api/info HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    // Twelve connections that send nothing.
+    let idle: Vec<TcpStream> = (0..12).map(|_| TcpStream::connect(&addr).unwrap()).collect();
+    std::thread::sleep(Duration::from_millis(500));
+    for _ in 0..3 {
+        let t = page_time(&addr);
+        assert!(t < Duration::from_secs(2), "the page took {t:?} beside slow clients");
+    }
+    // The trickled request is cut at its deadline (408), not served when it ends.
+    trickle.join().unwrap();
+    drop(idle);
+    drop(unread);
+
+    // A long render in one connection; the page and info are served meanwhile.
+    let render = {
+        let addr = addr.clone();
+        std::thread::spawn(move || {
+            let mut c = TcpStream::connect(&addr).unwrap();
+            write!(
+                c,
+                "GET /api/run?technique=reference&set=samples%3D4096 HTTP/1.1\r\nHost: {addr}\r\n\r\n"
+            )
+            .unwrap();
+            let mut buf = String::new();
+            c.read_to_string(&mut buf).unwrap();
+            buf
+        })
+    };
+    std::thread::sleep(Duration::from_millis(300));
+    let t = page_time(&addr);
+    let still = !render.is_finished();
+    assert!(t < Duration::from_secs(2), "the page took {t:?} during a render");
+    let (st, _) = s.get("/api/info");
+    assert_eq!(st, 200);
+    let r = render.join().unwrap();
+    assert!(r.starts_with("HTTP/1.1 200"), "{}", &r[..r.len().min(300)]);
+    // (If the render ended before the page was asked, the check above is weaker, not wrong.)
+    eprintln!("page asked while the render ran: {still}");
+}
+
+#[test]
+fn requests_for_other_sites_are_refused() {
+    let s = Server::start("shadow-map");
+    let (st, run) = s.json("/api/run?technique=shadow-map");
+    assert_eq!(st, 200);
+    let gen = run["gen"].as_u64().unwrap();
+    let port = s.addr.rsplit(':').next().unwrap().to_string();
+    let ask = |host: &str, origin: Option<&str>, target: &str| {
+        let origin = origin.map(|o| format!("Origin: {o}\r\n")).unwrap_or_default();
+        s.raw(format!("GET {target} HTTP/1.1\r\nHost: {host}\r\n{origin}\r\n").as_bytes())
+    };
+    // DNS rebinding: another name for the address.
+    for host in [
+        "evil.example",
+        "evil.example:80",
+        &format!("evil.example:{port}"),
+        "127.0.0.1:1",
+    ] {
+        for target in ["/", "/api/info", "/api/run?technique=izb"] {
+            let (st, body) = ask(host, None, target);
+            assert_eq!(st, 421, "{host} {target}");
+            assert!(
+                String::from_utf8_lossy(&body).contains("answers to 127.0.0.1:"),
+                "{host}"
+            );
+        }
+    }
+    // Another site's page.
+    for origin in [
+        "http://evil.example",
+        "null",
+        "https://127.0.0.1",
+        &format!("http://evil.example:{port}"),
+    ] {
+        let (st, _) = ask(&s.addr, Some(origin), "/api/run?technique=izb");
+        assert_eq!(st, 403, "{origin}");
+    }
+    // Nothing ran for them.
+    let (_, px) = s.json("/api/pixel?slot=0&pixel=10,10");
+    assert_eq!(px["gen"].as_u64(), Some(gen));
+    // The names of the loopback address, and its own page's origin, are served.
+    for host in [
+        format!("127.0.0.1:{port}"),
+        format!("localhost:{port}"),
+        format!("[::1]:{port}"),
+    ] {
+        let (st, _) = ask(&host, Some(&format!("http://{host}")), "/api/info");
+        assert_eq!(st, 200, "{host}");
+    }
+}

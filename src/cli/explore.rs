@@ -2,12 +2,21 @@
 //! stages and one pixel's steps, with a technique and option picker and two techniques side by
 //! side.
 //!
-//! The server binds 127.0.0.1 only and handles one connection at a time, so one render runs at
-//! a time (a second request waits in the listen queue). Every answer is built in memory: the
-//! page (one file, no network resources), JSON, and PNGs of the current runs; no file is ever
-//! read from a request's path. A request is read into a buffer of at most
-//! [`MAX_REQUEST`] bytes and parsed by `httparse`; query values are checked like the CLI's
-//! (a bad pixel or option gets a 400 with the CLI's message).
+//! The server binds 127.0.0.1 only. Each connection has its own thread (at most
+//! [`MAX_CONNECTIONS`] at once; past that a connection gets a 503) and two deadlines for its
+//! whole life, one for the request ([`REQUEST_DEADLINE`]) and one for the answer
+//! ([`ANSWER_DEADLINE`]), so a client that trickles its request or reads its answer slowly
+//! holds only its own thread, and only until then. Renders run one at a time (a second
+//! `/api/run` waits for the first); the page, the images, pixels and values are served while a
+//! render runs. Every answer is built in memory: the page (one file, no network resources),
+//! JSON, and PNGs of the current runs; no file is ever read from a request's path. A request is
+//! read into a buffer of at most [`MAX_REQUEST`] bytes and parsed by `httparse`; query values
+//! are checked like the CLI's (a bad pixel or option gets a 400 with the CLI's message).
+//!
+//! Against other web pages (DNS rebinding, cross-site requests): a request whose `Host` is not
+//! the address the server printed (`127.0.0.1:PORT`, `localhost:PORT` or `[::1]:PORT`) gets a
+//! 421, and one whose `Origin` is not that address over `http` gets a 403, before anything
+//! runs. A render is held to the same memory budget as the command line's.
 
 use crate::error::CliError;
 use crate::scene::{self, check_pixel, parse_pixel, pixel_json, pixel_steps};
@@ -26,16 +35,22 @@ use std::collections::HashMap;
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
 /// The largest request read (request line and headers): beyond it the answer is 431.
 pub const MAX_REQUEST: usize = 16 * 1024;
-/// How long a connection may take to send its request.
-const READ_TIMEOUT: Duration = Duration::from_secs(5);
+/// How long a connection may take to send its whole request.
+pub const REQUEST_DEADLINE: Duration = Duration::from_secs(5);
+/// How long a connection may take to receive its whole answer (from the end of the render).
+pub const ANSWER_DEADLINE: Duration = Duration::from_secs(60);
+/// Connections served at once; a connection past them gets a 503 at once.
+pub const MAX_CONNECTIONS: usize = 32;
 /// Bytes of a refused request read and dropped at most before the connection is closed.
 const DRAIN_LIMIT: usize = 1 << 20;
+/// How long the rest of a refused request is read and dropped at most.
+const DRAIN_DEADLINE: Duration = Duration::from_secs(1);
 /// Query parameters in one request at most.
 const MAX_PARAMS: usize = 64;
 /// The page.
@@ -79,22 +94,69 @@ pub fn explore(o: ExploreOpts) -> Result<(), CliError> {
         }
     })
     .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
-    let mut state = State::new(&p, &s, &text, &o.scene, scene::cache(&o.out), o.technique.clone(), sets);
+    let state = State::new(
+        &p,
+        &s,
+        &text,
+        &o.scene,
+        scene::cache(&o.out),
+        o.technique.clone(),
+        sets,
+        addr.port(),
+    );
     println!("penumbra explore: {} at http://{addr}/ (Ctrl-C stops)", s.name);
     std::io::stdout().flush().ok();
-    while !stop.load(Ordering::SeqCst) {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                if let Err(e) = serve(&mut state, stream) {
-                    eprintln!("penumbra explore: {e}");
+    let active = AtomicUsize::new(0);
+    std::thread::scope(|scope| {
+        while !stop.load(Ordering::SeqCst) {
+            let stream = match listener.accept() {
+                Ok((stream, _)) => stream,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    std::thread::sleep(Duration::from_millis(20));
+                    continue;
                 }
+                Err(e) => {
+                    eprintln!("penumbra explore: accept: {e}");
+                    continue;
+                }
+            };
+            if active.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                busy(stream);
+                continue;
             }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => std::thread::sleep(Duration::from_millis(20)),
-            Err(e) => eprintln!("penumbra explore: accept: {e}"),
+            active.fetch_add(1, Ordering::SeqCst);
+            let (state, active) = (&state, &active);
+            let spawned = std::thread::Builder::new()
+                .name("explore-connection".into())
+                .spawn_scoped(scope, move || {
+                    if let Err(e) = serve(state, stream) {
+                        eprintln!("penumbra explore: {e}");
+                    }
+                    active.fetch_sub(1, Ordering::SeqCst);
+                });
+            if let Err(e) = spawned {
+                active.fetch_sub(1, Ordering::SeqCst);
+                eprintln!("penumbra explore: cannot start a connection's thread: {e}");
+            }
         }
-    }
+    });
     println!("penumbra explore: stopped");
     Ok(())
+}
+
+/// A mutex's guard, also after a thread panicked while holding it (the state it guards is
+/// replaced whole, never left half-written).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Answers a connection past [`MAX_CONNECTIONS`] with a 503 (within a short deadline).
+fn busy(stream: TcpStream) {
+    let reply = Reply::error(
+        503,
+        format!("{MAX_CONNECTIONS} connections are being served: try again"),
+    );
+    let _ = answer(stream, &reply, Instant::now() + Duration::from_millis(200));
 }
 
 /// An answer: status, content type, body.
@@ -133,29 +195,40 @@ fn reason(status: u16) -> &'static str {
         200 => "OK",
         400 => "Bad Request",
         404 => "Not Found",
+        403 => "Forbidden",
         405 => "Method Not Allowed",
+        408 => "Request Timeout",
         413 => "Payload Too Large",
+        421 => "Misdirected Request",
         431 => "Request Header Fields Too Large",
+        503 => "Service Unavailable",
         _ => "Internal Server Error",
     }
 }
 
-/// Reads one request from `stream` (bounded), answers it, closes the connection.
-fn serve(state: &mut State, mut stream: TcpStream) -> std::io::Result<()> {
+/// Reads one request from `stream` (bounded in size and time), answers it (bounded in time),
+/// closes the connection.
+fn serve(state: &State, mut stream: TcpStream) -> std::io::Result<()> {
     stream.set_nonblocking(false)?;
-    stream.set_read_timeout(Some(READ_TIMEOUT))?;
-    stream.set_write_timeout(Some(Duration::from_secs(60)))?;
-    let reply = match read_request(&mut stream) {
-        Ok((method, target)) if method == "GET" || method == "HEAD" => {
-            let mut r = state.route(&target);
-            if method == "HEAD" {
-                r.body.clear();
+    let reply = match read_request(&mut stream, Instant::now() + REQUEST_DEADLINE) {
+        Ok(r) => match state.refusal(&r) {
+            Some(refused) => refused,
+            None if r.method == "GET" || r.method == "HEAD" => {
+                let mut reply = state.route(&r.target);
+                if r.method == "HEAD" {
+                    reply.body.clear();
+                }
+                reply
             }
-            r
-        }
-        Ok((method, _)) => Reply::error(405, format!("method {method} is not served: GET only")),
+            None => Reply::error(405, format!("method {} is not served: GET only", r.method)),
+        },
         Err(r) => r,
     };
+    answer(stream, &reply, Instant::now() + ANSWER_DEADLINE)
+}
+
+/// Writes `reply` to `stream` by `deadline`, then closes the connection.
+fn answer(mut stream: TcpStream, reply: &Reply, deadline: Instant) -> std::io::Result<()> {
     let head = format!(
         "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
         reply.status,
@@ -163,16 +236,17 @@ fn serve(state: &mut State, mut stream: TcpStream) -> std::io::Result<()> {
         reply.kind,
         reply.body.len()
     );
-    stream.write_all(head.as_bytes())?;
-    stream.write_all(&reply.body)?;
-    stream.flush()?;
+    write_by(&mut stream, head.as_bytes(), deadline)?;
+    write_by(&mut stream, &reply.body, deadline)?;
     // Closing with unread bytes would reset the connection and lose the answer: the rest of
-    // an oversized request is read and dropped (bounded, with the read timeout) first.
+    // an oversized request is read and dropped (bounded in bytes and time) first.
     stream.shutdown(std::net::Shutdown::Write).ok();
-    stream.set_read_timeout(Some(Duration::from_millis(500)))?;
+    let until = Instant::now() + DRAIN_DEADLINE;
     let mut sink = [0u8; 4096];
     let mut drained = 0;
     while drained < DRAIN_LIMIT {
+        let Some(left) = remaining(until) else { break };
+        stream.set_read_timeout(Some(left))?;
         match stream.read(&mut sink) {
             Ok(0) | Err(_) => break,
             Ok(n) => drained += n,
@@ -181,9 +255,51 @@ fn serve(state: &mut State, mut stream: TcpStream) -> std::io::Result<()> {
     Ok(())
 }
 
-/// The method and target of the request on `stream`, or the error answer: 431 past
-/// [`MAX_REQUEST`] bytes, 413 with a body, 400 when it does not parse.
-fn read_request(stream: &mut TcpStream) -> Result<(String, String), Reply> {
+/// The time left until `deadline` (`None` once it has passed).
+fn remaining(deadline: Instant) -> Option<Duration> {
+    Some(deadline.saturating_duration_since(Instant::now())).filter(|d| !d.is_zero())
+}
+
+/// Writes all of `bytes` by `deadline`: each write waits at most the time left, so a client
+/// that reads slowly cannot stretch the answer past it.
+fn write_by(stream: &mut TcpStream, mut bytes: &[u8], deadline: Instant) -> std::io::Result<()> {
+    while !bytes.is_empty() {
+        let left = remaining(deadline).ok_or_else(|| {
+            std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                "the client did not take its answer in time",
+            )
+        })?;
+        stream.set_write_timeout(Some(left))?;
+        match stream.write(bytes) {
+            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
+            Ok(n) => bytes = &bytes[n..],
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    stream.flush()
+}
+
+/// What the server reads of a request.
+struct Request {
+    method: String,
+    target: String,
+    /// The `Host` header, if any.
+    host: Option<String>,
+    /// The `Origin` header, if any.
+    origin: Option<String>,
+}
+
+/// The request on `stream`, read by `deadline`, or the error answer: 408 past the deadline,
+/// 431 past [`MAX_REQUEST`] bytes, 413 with a body, 400 when it does not parse.
+fn read_request(stream: &mut TcpStream, deadline: Instant) -> Result<Request, Reply> {
+    let late = || {
+        Reply::error(
+            408,
+            format!("the request took longer than {} s", REQUEST_DEADLINE.as_secs()),
+        )
+    };
     let mut buf = vec![0u8; MAX_REQUEST];
     let mut len = 0;
     loop {
@@ -193,9 +309,17 @@ fn read_request(stream: &mut TcpStream) -> Result<(String, String), Reply> {
                 format!("the request is larger than {MAX_REQUEST} bytes"),
             ));
         }
+        let left = remaining(deadline).ok_or_else(late)?;
+        stream
+            .set_read_timeout(Some(left))
+            .map_err(|e| Reply::error(400, format!("cannot read the request: {e}")))?;
         let n = match stream.read(&mut buf[len..]) {
             Ok(0) => return Err(Reply::error(400, "the request ended before its headers did")),
             Ok(n) => n,
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                return Err(late())
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(Reply::error(400, format!("cannot read the request: {e}"))),
         };
         len += n;
@@ -210,10 +334,18 @@ fn read_request(stream: &mut TcpStream) -> Result<(String, String), Reply> {
                 if has_body {
                     return Err(Reply::error(413, "requests carry no body here"));
                 }
-                return Ok((
-                    req.method.unwrap_or("").to_string(),
-                    req.path.unwrap_or("/").to_string(),
-                ));
+                let header = |name: &str| {
+                    req.headers
+                        .iter()
+                        .find(|h| h.name.eq_ignore_ascii_case(name))
+                        .map(|h| String::from_utf8_lossy(h.value).trim().to_string())
+                };
+                return Ok(Request {
+                    method: req.method.unwrap_or("").to_string(),
+                    target: req.path.unwrap_or("/").to_string(),
+                    host: header("host"),
+                    origin: header("origin"),
+                });
             }
             Ok(httparse::Status::Partial) => continue,
             Err(e) => return Err(Reply::error(400, format!("the request does not parse: {e}"))),
@@ -380,21 +512,28 @@ struct Run<'a> {
     summary: serde_json::Value,
 }
 
-/// The server's state: the scene, its frames' references, and the two runs shown.
+/// The server's state, shared by the connections' threads: the scene, its frames'
+/// references, and the two runs shown (each behind its own lock, held while a run is read
+/// or replaced, never while one renders).
 struct State<'a> {
     p: &'a Pipeline,
     scene: &'a Scene,
     text: &'a str,
     path: &'a Path,
     cache: DirCache,
-    references: HashMap<usize, Visibility>,
-    runs: [Option<Run<'a>>; 2],
-    generation: u64,
+    references: Mutex<HashMap<usize, Visibility>>,
+    runs: [Mutex<Option<Run<'a>>>; 2],
+    generation: AtomicU64,
+    /// Held for the whole of a render: one at a time.
+    rendering: Mutex<()>,
     technique: String,
     sets: Vec<(String, String)>,
+    /// The port the server listens on (the `Host` and `Origin` it answers).
+    port: u16,
 }
 
 impl<'a> State<'a> {
+    #[allow(clippy::too_many_arguments)]
     fn new(
         p: &'a Pipeline,
         scene: &'a Scene,
@@ -403,6 +542,7 @@ impl<'a> State<'a> {
         cache: DirCache,
         technique: String,
         sets: Vec<(String, String)>,
+        port: u16,
     ) -> State<'a> {
         State {
             p,
@@ -410,15 +550,61 @@ impl<'a> State<'a> {
             text,
             path,
             cache,
-            references: HashMap::new(),
-            runs: [None, None],
-            generation: 0,
+            references: Mutex::new(HashMap::new()),
+            runs: [Mutex::new(None), Mutex::new(None)],
+            generation: AtomicU64::new(0),
+            rendering: Mutex::new(()),
             technique,
             sets,
+            port,
         }
     }
 
-    fn route(&mut self, target: &str) -> Reply {
+    /// The hosts this server answers to: the loopback address and port it printed.
+    fn hosts(&self) -> [String; 3] {
+        let port = self.port;
+        [
+            format!("127.0.0.1:{port}"),
+            format!("localhost:{port}"),
+            format!("[::1]:{port}"),
+        ]
+    }
+
+    /// The refusal of a request sent for another site: a `Host` that is not this server's
+    /// (DNS rebinding: 421) or an `Origin` that is not this server's page (403). A request
+    /// without either (a command-line client) is served.
+    fn refusal(&self, r: &Request) -> Option<Reply> {
+        let hosts = self.hosts();
+        if let Some(host) = &r.host {
+            if !hosts.iter().any(|h| h.eq_ignore_ascii_case(host)) {
+                return Some(Reply::error(
+                    421,
+                    format!(
+                        "this server answers to {} only, not to Host {}",
+                        hosts.join(", "),
+                        penumbra::error::quoted(host)
+                    ),
+                ));
+            }
+        }
+        if let Some(origin) = &r.origin {
+            if !hosts
+                .iter()
+                .any(|h| origin.eq_ignore_ascii_case(&format!("http://{h}")))
+            {
+                return Some(Reply::error(
+                    403,
+                    format!(
+                        "requests from other sites are refused (Origin {})",
+                        penumbra::error::quoted(origin)
+                    ),
+                ));
+            }
+        }
+        None
+    }
+
+    fn route(&self, target: &str) -> Reply {
         let (path, params) = match parse_target(target) {
             Ok(x) => x,
             Err(r) => return r,
@@ -477,17 +663,25 @@ impl<'a> State<'a> {
         }
     }
 
-    fn current(&self, params: &[(String, String)]) -> Result<&Run<'a>, CliError> {
+    /// The slot's run, locked, for `read`.
+    fn current<T>(
+        &self,
+        params: &[(String, String)],
+        read: impl FnOnce(&Run<'a>) -> Result<T, CliError>,
+    ) -> Result<T, CliError> {
         let slot = Self::slot(params)?;
-        self.runs[slot]
+        let run = lock(&self.runs[slot]);
+        let r = run
             .as_ref()
-            .ok_or_else(|| format!("slot {slot} has no run yet: ask /api/run first").into())
+            .ok_or_else(|| CliError::from(format!("slot {slot} has no run yet: ask /api/run first")))?;
+        read(r)
     }
 
     /// Runs a technique on a frame into a slot: `slot`, `technique`, `set` (repeatable,
     /// `key=value`), `frame`.
-    fn run(&mut self, params: &[(String, String)]) -> Result<serde_json::Value, CliError> {
+    fn run(&self, params: &[(String, String)]) -> Result<serde_json::Value, CliError> {
         let slot = Self::slot(params)?;
+        let _one_at_a_time = lock(&self.rendering);
         let technique = param(params, "technique").unwrap_or(&self.technique).to_string();
         let sets: Vec<String> = params
             .iter()
@@ -508,12 +702,13 @@ impl<'a> State<'a> {
         };
         let mut t = shadow::registry::create(&technique, &sets)?;
         let f = frame::frame(self.p, self.scene, 0, index)?;
-        let reference = match self.references.get(&index) {
-            Some(r) => r.clone(),
+        let known = lock(&self.references).get(&index).cloned();
+        let reference = match known {
+            Some(r) => r,
             None => {
                 let key = run::reference_key(self.text, &f, 0, &ReferenceOptions::default());
                 let (r, _, _) = run::reference(self.p, &f, key, Some(&self.cache))?;
-                self.references.insert(index, r.clone());
+                lock(&self.references).insert(index, r.clone());
                 r
             }
         };
@@ -569,8 +764,7 @@ impl<'a> State<'a> {
                 })
                 .collect::<Result<Vec<_>, String>>()
         })?;
-        self.generation += 1;
-        let gen = self.generation;
+        let gen = self.generation.fetch_add(1, Ordering::SeqCst) + 1;
         let settings: Vec<String> = sets.iter().map(|(k, v)| format!("{k}={v}")).collect();
         let sets_args: String = settings.iter().map(|s| format!(" --set {s}")).collect();
         let summary = json!({
@@ -603,7 +797,7 @@ impl<'a> State<'a> {
                 "url": format!("/img/{slot}/{gen}/{k}.png"),
             })).collect::<Vec<_>>(),
         });
-        self.runs[slot] = Some(Run {
+        *lock(&self.runs[slot]) = Some(Run {
             gen,
             technique,
             sets,
@@ -619,30 +813,32 @@ impl<'a> State<'a> {
 
     /// One pixel's steps in a slot's run (`inspect --json`'s document) and what they read.
     fn pixel(&self, params: &[(String, String)]) -> Result<serde_json::Value, CliError> {
-        let r = self.current(params)?;
-        let (x, y) = parse_pixel(param(params, "pixel").unwrap_or(""))?;
-        check_pixel(&r.frame, x, y)?;
-        let steps = pixel_steps(&r.frame, r.t.as_ref(), &r.v, x, y);
-        let mut doc = pixel_json(&self.scene.name, &r.technique, &r.sets, x, y, &steps);
-        doc["read"] = marks(&steps);
-        doc["gen"] = json!(r.gen);
-        doc["frame"] = r.summary["frame"].clone();
-        Ok(doc)
+        self.current(params, |r| {
+            let (x, y) = parse_pixel(param(params, "pixel").unwrap_or(""))?;
+            check_pixel(&r.frame, x, y)?;
+            let steps = pixel_steps(&r.frame, r.t.as_ref(), &r.v, x, y);
+            let mut doc = pixel_json(&self.scene.name, &r.technique, &r.sets, x, y, &steps);
+            doc["read"] = marks(&steps);
+            doc["gen"] = json!(r.gen);
+            doc["frame"] = r.summary["frame"].clone();
+            Ok(doc)
+        })
     }
 
     /// A slot's visibility or reference values, row-major (`null` where no geometry).
     fn values(&self, params: &[(String, String)]) -> Result<serde_json::Value, CliError> {
-        let r = self.current(params)?;
-        let v = match param(params, "name").unwrap_or("visibility") {
-            "visibility" => &r.v,
-            "reference" => &r.reference,
-            other => return Err(format!("values '{other}' are not visibility or reference").into()),
-        };
-        let n = (r.frame.width() * r.frame.height()) as usize;
-        let values: Vec<Option<f32>> = (0..n)
-            .map(|i| Some(v.value(i)).filter(|x| x.is_finite() && r.frame.points()[i].is_some()))
-            .collect();
-        Ok(json!({ "gen": r.gen, "width": r.frame.width(), "height": r.frame.height(), "values": values }))
+        self.current(params, |r| {
+            let v = match param(params, "name").unwrap_or("visibility") {
+                "visibility" => &r.v,
+                "reference" => &r.reference,
+                other => return Err(format!("values '{other}' are not visibility or reference").into()),
+            };
+            let n = (r.frame.width() * r.frame.height()) as usize;
+            let values: Vec<Option<f32>> = (0..n)
+                .map(|i| Some(v.value(i)).filter(|x| x.is_finite() && r.frame.points()[i].is_some()))
+                .collect();
+            Ok(json!({ "gen": r.gen, "width": r.frame.width(), "height": r.frame.height(), "values": values }))
+        })
     }
 
     /// `/img/SLOT/GEN/K.png`: image K of the slot's current run (404 for any other path, or a
@@ -656,14 +852,15 @@ impl<'a> State<'a> {
             let slot: usize = slot.parse().ok().filter(|&s| s < 2)?;
             let gen: u64 = gen.parse().ok()?;
             let k: usize = file.strip_suffix(".png")?.parse().ok()?;
-            let r = self.runs[slot].as_ref().filter(|r| r.gen == gen)?;
-            r.images.get(k)
+            let run = lock(&self.runs[slot]);
+            let r = run.as_ref().filter(|r| r.gen == gen)?;
+            r.images.get(k).map(|im| im.png.clone())
         })();
         match found {
-            Some(im) => Reply {
+            Some(png) => Reply {
                 status: 200,
                 kind: "image/png",
-                body: im.png.clone(),
+                body: png,
             },
             None => Reply::error(404, format!("no image at '{path}' (runs replace their images)")),
         }
