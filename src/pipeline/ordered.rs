@@ -25,6 +25,8 @@ pub struct PixelStore<T> {
     /// `offsets[i]..offsets[i + 1]` is pixel `i`'s range of `data` (row-major pixels).
     offsets: Vec<u32>,
     data: Vec<T>,
+    /// The pool's and offsets' bytes, counted in the memory budget.
+    reserved: super::surface::Reservation,
 }
 
 /// An empty store of no pixels, to be built by [`PixelStore::rebuild_indexed`] or
@@ -36,6 +38,7 @@ impl<T> Default for PixelStore<T> {
             height: 0,
             offsets: vec![0],
             data: Vec::new(),
+            reserved: Default::default(),
         }
     }
 }
@@ -53,8 +56,8 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                     u32::MAX
                 ))
             })?;
-        // Checked against the memory budget before it is allocated.
-        super::surface::check_bytes(
+        // Reserved in the memory budget before it is allocated.
+        let reserved = super::surface::Reservation::new(
             width,
             height,
             (total * std::mem::size_of::<T>() + 4 * (pixels + 1)) as u64,
@@ -64,6 +67,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
             height,
             offsets: (0..=pixels).map(|i| (i * slots) as u32).collect(),
             data: vec![init; total],
+            reserved,
         })
     }
 
@@ -74,6 +78,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
             height,
             offsets: Vec::new(),
             data: Vec::new(),
+            reserved: Default::default(),
         };
         s.rebuild_indexed(width, height, counts, init)?;
         Ok(s)
@@ -89,21 +94,22 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 counts.len()
             )));
         }
+        let total: u64 = counts.iter().map(|&c| c as u64).sum();
+        if total > u32::MAX as u64 {
+            return Err(PipelineError::BadArgument(format!(
+                "pixel store: more than {} values in all",
+                u32::MAX
+            )));
+        }
+        self.reserve_growth(width, height, total)?;
         self.offsets.clear();
         self.offsets.reserve(pixels + 1);
         self.offsets.push(0);
-        let mut total = 0u64;
+        let mut at = 0u32;
         for &c in counts {
-            total += c as u64;
-            if total > u32::MAX as u64 {
-                return Err(PipelineError::BadArgument(format!(
-                    "pixel store: more than {} values in all",
-                    u32::MAX
-                )));
-            }
-            self.offsets.push(total as u32);
+            at += c;
+            self.offsets.push(at);
         }
-        self.check_growth(width, height, total)?;
         self.width = width;
         self.height = height;
         self.data.clear();
@@ -146,7 +152,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 u32::MAX
             )));
         }
-        self.check_growth(width, height, total)?;
+        self.reserve_growth(width, height, total)?;
         self.width = width;
         self.height = height;
         self.offsets.resize(pixels + 1, 0);
@@ -187,15 +193,13 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
         }
     }
 
-    /// Checks `total` values against the memory budget before the pool grows to them (what
-    /// it holds now is reused).
-    fn check_growth(&self, width: u32, height: u32, total: u64) -> Result<(), PipelineError> {
-        let have = (self.data.capacity() * std::mem::size_of::<T>()) as u64;
-        let need = total * std::mem::size_of::<T>() as u64;
-        if need > have {
-            super::surface::check_bytes(width, height, need - have)?;
-        }
-        Ok(())
+    /// Reserves `total` values and a `width` x `height` store's offsets in the memory budget
+    /// before the pool grows to them (what it holds now is reused, and stays reserved).
+    fn reserve_growth(&mut self, width: u32, height: u32, total: u64) -> Result<(), PipelineError> {
+        let pixels = width as u64 * height as u64;
+        let need = total * std::mem::size_of::<T>() as u64 + 4 * (pixels + 1);
+        let bytes = need.max(self.reserved.bytes());
+        self.reserved.resize(width, height, bytes)
     }
 
     /// Width in pixels.

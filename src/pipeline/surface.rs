@@ -85,7 +85,66 @@ fn fits(width: u32, height: u32, bytes: u64, live: u64) -> Result<u64, PipelineE
 
 /// Reserves a surface's bytes in the budget, or says why not.
 fn reserve(width: u32, height: u32, texel: usize) -> Result<(), PipelineError> {
-    let bytes = width as u64 * height as u64 * texel as u64;
+    reserve_bytes(width, height, width as u64 * height as u64 * texel as u64)
+}
+
+/// Bytes of a structure that is not a surface (lists, per-texel records, a store's pool)
+/// counted in the budget for as long as the reservation lives: reserved before the
+/// structure is allocated, returned when the reservation is dropped or shrunk.
+#[derive(Debug, Default)]
+pub struct Reservation {
+    bytes: u64,
+}
+
+impl Reservation {
+    /// Reserves `bytes` of a `width` x `height` structure, or says why they do not fit beside
+    /// everything alive.
+    pub fn new(width: u32, height: u32, bytes: u64) -> Result<Self, PipelineError> {
+        reserve_bytes(width, height, bytes)?;
+        Ok(Reservation { bytes })
+    }
+
+    /// Makes the reservation `bytes` (a structure that grows or shrinks): more is checked
+    /// against the budget, less is returned. On an error nothing changes.
+    pub fn resize(&mut self, width: u32, height: u32, bytes: u64) -> Result<(), PipelineError> {
+        if bytes > self.bytes {
+            reserve_bytes(width, height, bytes - self.bytes)?;
+        } else {
+            LIVE_BYTES.fetch_sub(self.bytes - bytes, Ordering::Relaxed);
+        }
+        self.bytes = bytes;
+        Ok(())
+    }
+
+    /// The bytes reserved.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl Drop for Reservation {
+    fn drop(&mut self) {
+        LIVE_BYTES.fetch_sub(self.bytes, Ordering::Relaxed);
+    }
+}
+
+impl Clone for Reservation {
+    /// A copy of the structure counts too (it cannot be refused: `Clone` cannot fail).
+    fn clone(&self) -> Self {
+        LIVE_BYTES.fetch_add(self.bytes, Ordering::Relaxed);
+        Reservation { bytes: self.bytes }
+    }
+}
+
+impl PartialEq for Reservation {
+    /// Reservations are bookkeeping: they never make two structures differ.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// Reserves `bytes` in the budget, or says why not.
+fn reserve_bytes(width: u32, height: u32, bytes: u64) -> Result<(), PipelineError> {
     let mut live = LIVE_BYTES.load(Ordering::Relaxed);
     loop {
         let total = fits(width, height, bytes, live)?;

@@ -4,6 +4,7 @@
 use super::samples::{sample_uv, triangle_facing, CameraSample, SampleFiller};
 use super::*;
 use crate::pipeline::compute::Scatter;
+use crate::pipeline::Reservation;
 use crate::shadow::light::Payload;
 
 /// A sample's record from pass 1: where its ray starts and the triangle it never tests
@@ -307,16 +308,21 @@ impl Payload for Lists<'_> {
         let s = size as usize;
         let by_row = self.by_row;
         let (base, grid) = self.crops[v];
-        let (mut store, mut order, mask, mut texels) = match old {
-            Some(o) => (o.store, o.order, o.mask, o.texels),
-            None => (PixelStore::default(), Vec::new(), None, Vec::new()),
+        let (mut store, mut order, mask, mut texels, mut reserved) = match old {
+            Some(o) => (o.store, o.order, o.mask, o.texels, o.reserved),
+            None => (PixelStore::default(), Vec::new(), None, Vec::new(), Reservation::default()),
         };
         let axis = axis_depth(view);
+        let runs = &self.row_at[v * s..=(v + 1) * s];
+        let listed = (runs[s] - runs[0]) as usize;
+        // The texels' records and the lists' order, in the memory budget before they grow
+        // (what they hold stays reserved: the buffers are kept from run to run).
+        let need = (n * std::mem::size_of::<Texel>() + listed * 4) as u64;
+        reserved.resize(size, size, need.max(reserved.bytes()))?;
         texels.resize(n, Texel { far: 0.0, tests: 0 });
         let texel_rows = Scatter::new(&mut texels);
-        let runs = &self.row_at[v * s..=(v + 1) * s];
         let row_totals: Vec<u32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
-        order.resize((runs[s] - runs[0]) as usize, 0);
+        order.resize(listed, 0);
         let ord = Scatter::new(&mut order);
         store.rebuild_rows(size, size, &row_totals, ListSample::EMPTY, |ty, starts, part| {
             let run = &by_row[runs[ty] as usize..runs[ty + 1] as usize];
@@ -366,6 +372,7 @@ impl Payload for Lists<'_> {
             order,
             mask: Some(mask),
             texels,
+            reserved,
             fragments: 0,
             rasterized: 0,
         })

@@ -237,6 +237,8 @@ struct View {
     mask: Option<Surface<f32>>,
     /// Per texel (row-major): the occluder pass's [`Texel`].
     texels: Vec<Texel>,
+    /// `texels` and `order` in the memory budget.
+    reserved: Reservation,
     /// Occluder fragments of the pass (that reached a non-empty texel).
     fragments: u64,
     /// Occluder fragments rasterized in all.
@@ -267,6 +269,8 @@ pub struct IrregularZBuffer {
     meta: Vec<u8>,
     keys: Vec<u32>,
     by_row: Vec<Entry>,
+    /// The per-sample buffers (at most 88 bytes a sample) in the memory budget.
+    reserved: Reservation,
 }
 
 impl IrregularZBuffer {
@@ -287,6 +291,7 @@ impl IrregularZBuffer {
             meta: Vec::new(),
             keys: Vec::new(),
             by_row: Vec::new(),
+            reserved: Reservation::default(),
         }
     }
 
@@ -478,7 +483,8 @@ impl Pass for IrregularZBuffer {
         // memory budget before any is made.
         let (w, h) = (frame.width(), frame.height());
         let samples = w as u64 * h as u64 * self.opts.samples.count() as u64;
-        crate::pipeline::check_bytes(w, h, samples * 88).map_err(|e| {
+        let need = (samples * 88).max(self.reserved.bytes());
+        self.reserved.resize(w, h, need).map_err(|e| {
             Error::from(e).within(&format!(
                 "the irregular z-buffer ({samples} camera samples, option samples={})",
                 self.opts.samples.count()
