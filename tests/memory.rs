@@ -52,3 +52,80 @@ fn surfaces_count_while_they_live_and_past_the_budget_are_refused() {
     set_memory_limit(DEFAULT_MEMORY_LIMIT);
     assert_eq!(live_surface_bytes(), base);
 }
+
+/// Every technique with each ranged option at the top of its range, on a tiny scene under a
+/// small budget: a result or the budget's error, and the process never grows past the budget
+/// (its peak resident memory, less what any render takes without the technique).
+#[cfg(all(target_os = "linux", feature = "cli"))]
+#[test]
+fn every_technique_at_its_largest_options_stays_in_the_budget() {
+    const BUDGET_MIB: u64 = 512;
+    // What the process holds beside the budget: its code, the tiny scene, the G-buffer.
+    const BESIDE_MIB: u64 = 96;
+    let dir = std::env::temp_dir().join(format!("penumbra-memory-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A disk light's scene, a sun's and a terrain, each at 64x36: each technique on one it applies to.
+    let scenes: Vec<(std::path::PathBuf, penumbra::scene::Scene)> = ["contact", "facing_sun", "terrain"]
+        .iter()
+        .map(|name| {
+            let text = std::fs::read_to_string(format!("fixtures/scenes/{name}.toml"))
+                .unwrap()
+                .replace("resolution = [480, 270]", "resolution = [64, 36]");
+            assert!(text.contains("[64, 36]"), "{name}");
+            let path = dir.join(format!("{name}.toml"));
+            std::fs::write(&path, text).unwrap();
+            let scene = penumbra::scene::file::load(&path).unwrap();
+            (path, scene)
+        })
+        .collect();
+    let peak_mib = || {
+        // SAFETY: getrusage writes the struct it is given, which is zeroed and ours.
+        let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+        assert_eq!(unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut u) }, 0);
+        u.ru_maxrss as u64 / 1024
+    };
+    let mut cases = 0;
+    for t in penumbra::shadow::registry::registry() {
+        let (scene, _) = scenes
+            .iter()
+            .find(|(_, s)| t.applies_to(s))
+            .unwrap_or_else(|| panic!("{}: no scene it applies to", t.name));
+        for o in &t.options {
+            let Some(range) = o.ty.split(" in ").nth(1) else {
+                continue;
+            };
+            let hi = range.trim_end_matches(']').rsplit(", ").next().unwrap();
+            let set = format!("{}={hi}", o.key);
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+                .args(["render", scene.to_str().unwrap(), "--technique", t.name, "--set", &set])
+                .args([
+                    "--reps",
+                    "1",
+                    "--threads",
+                    "2",
+                    "--max-memory",
+                    &format!("{BUDGET_MIB}M"),
+                ])
+                .arg("--out")
+                .arg(dir.join("out"))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!err.contains("panicked"), "{} {set}: {err}", t.name);
+            assert!(
+                out.status.success() || err.starts_with("penumbra: error: technique"),
+                "{} {set}: neither a result nor a refusal: {err}",
+                t.name
+            );
+            let peak = peak_mib();
+            assert!(
+                peak <= BUDGET_MIB + BESIDE_MIB,
+                "{} {set}: the process reached {peak} MiB under a budget of {BUDGET_MIB} MiB",
+                t.name
+            );
+            cases += 1;
+        }
+    }
+    assert!(cases > 100, "{cases} cases");
+    let _ = std::fs::remove_dir_all(&dir);
+}

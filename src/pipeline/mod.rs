@@ -70,8 +70,8 @@ pub use program::{ColorFormat, DepthOnly, DiscardingShader, FragmentProgram, Rgb
 pub use state::*;
 pub use stats::DrawStats;
 pub use surface::{
-    check_bytes, check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain, Reservation, Surface,
-    SurfaceArray, DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
+    check_bytes, check_room, live_surface_bytes, memory_limit, set_memory_limit, CubeFace, CubeMap, MipChain,
+    Reservation, Surface, SurfaceArray, DEFAULT_MEMORY_LIMIT, MAX_DIMENSION,
 };
 pub use vertex::{ClipPassthrough, TransformHomogeneous, TransformPositions, Varyings, VertexProgram};
 

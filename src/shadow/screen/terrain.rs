@@ -24,7 +24,7 @@
 
 use crate::frame::Frame;
 use crate::pipeline::{DepthFormat, Pipeline};
-use crate::pipeline::{PolygonOffset, Surface};
+use crate::pipeline::{PolygonOffset, Reservation, Surface};
 use crate::reference::bvh::{Bvh, Tri};
 use crate::scene::{Light, LightKind, Scene};
 use crate::shadow::inspect::{explain, Trace};
@@ -233,6 +233,8 @@ pub struct TerrainHeight {
     /// horizon.
     grid: Option<Grid>,
     locations: Vec<Location>,
+    /// `locations` in the memory budget.
+    reserved: Reservation,
     terrain_map: Option<SunMap>,
     objects_map: Option<SunMap>,
     night: bool,
@@ -247,6 +249,7 @@ impl TerrainHeight {
             opts,
             grid: None,
             locations: Vec::new(),
+            reserved: Reservation::default(),
             terrain_map: None,
             objects_map: None,
             night: false,
@@ -508,7 +511,8 @@ impl ShadowTechnique for TerrainHeight {
             )));
         }
         (self.grid, self.terrain_map, self.objects_map) = (None, None, None);
-        self.locations.clear();
+        self.locations = Vec::new();
+        self.reserved = Reservation::default();
         // A sun at or below the horizon lights nothing.
         self.night = frame.light.direction.y >= 0.0;
         if !self.night {
@@ -527,6 +531,10 @@ impl ShadowTechnique for TerrainHeight {
                 hi: hi + Vec3::Y * margin,
                 n: self.opts.grid,
             };
+            // The locations, in the memory budget before any pass.
+            let n = grid.n as u64;
+            self.reserved = Reservation::new(grid.n, grid.n, n * n * std::mem::size_of::<Location>() as u64)
+                .map_err(|e| Error::from(e).within(&format!("the occlusion heights (option grid={})", grid.n)))?;
             let surface = scene_depth(p, frame, grid.view(), grid.n, grid.n, |i| keep[i])?;
             passes.end("surface heights");
             // The sun's map of the terrain, fitted to the grid's box.

@@ -310,7 +310,13 @@ impl Payload for Lists<'_> {
         let (base, grid) = self.crops[v];
         let (mut store, mut order, mask, mut texels, mut reserved) = match old {
             Some(o) => (o.store, o.order, o.mask, o.texels, o.reserved),
-            None => (PixelStore::default(), Vec::new(), None, Vec::new(), Reservation::default()),
+            None => (
+                PixelStore::default(),
+                Vec::new(),
+                None,
+                Vec::new(),
+                Reservation::default(),
+            ),
         };
         let axis = axis_depth(view);
         let runs = &self.row_at[v * s..=(v + 1) * s];
