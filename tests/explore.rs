@@ -18,7 +18,16 @@ struct Server {
 
 impl Server {
     fn start(technique: &str) -> Server {
-        let out = std::env::temp_dir().join(format!("penumbra-explore-test-{}-{technique}", std::process::id()));
+        Server::start_with(technique, &[])
+    }
+
+    /// A server started with `extra` arguments too.
+    fn start_with(technique: &str, extra: &[&str]) -> Server {
+        let out = std::env::temp_dir().join(format!(
+            "penumbra-explore-test-{}-{technique}-{}",
+            std::process::id(),
+            extra.len()
+        ));
         let mut child = Command::new(BIN)
             .args([
                 "explore",
@@ -32,6 +41,7 @@ impl Server {
                 "--out",
             ])
             .arg(&out)
+            .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
@@ -509,4 +519,22 @@ fn requests_for_other_sites_are_refused() {
         let (st, _) = ask(&host, Some(&format!("http://{host}")), "/api/info");
         assert_eq!(st, 200, "{host}");
     }
+}
+
+#[test]
+fn a_run_past_the_memory_budget_is_refused_and_the_server_goes_on() {
+    let s = Server::start_with("shadow-map", &["--max-memory", "256M"]);
+    for target in [
+        "/api/run?technique=izb&set=size%3D16384",
+        "/api/run?technique=hybrid&set=grid%3D16384",
+        "/api/run?technique=shadow-map&set=size%3D16384",
+    ] {
+        let (st, body) = s.json(target);
+        assert_eq!(st, 400, "{target}");
+        let e = body["error"].as_str().unwrap();
+        assert!(e.contains("memory limit of 256 MiB"), "{target}: {e}");
+    }
+    assert!(page_time(&s.addr) < Duration::from_secs(2));
+    let (st, _) = s.json("/api/run?technique=izb");
+    assert_eq!(st, 200);
 }
