@@ -94,6 +94,7 @@ pub mod math;
 pub mod metrics;
 pub mod output;
 pub mod pipeline;
+pub mod progress;
 pub mod reference;
 #[cfg(feature = "cli")]
 #[doc(hidden)]

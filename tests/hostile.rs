@@ -982,3 +982,49 @@ fn names_reach_the_terminal_escaped() {
         assert!(text.contains("\\u{1b}[2J"), "{args:?}: {text:?}");
     }
 }
+
+#[test]
+fn long_jobs_say_what_they_will_do_and_move_while_they_do_it() {
+    // Past the stated limit: refused, naming it and how to ask.
+    let (ok, text) = cli(&["defaults", "--scenes", "100000", "--out", "/nonexistent/never"]);
+    assert!(!ok);
+    assert!(
+        text.contains("past the limit of 1000 scenes a class") && text.contains("--long"),
+        "{text}"
+    );
+    // Before the runs: what it will do. During the reference (no cache in a fresh folder),
+    // the progress line says which stage is at work and how far it is.
+    let out = std::env::temp_dir().join(format!("penumbra-long-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args([
+            "choose",
+            "fixtures/scenes/contact.toml",
+            "--scale",
+            "1.5",
+            "--threads",
+            "2",
+            "--out",
+        ])
+        .arg(&out)
+        .env("PENUMBRA_PROGRESS_SECS", "0.05")
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr),
+    );
+    assert!(run.status.success(), "{stderr}");
+    assert!(
+        stdout.contains("choose: ") && stdout.contains(" runs of ") && stdout.contains("rays a frame first"),
+        "{stdout}"
+    );
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.contains("at contact / reference (tracing the reference (rows): ")),
+        "{stderr}"
+    );
+    assert!(stderr.contains("s left"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&out);
+}

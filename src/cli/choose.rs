@@ -2,7 +2,7 @@
 //! techniques that model it run against the reference ([`penumbra::choose`]), the Pareto
 //! front, the pick and its next two alternatives; a chart like the sweep's.
 
-use super::scene::{cache, load, pipeline};
+use super::scene::{cache, grouped, load, pipeline, reference_rays};
 use super::sweep::Progress;
 use crate::error::CliError;
 use penumbra::choose::{analyse, choose, fmt_error, Goal, NoPick};
@@ -87,6 +87,18 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
     for (t, why) in &a.skipped {
         say(format!("  skipped {t}: {why}"));
     }
+    say(format!(
+        "choose: {} runs of {} techniques on {} ({} triangles, {} frame{} at {}x{}); the reference traces up to {} rays a frame first",
+        a.runs.len(),
+        a.runs.iter().map(|c| c.technique).collect::<std::collections::BTreeSet<_>>().len(),
+        s.name,
+        grouped(s.triangles() as u64),
+        s.frame_count(),
+        if s.frame_count() == 1 { "" } else { "s" },
+        s.camera.width,
+        s.camera.height,
+        grouped(reference_rays(&s, s.camera.width, s.camera.height)),
+    ));
     create_folder(&o.out)?;
     let dir_cache = cache(&o.out);
     let bar = Progress::new("choose", a.runs.len() + 1);

@@ -3,9 +3,10 @@
 //! per setting the mean, median, 90th percentile and worst of its class's error and its median
 //! time ([`penumbra::report::across`]).
 
-use super::scene::{cache, check_techniques, pipeline};
+use super::scene::{cache, check_techniques, grouped, pipeline};
 use super::sweep::Progress;
 use crate::error::CliError;
+use penumbra::reference::ReferenceOptions;
 use penumbra::report::across::across_markdown;
 use penumbra::report::files::{create_folder, write_plain};
 use penumbra::run::{self, RunResult};
@@ -19,6 +20,8 @@ use std::time::Instant;
 pub struct DefaultsOpts {
     /// Generated scenes per class.
     pub scenes: usize,
+    /// Whether a job past the stated limits ([`MAX_SCENES`]) was asked for.
+    pub long: bool,
     /// The first seed.
     pub first_seed: u64,
     /// `soft,volumetric`-style technique names (empty: every technique that models an area
@@ -37,6 +40,9 @@ pub struct DefaultsOpts {
 }
 
 /// Settings to run: a technique and its `key=value` settings.
+/// Scenes a class that `defaults` runs without `--long`.
+pub const MAX_SCENES: usize = 1000;
+
 type Jobs<'a> = Vec<(&'a str, Vec<(String, String)>)>;
 
 /// `penumbra defaults`.
@@ -97,10 +103,30 @@ pub fn defaults(o: DefaultsOpts) -> Result<(), CliError> {
         )
         .into());
     }
+    let total: usize = plans.iter().map(|(_, _, j)| j.len() * o.scenes).sum();
+    if o.scenes > MAX_SCENES && !o.long {
+        return Err(format!(
+            "--scenes {}: {} runs, past the limit of {MAX_SCENES} scenes a class ({} runs); ask for it with --long",
+            o.scenes,
+            grouped(total as u64),
+            grouped((total / o.scenes * MAX_SCENES) as u64)
+        )
+        .into());
+    }
+    eprintln!(
+        "defaults: {} runs: {} scenes a class x {} settings over {} class{} at {}x{}; each scene's reference traces up to {} rays",
+        grouped(total as u64),
+        o.scenes,
+        plans.iter().map(|(_, _, j)| j.len().to_string()).collect::<Vec<_>>().join(" and "),
+        plans.len(),
+        if plans.len() == 1 { "" } else { "es" },
+        o.width,
+        o.height,
+        grouped(o.width as u64 * o.height as u64 * (1 + 32 + ReferenceOptions::default().area_samples as u64)),
+    );
     let p = pipeline(o.threads)?;
     create_folder(&o.out)?;
     let dir_cache = cache(&o.out);
-    let total: usize = plans.iter().map(|(_, _, j)| j.len() * o.scenes).sum();
     let bar = Progress::new("defaults", total);
     let t0 = Instant::now();
     let mut results: Vec<RunResult> = Vec::new();

@@ -184,6 +184,9 @@ struct DefaultsArgs {
     /// translucent casters for the volumetric ones).
     #[arg(long, default_value_t = 200, allow_hyphen_values = true, value_parser = count::<usize>(1, 100_000))]
     scenes: usize,
+    /// Run a job past the stated limits (more than 1000 scenes a class).
+    #[arg(long)]
+    long: bool,
     /// The first seed (scenes are the seeds from it on, those of the class kept).
     #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count::<u64>(0, u64::MAX / 2))]
     first_seed: u64,
@@ -524,6 +527,7 @@ fn main() -> ExitCode {
         }),
         Some(Cmd::Defaults(a)) => defaults::defaults(defaults::DefaultsOpts {
             scenes: a.scenes,
+            long: a.long,
             first_seed: a.first_seed,
             techniques: a.techniques,
             width: a.width,

@@ -50,6 +50,35 @@ pub fn load(path: &Path) -> Result<(Scene, String), CliError> {
     Ok((s, text))
 }
 
+/// The most rays the reference traces for one frame of `s` at `width` x `height`: a ray a
+/// pixel, and under an area light up to its samples and the rim test's 32 more.
+pub fn reference_rays(s: &Scene, width: u32, height: u32) -> u64 {
+    let pixels = width as u64 * height as u64;
+    let per_pixel = if s
+        .lights
+        .iter()
+        .any(|l| matches!(l.kind, penumbra::scene::LightKind::Area(_)))
+    {
+        1 + 32 + ReferenceOptions::default().area_samples as u64
+    } else {
+        1
+    };
+    pixels * per_pixel
+}
+
+/// A count for a person: `12,345,678`.
+pub fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
 pub fn pipeline(threads: usize) -> Result<Pipeline, CliError> {
     Pipeline::new(threads).map_err(CliError::from)
 }

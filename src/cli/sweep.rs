@@ -55,11 +55,24 @@ pub fn shard_range(total: usize, (i, n): (usize, usize)) -> std::ops::Range<usiz
 
 /// Progress of a long command: indicatif's bar on a terminal; where stderr is not one (CI
 /// logs, batch jobs), a plain line when it starts and then every 10 seconds
-/// (`PENUMBRA_PROGRESS_SECS` sets the interval): done/total, elapsed, what is at work.
+/// (`PENUMBRA_PROGRESS_SECS` sets the interval): done/total, elapsed, the time left at the
+/// pace so far, what is at work and, inside a run, the library's stage
+/// ([`penumbra::progress`]: the reference's BVH build and rows), so that it moves during a
+/// long reference too.
 pub struct Progress {
     bar: Option<ProgressBar>,
     state: std::sync::Arc<std::sync::Mutex<(u64, String)>>,
     stop: Option<(std::sync::mpsc::Sender<()>, std::thread::JoinHandle<()>)>,
+}
+
+/// What is at work: the command's message and the library's stage, if any.
+fn at_work(what: &str) -> String {
+    match (what.is_empty(), penumbra::progress::current()) {
+        (true, None) => String::new(),
+        (false, None) => what.to_string(),
+        (true, Some(stage)) => stage,
+        (false, Some(stage)) => format!("{what} ({stage})"),
+    }
 }
 
 impl Progress {
@@ -67,17 +80,30 @@ impl Progress {
     pub fn new(label: &'static str, total: usize) -> Progress {
         use std::io::IsTerminal;
         let state = std::sync::Arc::new(std::sync::Mutex::new((0u64, String::new())));
+        let shared = state.clone();
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
         if std::io::stderr().is_terminal() {
             let bar = ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
             bar.set_style(
-                ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed} {msg}")
+                ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed} (eta {eta}) {msg}")
                     .expect("a valid template")
                     .progress_chars("#>."),
             );
+            // The message (with the library's stage) and the clock move between steps too.
+            let shown = bar.clone();
+            let thread = std::thread::spawn(move || {
+                while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                    rx.recv_timeout(std::time::Duration::from_millis(250))
+                {
+                    let what = shared.lock().map(|g| g.1.clone()).unwrap_or_default();
+                    shown.set_message(for_terminal(&at_work(&what)).into_owned());
+                    shown.tick();
+                }
+            });
             return Progress {
                 bar: Some(bar),
                 state,
-                stop: None,
+                stop: Some((tx, thread)),
             };
         }
         let every = std::env::var("PENUMBRA_PROGRESS_SECS")
@@ -86,18 +112,25 @@ impl Progress {
             .filter(|v| v.is_finite() && *v > 0.0)
             .unwrap_or(10.0)
             .min(3600.0);
-        let (tx, rx) = std::sync::mpsc::channel::<()>();
-        let shared = state.clone();
         let t0 = Instant::now();
         let line = move || {
             let (done, what) = shared.lock().map(|g| g.clone()).unwrap_or_default();
+            let elapsed = t0.elapsed().as_secs_f64();
+            let left = if done > 0 && (done as usize) < total {
+                format!(
+                    ", about {:.0} s left",
+                    elapsed / done as f64 * (total as u64 - done) as f64
+                )
+            } else {
+                String::new()
+            };
+            let what = at_work(&what);
             eprintln!(
-                "{label}: {done}/{total} runs, {:.0} s{}",
-                t0.elapsed().as_secs_f64(),
+                "{label}: {done}/{total} runs, {elapsed:.0} s{left}{}",
                 if what.is_empty() {
                     String::new()
                 } else {
-                    format!(", at {what}")
+                    format!(", at {}", for_terminal(&what))
                 }
             );
         };
@@ -130,7 +163,7 @@ impl Progress {
     pub fn set_message(&self, msg: String) {
         let msg = for_terminal(&msg).into_owned();
         if let Some(b) = &self.bar {
-            b.set_message(msg.clone());
+            b.set_message(at_work(&msg));
         }
         if let Ok(mut g) = self.state.lock() {
             g.1 = msg;

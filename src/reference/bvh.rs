@@ -394,6 +394,7 @@ impl Bvh {
         if n == 0 {
             return bvh;
         }
+        let _stage = crate::progress::stage("building the reference's BVH", 0);
         use rayon::prelude::*;
         let mut prims: Vec<Prim> = tris
             .par_iter()

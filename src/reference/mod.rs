@@ -681,6 +681,8 @@ impl Reference {
         none: C,
     ) -> Vec<C> {
         let mut out = vec![none; points.len()];
+        let rows = points.len().div_ceil(width.max(1));
+        let _stage = crate::progress::stage("tracing the reference (rows)", rows as u64);
         // Hard shadows trace one ray per pixel: packets of neighbouring pixels' rays measured
         // no faster there (docs/performance.md); an area light's samples of one pixel go in
         // packets (`area_c`).
@@ -692,6 +694,7 @@ impl Reference {
                 }
             }
             self.flush_rays();
+            crate::progress::advance(1);
         });
         out
     }
