@@ -157,6 +157,8 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
             "pick": choice.pick.as_ref().ok().map(|&i| entry(i)),
             "why_no_pick": choice.pick.as_ref().err().map(|e| &e.0),
             "alternatives": choice.alternatives.iter().map(|&i| entry(i)).collect::<Vec<_>>(),
+            "tied": choice.tied.iter().map(|&i| entry(i)).collect::<Vec<_>>(),
+            "time_tie": penumbra::choose::TIME_TIE,
             "chart": chart.display().to_string(),
         });
         println!("{}", serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?);
@@ -187,6 +189,18 @@ pub fn choose_cmd(o: ChooseOpts) -> Result<(), CliError> {
                 s.class().metric(),
                 r.ms
             );
+            if !choice.tied.is_empty() {
+                let names: Vec<String> = choice
+                    .tied
+                    .iter()
+                    .map(|&j| format!("{} ({:.3} ms)", results[j].label(), results[j].ms))
+                    .collect();
+                println!(
+                    "  a tie in time (within {:.0} %, the timing noise) with {}: the more accurate wins",
+                    penumbra::choose::TIME_TIE * 100.0,
+                    names.join(", ")
+                );
+            }
             for (k, &j) in choice.alternatives.iter().enumerate() {
                 let r = &results[j];
                 println!(
