@@ -94,14 +94,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 counts.len()
             )));
         }
-        let total: u64 = counts.iter().map(|&c| c as u64).sum();
-        if total > u32::MAX as u64 {
-            return Err(PipelineError::BadArgument(format!(
-                "pixel store: more than {} values in all",
-                u32::MAX
-            )));
-        }
-        self.reserve_growth(width, height, total)?;
+        self.reserve_growth(width, height, counts)?;
         self.offsets.clear();
         self.offsets.reserve(pixels + 1);
         self.offsets.push(0);
@@ -145,14 +138,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 row_totals.len()
             )));
         }
-        let total: u64 = row_totals.iter().map(|&c| c as u64).sum();
-        if total > u32::MAX as u64 {
-            return Err(PipelineError::BadArgument(format!(
-                "pixel store: more than {} values in all",
-                u32::MAX
-            )));
-        }
-        self.reserve_growth(width, height, total)?;
+        let total = self.reserve_growth(width, height, row_totals)?;
         self.width = width;
         self.height = height;
         self.offsets.resize(pixels + 1, 0);
@@ -193,13 +179,22 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
         }
     }
 
-    /// Reserves `total` values and a `width` x `height` store's offsets in the memory budget
-    /// before the pool grows to them (what it holds now is reused, and stays reserved).
-    fn reserve_growth(&mut self, width: u32, height: u32, total: u64) -> Result<(), PipelineError> {
+    /// The values `counts` add up to (at most `u32::MAX`), reserved with a `width` x `height`
+    /// store's offsets in the memory budget before the pool grows to them (what it holds now
+    /// is reused, and stays reserved).
+    fn reserve_growth(&mut self, width: u32, height: u32, counts: &[u32]) -> Result<u64, PipelineError> {
+        let total: u64 = counts.iter().map(|&c| c as u64).sum();
+        if total > u32::MAX as u64 {
+            return Err(PipelineError::BadArgument(format!(
+                "pixel store: more than {} values in all",
+                u32::MAX
+            )));
+        }
         let pixels = width as u64 * height as u64;
         let need = total * std::mem::size_of::<T>() as u64 + 4 * (pixels + 1);
         let bytes = need.max(self.reserved.bytes());
-        self.reserved.resize(width, height, bytes)
+        self.reserved.resize(width, height, bytes)?;
+        Ok(total)
     }
 
     /// Width in pixels.
