@@ -94,7 +94,7 @@ impl<T: Copy + Send + Sync> PixelStore<T> {
                 counts.len()
             )));
         }
-        self.reserve_growth(width, height, counts)?;
+        let total = self.reserve_growth(width, height, counts)?;
         self.offsets.clear();
         self.offsets.reserve(pixels + 1);
         self.offsets.push(0);
