@@ -750,6 +750,21 @@ fn outputs_are_never_written_through_links() {
         vec!["dump", &s, "--technique", "pcss"],
         vec!["reference", &s],
         vec!["export", &s],
+        vec!["choose", &s, "--reps", "1"],
+        vec!["sweep", &s, "--techniques", "shadow-map,pcss"],
+        vec![
+            "defaults",
+            "--scenes",
+            "1",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--techniques",
+            "pvm",
+            "--reps",
+            "1",
+        ],
     ]
     .into_iter()
     .enumerate()
